@@ -1,0 +1,6 @@
+//! One module per subcommand group. Each parses its arguments and calls a library.
+
+pub mod bench;
+pub mod sim;
+pub mod tasks;
+pub mod terrain;

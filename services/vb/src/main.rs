@@ -1,0 +1,42 @@
+//! `vb`: the vertibench command line. Thin: parses arguments and calls library code.
+
+use clap::{Parser, Subcommand};
+
+mod cmd;
+
+#[derive(Parser)]
+#[command(
+    name = "vb",
+    version,
+    about = "vertibench: off-road mobility benchmark on vertically challenging terrain"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Generate, inspect, render and import task sets.
+    #[command(subcommand)]
+    Tasks(cmd::tasks::TasksCmd),
+    /// Train the terrain generator.
+    #[command(subcommand)]
+    Terrain(cmd::terrain::TerrainCmd),
+    /// Run single simulated episodes.
+    #[command(subcommand)]
+    Sim(cmd::sim::SimCmd),
+    /// Measure performance.
+    #[command(subcommand)]
+    Bench(cmd::bench::BenchCmd),
+}
+
+fn main() -> anyhow::Result<()> {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Tasks(c) => cmd::tasks::run(c),
+        Command::Terrain(c) => cmd::terrain::run(c),
+        Command::Sim(c) => cmd::sim::run(c),
+        Command::Bench(c) => cmd::bench::run(c),
+    }
+}

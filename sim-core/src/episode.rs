@@ -1,0 +1,142 @@
+//! Episode definitions: termination rules, outcomes and per-episode metrics.
+//!
+//! The runner itself (`run_episode`) lives next to the vehicle dynamics; these are the types every consumer (local
+//! evaluator, service worker, leaderboard conversions) shares.
+
+use serde::{Deserialize, Serialize};
+
+/// How "stuck" is decided.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "rule", rename_all = "snake_case")]
+pub enum StuckRule {
+    /// Stuck when the vehicle moved less than `distance` (full-scale m, scaled with the world) during the last
+    /// `window` seconds. The default (paper definition).
+    Displacement { distance: f64, window: f64 },
+    /// The original release's rule: speed below `speed` (m/s, unscaled) continuously for `window` seconds.
+    Speed { speed: f64, window: f64 },
+}
+
+/// Termination rules and recording options of an episode. Lengths are full-scale and get multiplied by the
+/// world's scale.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeConfig {
+    /// Success radius around the goal, full-scale m (paper: 10 m; original release: 8 m).
+    pub goal_radius: f64,
+    /// Time limit, s.
+    pub max_time: f64,
+    /// Rollover threshold on |roll|, degrees.
+    pub rollover_deg: f64,
+    pub stuck: StuckRule,
+    /// Trajectory recording rate, Hz (`None`: no trajectory).
+    pub record_hz: Option<f64>,
+    /// Seed for everything random inside the episode (none of the default physics is random).
+    pub seed: u64,
+}
+
+impl Default for EpisodeConfig {
+    fn default() -> Self {
+        EpisodeConfig {
+            goal_radius: 10.0,
+            max_time: 60.0,
+            rollover_deg: 30.0,
+            stuck: StuckRule::Displacement {
+                distance: 1.0,
+                window: 10.0,
+            },
+            record_hz: None,
+            seed: 0,
+        }
+    }
+}
+
+/// How an episode ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Outcome {
+    Success,
+    Rollover,
+    Stuck,
+    Timeout,
+    OffMap,
+    /// The planner failed (crash, timeout, NaN or out-of-range action); see the episode's `reason`.
+    PlannerFailure,
+}
+
+impl Outcome {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Success => "success",
+            Self::Rollover => "rollover",
+            Self::Stuck => "stuck",
+            Self::Timeout => "timeout",
+            Self::OffMap => "off_map",
+            Self::PlannerFailure => "planner_failure",
+        }
+    }
+}
+
+/// Mean, variance and maximum of a signal sampled at every physics step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SignalStats {
+    pub mean: f64,
+    pub var: f64,
+    pub max: f64,
+}
+
+/// Metrics of one episode.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeMetrics {
+    /// Simulated time at the end of the episode, s (the traversal time when successful).
+    pub time: f64,
+    /// Roll and pitch, degrees: raw (signed) and absolute.
+    pub roll: SignalStats,
+    pub roll_abs: SignalStats,
+    pub pitch: SignalStats,
+    pub pitch_abs: SignalStats,
+    /// Throttle and steering commands: mean, variance, total variation.
+    pub throttle_mean: f64,
+    pub throttle_var: f64,
+    pub throttle_tv: f64,
+    pub steering_mean: f64,
+    pub steering_var: f64,
+    pub steering_tv: f64,
+    /// Distance travelled by the chassis, m.
+    pub path_length: f64,
+    /// Positive mechanical energy delivered by the powertrain to the wheels, J.
+    pub energy: f64,
+    /// Number of distinct contacts with obstacles.
+    pub obstacle_contacts: u32,
+    /// Final distance to the goal, m.
+    pub final_goal_distance: f64,
+    /// Physics steps taken.
+    pub steps: u64,
+}
+
+/// One recorded sample of the trajectory.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrajectorySample {
+    pub time: f64,
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    pub roll: f64,
+    pub pitch: f64,
+    pub yaw: f64,
+    pub speed: f64,
+    pub throttle: f64,
+    pub steering: f64,
+    pub brake: f64,
+}
+
+/// Everything an episode produces.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeResult {
+    pub outcome: Outcome,
+    /// Machine-readable reason (`success`, `rollover`, `stuck`, `timeout`, `off_map`, `planner_timeout`,
+    /// `planner_crash`, `invalid_action`, ...).
+    pub reason: String,
+    /// Human-readable detail (e.g. the planner's error message).
+    pub detail: String,
+    pub metrics: EpisodeMetrics,
+    pub trajectory: Vec<TrajectorySample>,
+}

@@ -1,0 +1,14 @@
+//! `sim-core`: the deterministic vehicle-terrain simulation core of vertibench.
+//!
+//! Invariants (see ARCHITECTURE.md): no IO, no async, no wall clock, no unseeded randomness, deterministic iteration
+//! order, fixed time step, no allocation inside the step loop. Same seed and inputs give bit-identical trajectories
+//! at any thread count.
+//!
+//! Modules:
+//! - [`world`]: the world data model (heightmap, semantic patches, obstacles, tasks) and its frames.
+//! - [`planner`]: the interface every mobility system implements.
+//! - [`episode`]: termination rules, outcomes and metrics.
+
+pub mod episode;
+pub mod planner;
+pub mod world;

@@ -1,0 +1,1 @@
+//! The vertibench task set: 100 worlds x 10 start/goal pairs.
