@@ -8,7 +8,9 @@
 //! - [`world`]: the world data model (heightmap, semantic patches, obstacles, tasks) and its frames.
 //! - [`planner`]: the interface every mobility system implements.
 //! - [`episode`]: termination rules, outcomes and metrics.
+//! - [`terrain_stats`]: relief, slope and roughness statistics of heightmaps.
 
 pub mod episode;
 pub mod planner;
+pub mod terrain_stats;
 pub mod world;

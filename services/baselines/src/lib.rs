@@ -1,0 +1,1 @@
+//! Baseline mobility systems: PID, elevation heuristics, MPPI, MPPI-6.

@@ -1,0 +1,1 @@
+//! Local parallel evaluation of a planner on the task set: results, summaries, charts, comparisons.

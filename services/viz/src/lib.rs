@@ -1,0 +1,1 @@
+//! Trajectory files and plots of simulated episodes.

@@ -1,0 +1,1 @@
+//! Sliced-Wasserstein autoencoder terrain generator (candle): training, decoding, calibration.
