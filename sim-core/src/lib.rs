@@ -10,7 +10,9 @@
 //! - [`episode`]: termination rules, outcomes and metrics.
 //! - [`terrain_stats`]: relief, slope and roughness statistics of heightmaps.
 
+pub mod collide;
 pub mod episode;
 pub mod planner;
+pub mod soil;
 pub mod terrain_stats;
 pub mod world;

@@ -26,6 +26,10 @@ enum Command {
     /// Run single simulated episodes.
     #[command(subcommand)]
     Sim(cmd::sim::SimCmd),
+    /// Evaluate a planner on the task set, locally and in parallel.
+    Eval(cmd::eval::EvalArgs),
+    /// Compare two evaluation results on the same tasks with paired statistics.
+    Compare(cmd::compare::CompareArgs),
     /// Measure performance.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
@@ -37,6 +41,8 @@ fn main() -> anyhow::Result<()> {
         Command::Tasks(c) => cmd::tasks::run(c),
         Command::Terrain(c) => cmd::terrain::run(c),
         Command::Sim(c) => cmd::sim::run(c),
+        Command::Eval(a) => cmd::eval::run(a),
+        Command::Compare(a) => cmd::compare::run(a),
         Command::Bench(c) => cmd::bench::run(c),
     }
 }

@@ -1,6 +1,8 @@
 //! One module per subcommand group. Each parses its arguments and calls a library.
 
 pub mod bench;
+pub mod compare;
+pub mod eval;
 pub mod sim;
 pub mod tasks;
 pub mod terrain;

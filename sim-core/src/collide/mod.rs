@@ -1,0 +1,1 @@
+//! Collision geometry of rigid obstacles (rocks, tree trunks) against wheels and the chassis.
