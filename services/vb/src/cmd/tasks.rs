@@ -1,15 +1,94 @@
-//! `vb tasks ...`
+//! `vb tasks ...`: generate, inspect, render and import task sets.
 
 use clap::Subcommand;
+use std::path::PathBuf;
+use tasks::TaskSet;
 
 #[derive(Subcommand)]
 pub enum TasksCmd {
-    /// Not implemented yet.
-    Placeholder,
+    /// Generate the 100-world task set from a seed (byte-identical for the same seed and generator).
+    Generate {
+        /// Output directory (default: the committed set, tasks/data/v1).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        #[arg(long, default_value_t = tasks::generate::DEFAULT_SEED)]
+        seed: u64,
+    },
+    /// Print the composition and per-level geometry statistics.
+    Stats {
+        #[arg(long)]
+        dir: Option<PathBuf>,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Render worlds (hill shade, semantics, obstacles, start/goal, paths) and a contact sheet as PNG.
+    Render {
+        #[arg(long)]
+        dir: Option<PathBuf>,
+        /// World ids (all when omitted).
+        #[arg(long, value_delimiter = ',')]
+        world: Vec<u32>,
+        /// Pixels per map sample.
+        #[arg(long, default_value_t = 4)]
+        ppm: u32,
+        #[arg(long, default_value = "out/render")]
+        out: PathBuf,
+    },
+    /// Convert a clone of the original Verti-Bench release (its sampled_maps folder) into our format.
+    ImportVertiBench {
+        /// The release's `envs/data/BenchMaps/sampled_maps` (or the clone's root).
+        path: PathBuf,
+        #[arg(long, default_value = "out/verti-bench-imported")]
+        out: PathBuf,
+    },
+}
+
+fn open(dir: Option<PathBuf>) -> anyhow::Result<TaskSet> {
+    Ok(TaskSet::load(&dir.unwrap_or_else(TaskSet::default_dir))?)
 }
 
 pub fn run(cmd: TasksCmd) -> anyhow::Result<()> {
     match cmd {
-        TasksCmd::Placeholder => anyhow::bail!("vb tasks is not implemented yet"),
+        TasksCmd::Generate { out, seed } => {
+            let out = out.unwrap_or_else(TaskSet::default_dir);
+            let m =
+                tasks::cli::generate_set(&out, seed, &tasks::interim::SpectralSource::default())?;
+            println!(
+                "wrote {} worlds to {} (task-set version {}, generator {})",
+                m.worlds.len(),
+                out.display(),
+                m.version,
+                m.generator
+            );
+        }
+        TasksCmd::Stats { dir, json } => {
+            let s = tasks::cli::stats(&open(dir)?)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&s)?);
+            } else {
+                print!("{}", tasks::cli::stats_text(&s));
+            }
+        }
+        TasksCmd::Render {
+            dir,
+            world,
+            ppm,
+            out,
+        } => {
+            for f in tasks::cli::render_set(&open(dir)?, &world, &out, ppm)? {
+                println!("{f}");
+            }
+        }
+        TasksCmd::ImportVertiBench { path, out } => {
+            let m = tasks::cli::import_release(&path, &out)?;
+            println!(
+                "imported {} worlds into {} (task-set version {})",
+                m.worlds.len(),
+                out.display(),
+                m.version
+            );
+        }
     }
+    Ok(())
 }

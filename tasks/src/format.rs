@@ -1,0 +1,525 @@
+//! The versioned on-disk format of a task set (documented in `tasks/FORMAT.md`).
+//!
+//! ```text
+//! <dir>/manifest.json      format tag, task-set version (content hash), seed, generator, world list
+//! <dir>/worlds/NNN.json    human-readable world spec: factors, height range, patches, obstacles, tasks
+//! <dir>/worlds/NNN.png     16-bit grayscale heightmap, 129 x 129, row 0 = north edge (the release's BMP orientation)
+//! ```
+//! Heights are quantised to 16 bits over `[height_min, height_max]` of the world spec (a step of at most 0.25 mm for
+//! 16 m of relief). The version is the first 16 hex digits of the SHA-256 over every world file (name and bytes, in
+//! id order), so any change to any world gives a new version.
+
+use crate::TasksError;
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+use sim_core::world::{
+    ElevationLevel, Heightmap, Obstacle, ObstacleDensity, Patch, Semantic, SemanticsKind, Surface,
+    Task, World, MAP_PX, PATCHES,
+};
+use std::path::{Path, PathBuf};
+
+/// Format tag of this version of the format.
+pub const FORMAT: &str = "vertibench-tasks/1";
+
+/// `manifest.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    pub format: String,
+    /// Content hash naming this task set.
+    pub version: String,
+    /// Master seed the set was generated from (absent for imported sets).
+    pub seed: Option<u64>,
+    /// How the heights were made, e.g. `swae:<weights sha256 prefix>` or `import:verti-bench`.
+    pub generator: String,
+    pub worlds: Vec<WorldEntry>,
+}
+
+/// One world in the manifest (enough to filter without loading heights).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorldEntry {
+    pub id: u32,
+    pub level: ElevationLevel,
+    pub semantics: SemanticsKind,
+    pub density: ObstacleDensity,
+}
+
+/// A patch in a world spec: class, and friction for rigid classes (soil comes from the class).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PatchSpec {
+    pub class: Semantic,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
+}
+
+/// A task in a world spec. Paths are full-scale world coordinates.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TaskSpec {
+    pub index: u32,
+    pub start: [f64; 2],
+    pub goal: [f64; 2],
+    pub path: Vec<[f64; 2]>,
+}
+
+/// `worlds/NNN.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorldSpec {
+    pub id: u32,
+    pub level: ElevationLevel,
+    pub semantics: SemanticsKind,
+    pub density: ObstacleDensity,
+    /// Sample spacing at full scale, m.
+    pub cell: f64,
+    pub height_min: f64,
+    pub height_max: f64,
+    /// 16 x 16 patches, row `pi` (along +y, south to north) major.
+    pub patches: Vec<PatchSpec>,
+    pub obstacles: Vec<Obstacle>,
+    pub tasks: Vec<TaskSpec>,
+}
+
+/// A generated or imported world with its tasks, at full scale.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WorldRecord {
+    pub world: World,
+    pub tasks: Vec<Task>,
+}
+
+/// A loaded task set.
+#[derive(Clone, Debug)]
+pub struct TaskSet {
+    pub dir: PathBuf,
+    pub manifest: Manifest,
+}
+
+fn read(path: &Path) -> Result<Vec<u8>, TasksError> {
+    std::fs::read(path).map_err(|e| TasksError::io(path, e))
+}
+
+fn world_stem(id: u32) -> String {
+    format!("{id:03}")
+}
+
+/// Quantises heights to 16 bits; returns (min, max, samples in PNG row order).
+fn quantise(h: &Heightmap) -> (f64, f64, Vec<u16>) {
+    let lo = h
+        .heights
+        .iter()
+        .fold(f64::INFINITY, |a, &v| a.min(v as f64));
+    let hi = h
+        .heights
+        .iter()
+        .fold(f64::NEG_INFINITY, |a, &v| a.max(v as f64));
+    let (lo, hi) = ((lo * 1e4).floor() / 1e4, (hi * 1e4).ceil() / 1e4);
+    let span = (hi - lo).max(1e-9);
+    let mut out = Vec::with_capacity(h.nx * h.ny);
+    for row in 0..h.ny {
+        let iy = h.ny - 1 - row;
+        for ix in 0..h.nx {
+            out.push((((h.at(ix, iy) - lo) / span) * 65535.0).round() as u16);
+        }
+    }
+    (lo, hi, out)
+}
+
+impl WorldRecord {
+    fn to_spec(&self) -> (WorldSpec, Vec<u16>) {
+        let w = &self.world;
+        let (lo, hi, q) = quantise(&w.heightmap);
+        let patches = w
+            .patches
+            .iter()
+            .map(|p| PatchSpec {
+                class: p.semantic,
+                friction: match p.surface {
+                    Surface::Rigid { friction } => Some(friction),
+                    Surface::Deformable { .. } => None,
+                },
+            })
+            .collect();
+        let tasks = self
+            .tasks
+            .iter()
+            .map(|t| TaskSpec {
+                index: t.index,
+                start: t.start,
+                goal: t.goal,
+                path: t.path.clone(),
+            })
+            .collect();
+        let spec = WorldSpec {
+            id: w.id,
+            level: w.level,
+            semantics: w.semantics,
+            density: w.density,
+            cell: w.heightmap.cell,
+            height_min: lo,
+            height_max: hi,
+            patches,
+            obstacles: w.obstacles.clone(),
+            tasks,
+        };
+        (spec, q)
+    }
+}
+
+/// Writes a task set to `dir` (replacing its world files) and returns its manifest.
+pub fn save(
+    dir: &Path,
+    seed: Option<u64>,
+    generator: &str,
+    records: &[WorldRecord],
+) -> Result<Manifest, TasksError> {
+    let worlds_dir = dir.join("worlds");
+    std::fs::create_dir_all(&worlds_dir).map_err(|e| TasksError::io(&worlds_dir, e))?;
+    let mut hasher = Sha256::new();
+    let mut entries = Vec::new();
+    for r in records {
+        let (spec, q) = r.to_spec();
+        let json_path = worlds_dir.join(format!("{}.json", world_stem(spec.id)));
+        let png_path = worlds_dir.join(format!("{}.png", world_stem(spec.id)));
+        let value = serde_json::to_value(&spec).map_err(|e| TasksError::Json {
+            path: json_path.clone(),
+            source: e,
+        })?;
+        let json = one_item_per_line(&value).into_bytes();
+        let png = encode_png16(
+            &q,
+            r.world.heightmap.nx as u32,
+            r.world.heightmap.ny as u32,
+            &png_path,
+        )?;
+        for (path, bytes) in [(&json_path, &json), (&png_path, &png)] {
+            hasher.update(
+                path.file_name()
+                    .expect("file name")
+                    .to_string_lossy()
+                    .as_bytes(),
+            );
+            hasher.update(bytes);
+            std::fs::write(path, bytes).map_err(|e| TasksError::io(path, e))?;
+        }
+        entries.push(WorldEntry {
+            id: spec.id,
+            level: spec.level,
+            semantics: spec.semantics,
+            density: spec.density,
+        });
+    }
+    let digest = hasher.finalize();
+    let version: String = digest.iter().take(8).map(|b| format!("{b:02x}")).collect();
+    let manifest = Manifest {
+        format: FORMAT.into(),
+        version,
+        seed,
+        generator: generator.into(),
+        worlds: entries,
+    };
+    let path = dir.join("manifest.json");
+    let mut bytes = serde_json::to_vec_pretty(&manifest).map_err(|e| TasksError::Json {
+        path: path.clone(),
+        source: e,
+    })?;
+    bytes.push(b'\n');
+    std::fs::write(&path, bytes).map_err(|e| TasksError::io(&path, e))?;
+    Ok(manifest)
+}
+
+/// JSON with one top-level field per line and one array item per line (each item compact): readable and small.
+fn one_item_per_line(value: &serde_json::Value) -> String {
+    let serde_json::Value::Object(map) = value else {
+        return format!("{value}\n");
+    };
+    let mut out = String::from("{\n");
+    for (k, (key, v)) in map.iter().enumerate() {
+        out += &format!("  {}: ", serde_json::Value::String(key.clone()));
+        match v {
+            serde_json::Value::Array(items) if !items.is_empty() => {
+                out += "[\n";
+                for (i, item) in items.iter().enumerate() {
+                    out += &format!("    {item}{}\n", if i + 1 < items.len() { "," } else { "" });
+                }
+                out += "  ]";
+            }
+            other => out += &other.to_string(),
+        }
+        out += if k + 1 < map.len() { ",\n" } else { "\n" };
+    }
+    out + "}\n"
+}
+
+fn encode_png16(q: &[u16], w: u32, h: u32, path: &Path) -> Result<Vec<u8>, TasksError> {
+    let img: image::ImageBuffer<image::Luma<u16>, Vec<u16>> =
+        image::ImageBuffer::from_raw(w, h, q.to_vec()).expect("buffer size matches");
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png)
+        .map_err(|e| TasksError::Image {
+            path: path.into(),
+            message: e.to_string(),
+        })?;
+    Ok(out.into_inner())
+}
+
+impl TaskSet {
+    /// The committed task set of this repository.
+    pub fn default_dir() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("data")
+            .join("v1")
+    }
+
+    /// Opens a task set directory (reads and validates the manifest only).
+    pub fn load(dir: &Path) -> Result<TaskSet, TasksError> {
+        let path = dir.join("manifest.json");
+        let bytes = read(&path)?;
+        let manifest: Manifest = serde_json::from_slice(&bytes).map_err(|e| TasksError::Json {
+            path: path.clone(),
+            source: e,
+        })?;
+        if manifest.format != FORMAT {
+            return Err(TasksError::field(
+                &path,
+                "format",
+                format!(
+                    "unsupported format `{}`, expected `{FORMAT}`",
+                    manifest.format
+                ),
+            ));
+        }
+        let mut ids: Vec<u32> = manifest.worlds.iter().map(|w| w.id).collect();
+        ids.sort_unstable();
+        if ids.windows(2).any(|w| w[0] == w[1]) {
+            return Err(TasksError::field(&path, "worlds", "duplicate world id"));
+        }
+        Ok(TaskSet {
+            dir: dir.to_path_buf(),
+            manifest,
+        })
+    }
+
+    /// The task-set version (content hash).
+    pub fn version(&self) -> &str {
+        &self.manifest.version
+    }
+
+    pub fn world_ids(&self) -> Vec<u32> {
+        self.manifest.worlds.iter().map(|w| w.id).collect()
+    }
+
+    /// Factors of a world without loading it.
+    pub fn world_meta(&self, id: u32) -> Result<&WorldEntry, TasksError> {
+        self.manifest
+            .worlds
+            .iter()
+            .find(|w| w.id == id)
+            .ok_or(TasksError::UnknownWorld(id))
+    }
+
+    /// Loads one world at full scale with its tasks.
+    pub fn record(&self, id: u32) -> Result<WorldRecord, TasksError> {
+        self.world_meta(id)?;
+        load_record(&self.dir.join("worlds"), id)
+    }
+
+    /// A world instantiated at `scale` (1, 1/6, 1/10, ...).
+    pub fn world(&self, id: u32, scale: f64) -> Result<World, TasksError> {
+        check_scale(scale)?;
+        Ok(self.record(id)?.world.scaled(scale))
+    }
+
+    /// The tasks of a world at `scale`.
+    pub fn tasks(&self, world_id: u32, scale: f64) -> Result<Vec<Task>, TasksError> {
+        check_scale(scale)?;
+        Ok(self
+            .record(world_id)?
+            .tasks
+            .iter()
+            .map(|t| t.scaled(scale))
+            .collect())
+    }
+
+    /// Every world record, in id order.
+    pub fn records(&self) -> Result<Vec<WorldRecord>, TasksError> {
+        self.world_ids()
+            .into_iter()
+            .map(|id| self.record(id))
+            .collect()
+    }
+}
+
+fn check_scale(scale: f64) -> Result<(), TasksError> {
+    if scale.is_finite() && scale > 0.0 && scale <= 10.0 {
+        Ok(())
+    } else {
+        Err(TasksError::Param {
+            field: "scale".into(),
+            message: format!("{scale} is not in (0, 10]"),
+        })
+    }
+}
+
+/// Loads `NNN.json` + `NNN.png` from a worlds directory.
+pub fn load_record(worlds_dir: &Path, id: u32) -> Result<WorldRecord, TasksError> {
+    let json_path = worlds_dir.join(format!("{}.json", world_stem(id)));
+    let png_path = worlds_dir.join(format!("{}.png", world_stem(id)));
+    let spec: WorldSpec =
+        serde_json::from_slice(&read(&json_path)?).map_err(|e| TasksError::Json {
+            path: json_path.clone(),
+            source: e,
+        })?;
+    let bad = |field: &str, msg: String| TasksError::field(&json_path, field, msg);
+    if spec.id != id {
+        return Err(bad(
+            "id",
+            format!("{} does not match the file name ({id})", spec.id),
+        ));
+    }
+    if !(spec.cell.is_finite() && spec.cell > 0.0) {
+        return Err(bad(
+            "cell",
+            format!("{} is not a positive length", spec.cell),
+        ));
+    }
+    if !(spec.height_min.is_finite()
+        && spec.height_max.is_finite()
+        && spec.height_max >= spec.height_min)
+    {
+        return Err(bad(
+            "height_max",
+            "height range is empty or not finite".into(),
+        ));
+    }
+    if spec.patches.len() != PATCHES * PATCHES {
+        return Err(bad(
+            "patches",
+            format!(
+                "{} patches, expected {}",
+                spec.patches.len(),
+                PATCHES * PATCHES
+            ),
+        ));
+    }
+    let mut patches = Vec::with_capacity(spec.patches.len());
+    for (k, p) in spec.patches.iter().enumerate() {
+        let surface = match (p.class.soil(), p.friction) {
+            (Some(soil), None) => Surface::Deformable { soil },
+            (None, Some(f)) if (0.0..=2.0).contains(&f) => Surface::Rigid { friction: f },
+            (None, Some(f)) => {
+                return Err(bad(
+                    &format!("patches[{k}].friction"),
+                    format!("{f} is not in [0, 2]"),
+                ))
+            }
+            (None, None) => {
+                return Err(bad(
+                    &format!("patches[{k}].friction"),
+                    format!("missing for rigid class {}", p.class.as_str()),
+                ))
+            }
+            (Some(_), Some(_)) => {
+                return Err(bad(
+                    &format!("patches[{k}].friction"),
+                    format!("given for deformable class {}", p.class.as_str()),
+                ))
+            }
+        };
+        patches.push(Patch {
+            semantic: p.class,
+            surface,
+        });
+    }
+    let heightmap = load_png16(&png_path, spec.height_min, spec.height_max, spec.cell)?;
+    for (k, o) in spec.obstacles.iter().enumerate() {
+        let finite = [o.x, o.y, o.z, o.yaw]
+            .iter()
+            .chain(o.half_extents.iter())
+            .all(|v| v.is_finite());
+        if !finite || o.half_extents.iter().any(|h| *h <= 0.0) {
+            return Err(bad(
+                &format!("obstacles[{k}]"),
+                "non-finite position or non-positive size".into(),
+            ));
+        }
+    }
+    let mut tasks = Vec::with_capacity(spec.tasks.len());
+    for (k, t) in spec.tasks.iter().enumerate() {
+        let pts = [t.start, t.goal];
+        if pts
+            .iter()
+            .chain(t.path.iter())
+            .any(|p| !heightmap.contains(p[0], p[1]))
+        {
+            return Err(bad(
+                &format!("tasks[{k}]"),
+                "start, goal or path point outside the map".into(),
+            ));
+        }
+        if t.path.len() < 2 {
+            return Err(bad(
+                &format!("tasks[{k}].path"),
+                "a path needs at least two points".into(),
+            ));
+        }
+        tasks.push(Task {
+            world_id: id,
+            index: t.index,
+            start: t.start,
+            goal: t.goal,
+            path: t.path.clone(),
+        });
+    }
+    let world = World {
+        id,
+        scale: 1.0,
+        level: spec.level,
+        semantics: spec.semantics,
+        density: spec.density,
+        heightmap,
+        patches,
+        obstacles: spec.obstacles,
+    };
+    Ok(WorldRecord { world, tasks })
+}
+
+fn load_png16(path: &Path, lo: f64, hi: f64, cell: f64) -> Result<Heightmap, TasksError> {
+    let img = image::load_from_memory_with_format(&read(path)?, image::ImageFormat::Png).map_err(
+        |e| TasksError::Image {
+            path: path.into(),
+            message: e.to_string(),
+        },
+    )?;
+    let img = match img {
+        image::DynamicImage::ImageLuma16(i) => i,
+        other => {
+            return Err(TasksError::Image {
+                path: path.into(),
+                message: format!("expected a 16-bit grayscale PNG, found {:?}", other.color()),
+            })
+        }
+    };
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    if w != MAP_PX || h != MAP_PX {
+        return Err(TasksError::Image {
+            path: path.into(),
+            message: format!("size {w} x {h}, expected {MAP_PX} x {MAP_PX}"),
+        });
+    }
+    let raw = img.into_raw();
+    let mut heights = vec![0f32; w * h];
+    for row in 0..h {
+        let iy = h - 1 - row;
+        for ix in 0..w {
+            heights[iy * w + ix] = (lo + raw[row * w + ix] as f64 / 65535.0 * (hi - lo)) as f32;
+        }
+    }
+    Ok(Heightmap {
+        nx: w,
+        ny: h,
+        cell,
+        heights,
+    })
+}

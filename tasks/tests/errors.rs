@@ -1,0 +1,113 @@
+//! Bad input gets an error naming the file and the field, never a panic.
+
+use std::path::{Path, PathBuf};
+use tasks::TaskSet;
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("vb-err-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join("worlds")).unwrap();
+    dir
+}
+
+fn copy_world(dir: &Path, id: u32) {
+    let src = TaskSet::default_dir().join("worlds");
+    for ext in ["json", "png"] {
+        std::fs::copy(
+            src.join(format!("{id:03}.{ext}")),
+            dir.join(format!("worlds/{id:03}.{ext}")),
+        )
+        .unwrap();
+    }
+    let manifest = std::fs::read_to_string(TaskSet::default_dir().join("manifest.json")).unwrap();
+    std::fs::write(dir.join("manifest.json"), manifest).unwrap();
+}
+
+#[test]
+fn missing_and_malformed_manifests_name_the_file() {
+    let dir = scratch("manifest");
+    let e = TaskSet::load(&dir).unwrap_err().to_string();
+    assert!(e.contains("manifest.json"), "{e}");
+    std::fs::write(dir.join("manifest.json"), "{ not json").unwrap();
+    let e = TaskSet::load(&dir).unwrap_err().to_string();
+    assert!(
+        e.contains("manifest.json") && e.contains("invalid JSON"),
+        "{e}"
+    );
+    std::fs::write(
+        dir.join("manifest.json"),
+        r#"{"format":"other/9","version":"x","seed":1,"generator":"g","worlds":[]}"#,
+    )
+    .unwrap();
+    let e = TaskSet::load(&dir).unwrap_err().to_string();
+    assert!(e.contains("`format`") && e.contains("other/9"), "{e}");
+}
+
+#[test]
+fn broken_world_files_name_the_file_and_field() {
+    let dir = scratch("world");
+    copy_world(&dir, 3);
+    let set = TaskSet::load(&dir).unwrap();
+    assert!(set.world(3, 1.0).is_ok());
+    // A missing world file.
+    let e = set.world(4, 1.0).unwrap_err().to_string();
+    assert!(e.contains("004.json"), "{e}");
+    // A rigid patch without friction.
+    let json_path = dir.join("worlds/003.json");
+    let text = std::fs::read_to_string(&json_path).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let patch = v["patches"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .find(|p| p.get("friction").is_some())
+        .unwrap();
+    patch.as_object_mut().unwrap().remove("friction");
+    std::fs::write(&json_path, serde_json::to_string(&v).unwrap()).unwrap();
+    let e = set.world(3, 1.0).unwrap_err().to_string();
+    assert!(
+        e.contains("003.json") && e.contains("friction") && e.contains("missing"),
+        "{e}"
+    );
+    // A wrongly sized heightmap.
+    std::fs::write(&json_path, &text).unwrap();
+    let img: image::ImageBuffer<image::Luma<u16>, Vec<u16>> = image::ImageBuffer::new(64, 64);
+    img.save(dir.join("worlds/003.png")).unwrap();
+    let e = set.world(3, 1.0).unwrap_err().to_string();
+    assert!(
+        e.contains("003.png") && e.contains("expected 129 x 129"),
+        "{e}"
+    );
+}
+
+#[test]
+fn importer_errors_name_the_file_and_field() {
+    let root = std::env::temp_dir().join(format!("vb-err-import-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    let e = tasks::import::discover(&root).unwrap_err().to_string();
+    assert!(e.contains("Configs/Final"), "{e}");
+    std::fs::create_dir_all(root.join("Configs/Final")).unwrap();
+    std::fs::create_dir_all(root.join("Worlds")).unwrap();
+    std::fs::write(
+        root.join("Configs/Final/config5_low.yaml"),
+        "terrain: [unclosed",
+    )
+    .unwrap();
+    let worlds = tasks::import::discover(&root).unwrap();
+    let e = tasks::import::import_world(&worlds[0])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("config5_low.yaml") && e.contains("YAML"), "{e}");
+    std::fs::write(
+        root.join("Configs/Final/config5_low.yaml"),
+        "terrain: {min_height: 0, max_height: 4.8, difficulty: extreme}\npositions: []\nterrain_type: rigid\nobstacle_density: sparse\ntextures: []\n",
+    )
+    .unwrap();
+    let e = tasks::import::import_world(&worlds[0])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("terrain.difficulty") && e.contains("extreme"),
+        "{e}"
+    );
+}

@@ -1,0 +1,184 @@
+//! Properties of the committed task set (tasks/data/v1) and of its regeneration.
+
+use sim_core::world::{ElevationLevel, ObstacleKind};
+use std::path::Path;
+use tasks::format::WorldRecord;
+use tasks::obstacles::{occupies, required_spacing, START_GOAL_CLEARANCE};
+use tasks::path::DEFAULT_INFLATION;
+use tasks::TaskSet;
+
+fn records() -> Vec<WorldRecord> {
+    TaskSet::load(&TaskSet::default_dir())
+        .unwrap()
+        .records()
+        .unwrap()
+}
+
+#[test]
+fn the_set_has_100_balanced_worlds_and_1000_tasks() {
+    let set = TaskSet::load(&TaskSet::default_dir()).unwrap();
+    assert_eq!(set.world_ids(), (1..=100).collect::<Vec<_>>());
+    let s = tasks::cli::stats(&set).unwrap();
+    assert_eq!(s.tasks, 1000);
+    for counts in [&s.by_level, &s.by_semantics, &s.by_density] {
+        assert_eq!(counts.len(), 3);
+        assert!(counts.values().all(|c| *c == 33 || *c == 34), "{counts:?}");
+    }
+    assert_eq!(s.by_combination.len(), 27);
+    assert!(s.by_combination.values().all(|c| *c >= 3));
+}
+
+#[test]
+fn obstacles_keep_the_release_spacing_rules_in_every_world() {
+    for r in records() {
+        let w = &r.world;
+        let (rocks, trees) = tasks::obstacles::counts(w.density);
+        assert_eq!(
+            w.obstacles
+                .iter()
+                .filter(|o| o.kind == ObstacleKind::Rock)
+                .count(),
+            rocks,
+            "world {}",
+            w.id
+        );
+        assert_eq!(
+            w.obstacles
+                .iter()
+                .filter(|o| o.kind == ObstacleKind::Tree)
+                .count(),
+            trees,
+            "world {}",
+            w.id
+        );
+        for (i, a) in w.obstacles.iter().enumerate() {
+            for t in &r.tasks {
+                for p in [t.start, t.goal] {
+                    assert!(
+                        (p[0] - a.x).hypot(p[1] - a.y) >= START_GOAL_CLEARANCE,
+                        "world {} obstacle {i}",
+                        w.id
+                    );
+                }
+            }
+            for b in &w.obstacles[i + 1..] {
+                assert!(
+                    (a.x - b.x).hypot(a.y - b.y) >= required_spacing(a, b),
+                    "world {} obstacle {i}",
+                    w.id
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn every_task_has_a_collision_free_path_from_start_to_goal() {
+    let mut n = 0;
+    for r in records() {
+        assert_eq!(r.tasks.len(), 10);
+        for t in &r.tasks {
+            assert_eq!(t.path.first(), Some(&t.start));
+            assert_eq!(t.path.last(), Some(&t.goal));
+            // Densify the polyline at 0.25 m and check clearance of the inflated footprint (minus half a cell of
+            // grid discretisation) everywhere along it.
+            for seg in t.path.windows(2) {
+                let len = (seg[1][0] - seg[0][0]).hypot(seg[1][1] - seg[0][1]);
+                let k = (len / 0.25).ceil().max(1.0) as usize;
+                for j in 0..=k {
+                    let u = j as f64 / k as f64;
+                    let (x, y) = (
+                        seg[0][0] + (seg[1][0] - seg[0][0]) * u,
+                        seg[0][1] + (seg[1][1] - seg[0][1]) * u,
+                    );
+                    for o in &r.world.obstacles {
+                        assert!(
+                            !occupies(o, x, y, DEFAULT_INFLATION - 0.75),
+                            "{} crosses an obstacle at ({x}, {y})",
+                            t.id()
+                        );
+                    }
+                }
+            }
+            n += 1;
+        }
+    }
+    assert_eq!(n, 1000);
+}
+
+#[test]
+fn per_level_relief_and_slope_are_within_20_percent_of_the_original_worlds() {
+    let s = tasks::stats::compute(&records());
+    // Original release worlds (verti-bench-release.md): relief 1.8 / 3.5 / 5.9 m, slope p95 12 / 22 / 34 degrees.
+    for (level, relief, p95) in [
+        ("low", 1.8, 12.0),
+        ("medium", 3.5, 22.0),
+        ("high", 5.9, 34.0),
+    ] {
+        let g = &s.geometry_by_level[level].mean;
+        assert!(
+            (g.relief - relief).abs() <= 0.2 * relief,
+            "{level}: relief {} vs {relief}",
+            g.relief
+        );
+        assert!(
+            (g.slope_p95_deg - p95).abs() <= 0.2 * p95,
+            "{level}: slope p95 {} vs {p95}",
+            g.slope_p95_deg
+        );
+    }
+}
+
+#[test]
+fn regeneration_is_byte_identical_to_the_committed_set() {
+    let committed = TaskSet::load(&TaskSet::default_dir()).unwrap();
+    let seed = committed.manifest.seed.expect("generated set has a seed");
+    let out = std::env::temp_dir().join(format!("vb-regen-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let m =
+        tasks::cli::generate_set(&out, seed, &tasks::interim::SpectralSource::default()).unwrap();
+    assert_eq!(m, committed.manifest);
+    let files = |dir: &Path| {
+        let mut v: Vec<_> = std::fs::read_dir(dir.join("worlds"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        v.sort();
+        v
+    };
+    let (a, b) = (files(&TaskSet::default_dir()), files(&out));
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(
+            std::fs::read(x).unwrap(),
+            std::fs::read(y).unwrap(),
+            "{} differs",
+            x.display()
+        );
+    }
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn scaled_worlds_scale_every_length() {
+    let set = TaskSet::load(&TaskSet::default_dir()).unwrap();
+    let full = set.world(7, 1.0).unwrap();
+    let tenth = set.world(7, 0.1).unwrap();
+    assert_eq!(tenth.scale, 0.1);
+    assert!((tenth.heightmap.cell - 0.1).abs() < 1e-12);
+    assert!((tenth.heightmap.half_x() - 6.4).abs() < 1e-9);
+    let (a, b) = (&full.obstacles[0], &tenth.obstacles[0]);
+    assert!(
+        (b.x - a.x * 0.1).abs() < 1e-12
+            && (b.half_extents[2] - a.half_extents[2] * 0.1).abs() < 1e-12
+    );
+    let t = set.tasks(7, 1.0 / 6.0).unwrap();
+    assert!((t[0].start[0] - 10.0).abs() < 1e-9, "start at 60 m / 6");
+    assert!(set.world(7, 0.0).is_err() && set.world(7, f64::NAN).is_err());
+    assert!(matches!(
+        set.world(101, 1.0),
+        Err(tasks::TasksError::UnknownWorld(101))
+    ));
+    assert_eq!(full.level, set.world_meta(7).unwrap().level);
+    let _ = ElevationLevel::ALL;
+}
