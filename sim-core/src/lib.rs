@@ -11,8 +11,14 @@
 //! - [`terrain_stats`]: relief, slope and roughness statistics of heightmaps.
 
 pub mod collide;
+pub mod control;
 pub mod episode;
 pub mod planner;
+pub mod runner;
 pub mod soil;
 pub mod terrain_stats;
+pub mod vehicle;
+
+pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
+pub use vehicle::{Simulation, VehicleSpec};
 pub mod world;

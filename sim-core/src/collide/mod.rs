@@ -1,1 +1,164 @@
-//! Collision geometry of rigid obstacles (rocks, tree trunks) against wheels and the chassis.
+//! Collision geometry of rigid obstacles (rocks, tree trunks) against points and spheres.
+//!
+//! - A rock is an oriented box of `half_extents`, rotated by `yaw` about +z, standing on the ground at `z`.
+//! - A tree is a vertical cylinder of radius `half_extents[0]` from `z` to `z + 2 * half_extents[2]`.
+//!
+//! Queries return the penetration depth and the outward unit normal of the obstacle surface, or `None`. They are
+//! analytic (no allocation). A broad phase keeps the obstacles near the vehicle in a fixed-capacity list refreshed
+//! by the caller (see [`ObstacleSet::refresh_near`]).
+//!
+//! No tunnelling: contacts are penalty forces stiff enough that a vehicle at its top speed stops within a fraction
+//! of the thinnest obstacle (a 0.5 m trunk; see the collision test), and the per-step displacement at top speed
+//! (30 m/s x 2 ms = 6 cm at full scale) is far below it.
+
+use crate::world::{Obstacle, ObstacleKind};
+use nalgebra::Vector3;
+
+/// A contact with an obstacle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ObstacleContact {
+    pub depth: f64,
+    /// Outward normal of the obstacle at the contact, unit.
+    pub normal: Vector3<f64>,
+    pub obstacle: usize,
+}
+
+/// Penetration of a sphere (centre `c`, radius `r`; `r = 0` for a point) into one obstacle.
+pub fn sphere_obstacle(o: &Obstacle, c: &Vector3<f64>, r: f64) -> Option<(f64, Vector3<f64>)> {
+    let height = 2.0 * o.half_extents[2];
+    let lz = c.z - o.z;
+    match o.kind {
+        ObstacleKind::Tree => {
+            let (dx, dy) = (c.x - o.x, c.y - o.y);
+            let d = dx.hypot(dy);
+            let depth = o.half_extents[0] + r - d;
+            if depth <= 0.0 || lz < -r || lz > height + r {
+                return None;
+            }
+            let top_depth = height + r - lz;
+            if top_depth < depth {
+                return Some((top_depth, Vector3::z()));
+            }
+            let n = if d > 1e-9 { Vector3::new(dx / d, dy / d, 0.0) } else { Vector3::x() };
+            Some((depth, n))
+        }
+        ObstacleKind::Rock => {
+            let (s, co) = o.yaw.sin_cos();
+            let (dx, dy) = (c.x - o.x, c.y - o.y);
+            // Local coordinates, box centred at the origin.
+            let l = Vector3::new(co * dx + s * dy, -s * dx + co * dy, lz - o.half_extents[2]);
+            let h = Vector3::new(o.half_extents[0], o.half_extents[1], o.half_extents[2]);
+            let q = Vector3::new(l.x.clamp(-h.x, h.x), l.y.clamp(-h.y, h.y), l.z.clamp(-h.z, h.z));
+            let diff = l - q;
+            let dist = diff.norm();
+            let (depth, local_n) = if dist > 1e-12 {
+                if dist >= r {
+                    return None;
+                }
+                (r - dist, diff / dist)
+            } else {
+                // Centre inside the box: push out through the nearest face.
+                let pen = [h.x - l.x.abs(), h.y - l.y.abs(), h.z - l.z.abs()];
+                let axis = (0..3).min_by(|a, b| pen[*a].total_cmp(&pen[*b])).unwrap_or(0);
+                let mut n = Vector3::zeros();
+                n[axis] = if l[axis] >= 0.0 { 1.0 } else { -1.0 };
+                (pen[axis] + r, n)
+            };
+            let n = Vector3::new(co * local_n.x - s * local_n.y, s * local_n.x + co * local_n.y, local_n.z);
+            Some((depth, n))
+        }
+    }
+}
+
+/// Horizontal bounding radius of an obstacle.
+fn bound(o: &Obstacle) -> f64 {
+    match o.kind {
+        ObstacleKind::Tree => o.half_extents[0],
+        ObstacleKind::Rock => o.half_extents[0].hypot(o.half_extents[1]).hypot(o.half_extents[2]),
+    }
+}
+
+/// Maximum number of obstacles kept in the near list.
+pub const MAX_NEAR: usize = 32;
+
+/// The obstacles of a world with a near list for the broad phase.
+#[derive(Clone, Debug)]
+pub struct ObstacleSet {
+    obstacles: Vec<Obstacle>,
+    near: [usize; MAX_NEAR],
+    near_len: usize,
+}
+
+impl ObstacleSet {
+    pub fn new(obstacles: &[Obstacle]) -> ObstacleSet {
+        ObstacleSet { obstacles: obstacles.to_vec(), near: [0; MAX_NEAR], near_len: 0 }
+    }
+
+    pub fn obstacles(&self) -> &[Obstacle] {
+        &self.obstacles
+    }
+
+    /// Keeps the obstacles whose bounding circle comes within `radius` of `(x, y)` (at most [`MAX_NEAR`], nearest
+    /// first is not needed: the list is in id order).
+    pub fn refresh_near(&mut self, x: f64, y: f64, radius: f64) {
+        self.near_len = 0;
+        for (i, o) in self.obstacles.iter().enumerate() {
+            if (o.x - x).hypot(o.y - y) <= radius + bound(o) && self.near_len < MAX_NEAR {
+                self.near[self.near_len] = i;
+                self.near_len += 1;
+            }
+        }
+    }
+
+    /// Deepest contact of a sphere with the near obstacles.
+    pub fn sphere_contact(&self, c: &Vector3<f64>, r: f64) -> Option<ObstacleContact> {
+        let mut best: Option<ObstacleContact> = None;
+        for &i in &self.near[..self.near_len] {
+            if let Some((depth, normal)) = sphere_obstacle(&self.obstacles[i], c, r) {
+                if best.is_none_or(|b| depth > b.depth) {
+                    best = Some(ObstacleContact { depth, normal, obstacle: i });
+                }
+            }
+        }
+        best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rock(yaw: f64) -> Obstacle {
+        Obstacle { kind: ObstacleKind::Rock, x: 0.0, y: 0.0, z: 0.0, yaw, half_extents: [2.0, 1.0, 1.5] }
+    }
+
+    #[test]
+    fn point_inside_a_rock_is_pushed_out_through_the_nearest_face() {
+        let (d, n) = sphere_obstacle(&rock(0.0), &Vector3::new(1.8, 0.0, 1.5), 0.0).unwrap();
+        assert!((d - 0.2).abs() < 1e-12 && (n - Vector3::x()).norm() < 1e-12);
+        // Rotated by 90 degrees the long axis points along y.
+        let (d, n) = sphere_obstacle(&rock(std::f64::consts::FRAC_PI_2), &Vector3::new(0.0, 1.8, 1.5), 0.0).unwrap();
+        assert!((d - 0.2).abs() < 1e-9 && (n - Vector3::y()).norm() < 1e-9, "{d} {n}");
+        assert!(sphere_obstacle(&rock(0.0), &Vector3::new(2.5, 0.0, 1.0), 0.4).is_none());
+        let (d, _) = sphere_obstacle(&rock(0.0), &Vector3::new(2.3, 0.0, 1.0), 0.4).unwrap();
+        assert!((d - 0.1).abs() < 1e-12);
+    }
+
+    #[test]
+    fn tree_contacts_are_radial_and_limited_in_height() {
+        let tree = Obstacle { kind: ObstacleKind::Tree, x: 1.0, y: 1.0, z: 2.0, yaw: 0.0, half_extents: [0.5, 0.5, 2.5] };
+        let (d, n) = sphere_obstacle(&tree, &Vector3::new(1.0, 1.6, 3.0), 0.2).unwrap();
+        assert!((d - 0.1).abs() < 1e-12 && (n - Vector3::y()).norm() < 1e-12);
+        assert!(sphere_obstacle(&tree, &Vector3::new(1.0, 1.6, 8.0), 0.2).is_none());
+        assert!(sphere_obstacle(&tree, &Vector3::new(1.0, 1.6, 1.0), 0.2).is_none());
+    }
+
+    #[test]
+    fn near_list_keeps_only_close_obstacles() {
+        let far = Obstacle { x: 50.0, ..rock(0.0) };
+        let mut set = ObstacleSet::new(&[rock(0.0), far]);
+        set.refresh_near(0.0, 0.0, 5.0);
+        assert!(set.sphere_contact(&Vector3::new(0.0, 0.0, 1.0), 0.1).is_some());
+        assert!(set.sphere_contact(&Vector3::new(50.0, 0.0, 1.0), 0.1).is_none(), "far rock is not in the near list");
+    }
+}

@@ -1,1 +1,262 @@
-//! Soil Contact Model (Bekker-Wong pressure-sinkage, Janosi-Hanamoto shear) on a sparse grid with memory.
+//! Soil Contact Model (Bekker-Wong pressure-sinkage, Janosi-Hanamoto shear, elastic unloading, damping) on a
+//! sparse grid with memory, after Chrono's SCM (physics.md section 2.4).
+//!
+//! The grid spacing is 0.1 m at full scale (times the world's scale). Each node remembers its plastic sinkage
+//! `s_p`, its yield pressure and its accumulated shear displacement `j`; only touched nodes cost memory: nodes live
+//! in 8 x 8 tiles taken from a pool allocated once in [`SoilGrid::new`], so the step loop never allocates. If the
+//! pool runs out (more than [`TILE_POOL`] tiles touched in one episode, i.e. several kilometres of driving) further
+//! nodes behave as fresh soil at every step (no memory) and [`SoilGrid::exhausted`] says so.
+//!
+//! Per contacting node and step (vertical contact with a rigid wheel cylinder):
+//! 1. total sinkage below the undeformed surface `s = h0 - z_wheel`, penetration of the current surface
+//!    `s - s_p`;
+//! 2. elastic trial `sigma = K_e (s - s_p)`; if it exceeds the node's yield pressure, Bekker
+//!    `sigma = (k_c / b + k_phi) s^n` holds, the yield pressure rises to it and `s_p = s - sigma / K_e`
+//!    (so unloading and reloading follow the elastic line until the previous yield): ruts persist;
+//! 3. damping `sigma += R v_n` while sinking;
+//! 4. Janosi shear `tau = (c + sigma tan phi) (1 - exp(-j / K))` opposing the slip velocity, with `j` the slip
+//!    distance accumulated while the node stays in contact (reset when contact is lost);
+//! 5. force `A (sigma n + tau t)` with `A = delta^2`.
+
+use crate::world::{SoilParams, Surface, World, PATCHES};
+use nalgebra::Vector3;
+
+/// Nodes per tile side.
+const TILE: usize = 8;
+/// Tiles in the pool (each 64 nodes).
+pub const TILE_POOL: usize = 6000;
+const NO_TILE: u32 = u32::MAX;
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Node {
+    plastic: f64,
+    yield_pressure: f64,
+    shear: f64,
+    last_step: u64,
+}
+
+/// Soil force on a contacting body.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SoilContact {
+    /// Total force on the body, N (world frame).
+    pub force: Vector3<f64>,
+    /// Torque about the wheel centre, N m (world frame).
+    pub torque: Vector3<f64>,
+    /// Largest sinkage below the undeformed surface, m.
+    pub sinkage: f64,
+    /// Normal (vertical) part of the force, N.
+    pub normal: f64,
+    /// d(traction)/d(slip velocity) estimate for implicit wheel-spin integration, N s/m.
+    pub traction_stiffness: f64,
+    /// Nodes in contact.
+    pub nodes: usize,
+}
+
+/// A rigid wheel (cylinder) for [`SoilGrid::wheel_contact`].
+#[derive(Clone, Copy, Debug)]
+pub struct WheelGeometry {
+    pub centre: Vector3<f64>,
+    /// Unit axle direction (world).
+    pub axle: Vector3<f64>,
+    pub radius: f64,
+    pub width: f64,
+    /// Velocity of the centre and angular velocity of the wheel (world).
+    pub velocity: Vector3<f64>,
+    pub angular_velocity: Vector3<f64>,
+}
+
+/// The soil of a world.
+#[derive(Clone, Debug)]
+pub struct SoilGrid {
+    delta: f64,
+    nx: usize,
+    ny: usize,
+    half_x: f64,
+    half_y: f64,
+    tiles_x: usize,
+    tile_index: Vec<u32>,
+    pool: Vec<[Node; TILE * TILE]>,
+    patch_soil: [Option<SoilParams>; PATCHES * PATCHES],
+    heights: crate::world::Heightmap,
+    step: u64,
+    exhausted: bool,
+}
+
+impl SoilGrid {
+    /// Builds the soil of a world (allocates everything up front).
+    pub fn new(world: &World) -> SoilGrid {
+        let delta = 0.1 * world.scale;
+        let h = &world.heightmap;
+        let (half_x, half_y) = (h.half_x(), h.half_y());
+        let nx = (2.0 * half_x / delta).ceil() as usize + 1;
+        let ny = (2.0 * half_y / delta).ceil() as usize + 1;
+        let tiles_x = nx.div_ceil(TILE);
+        let tiles_y = ny.div_ceil(TILE);
+        let mut patch_soil = [None; PATCHES * PATCHES];
+        for (k, p) in world.patches.iter().enumerate().take(PATCHES * PATCHES) {
+            if let Surface::Deformable { soil } = p.surface {
+                patch_soil[k] = Some(soil);
+            }
+        }
+        let any_soil = patch_soil.iter().any(Option::is_some);
+        SoilGrid {
+            delta,
+            nx,
+            ny,
+            half_x,
+            half_y,
+            tiles_x,
+            tile_index: vec![NO_TILE; if any_soil { tiles_x * tiles_y } else { 0 }],
+            pool: Vec::with_capacity(if any_soil { TILE_POOL } else { 0 }),
+            patch_soil,
+            heights: h.clone(),
+            step: 0,
+            exhausted: false,
+        }
+    }
+
+    /// Soil parameters at a point, `None` on rigid ground.
+    pub fn soil_at(&self, x: f64, y: f64) -> Option<SoilParams> {
+        let (fx, fy) = self.heights.grid_coords(x, y);
+        let stride = crate::world::PATCH_STRIDE as f64;
+        let pj = ((fx / stride).floor().max(0.0) as usize).min(PATCHES - 1);
+        let pi = ((fy / stride).floor().max(0.0) as usize).min(PATCHES - 1);
+        self.patch_soil[pi * PATCHES + pj]
+    }
+
+    pub fn has_soil_at(&self, x: f64, y: f64) -> bool {
+        self.soil_at(x, y).is_some()
+    }
+
+    /// Tiles touched so far.
+    pub fn touched_tiles(&self) -> usize {
+        self.pool.len()
+    }
+
+    /// Whether the tile pool ran out (see the module docs).
+    pub fn exhausted(&self) -> bool {
+        self.exhausted
+    }
+
+    /// Starts a new physics step (shear displacement of nodes not touched in the previous step is reset).
+    pub fn begin_step(&mut self) {
+        self.step += 1;
+    }
+
+    /// Back to undeformed soil without reallocating.
+    pub fn reset(&mut self) {
+        self.tile_index.iter_mut().for_each(|t| *t = NO_TILE);
+        self.pool.clear();
+        self.step = 0;
+        self.exhausted = false;
+    }
+
+    fn node_mut(&mut self, i: usize, j: usize) -> Option<&mut Node> {
+        let t = (j / TILE) * self.tiles_x + i / TILE;
+        if self.tile_index[t] == NO_TILE {
+            if self.pool.len() == self.pool.capacity() {
+                self.exhausted = true;
+                return None;
+            }
+            self.tile_index[t] = self.pool.len() as u32;
+            self.pool.push([Node::default(); TILE * TILE]);
+        }
+        Some(&mut self.pool[self.tile_index[t] as usize][(j % TILE) * TILE + i % TILE])
+    }
+
+    /// Plastic sinkage of the node nearest to a point (0 where untouched or rigid).
+    pub fn rut_depth(&self, x: f64, y: f64) -> f64 {
+        if self.tile_index.is_empty() {
+            return 0.0;
+        }
+        let i = (((x + self.half_x) / self.delta).round().max(0.0) as usize).min(self.nx - 1);
+        let j = (((y + self.half_y) / self.delta).round().max(0.0) as usize).min(self.ny - 1);
+        match self.tile_index[(j / TILE) * self.tiles_x + i / TILE] {
+            NO_TILE => 0.0,
+            t => self.pool[t as usize][(j % TILE) * TILE + i % TILE].plastic,
+        }
+    }
+
+    /// Soil force on a rigid wheel, updating the soil's memory. Nodes on rigid patches are skipped.
+    pub fn wheel_contact(&mut self, w: &WheelGeometry, dt: f64) -> SoilContact {
+        let mut out = SoilContact::default();
+        if self.tile_index.is_empty() {
+            return out;
+        }
+        let up = Vector3::z();
+        let mut fwd = up.cross(&w.axle);
+        let fwd_norm = fwd.norm();
+        if fwd_norm < 1e-9 {
+            return out;
+        }
+        fwd /= fwd_norm;
+        let area = self.delta * self.delta;
+        let reach = w.radius + 0.5 * w.width;
+        let i0 = (((w.centre.x - reach + self.half_x) / self.delta).floor().max(0.0)) as usize;
+        let i1 = ((((w.centre.x + reach + self.half_x) / self.delta).ceil()) as usize).min(self.nx - 1);
+        let j0 = (((w.centre.y - reach + self.half_y) / self.delta).floor().max(0.0)) as usize;
+        let j1 = ((((w.centre.y + reach + self.half_y) / self.delta).ceil()) as usize).min(self.ny - 1);
+        let step = self.step;
+        let mut stiffness = 0.0;
+        for j in j0..=j1 {
+            for i in i0..=i1 {
+                let x = i as f64 * self.delta - self.half_x;
+                let y = j as f64 * self.delta - self.half_y;
+                let d = Vector3::new(x - w.centre.x, y - w.centre.y, 0.0);
+                let a = d.dot(&w.axle);
+                let u = d.dot(&fwd);
+                if a.abs() > 0.5 * w.width || u.abs() >= w.radius {
+                    continue;
+                }
+                let Some(soil) = self.soil_at(x, y) else { continue };
+                let z_wheel = w.centre.z - (w.radius * w.radius - u * u).sqrt();
+                let h0 = self.heights.height_bilinear(x, y);
+                let s = h0 - z_wheel;
+                if s <= 0.0 {
+                    continue;
+                }
+                let p = Vector3::new(x, y, z_wheel);
+                let v = w.velocity + w.angular_velocity.cross(&(p - w.centre));
+                let Some(node) = self.node_mut(i, j) else { continue };
+                if s - node.plastic <= 0.0 {
+                    node.shear = 0.0;
+                    continue;
+                }
+                if node.last_step + 1 < step {
+                    node.shear = 0.0;
+                }
+                node.last_step = step;
+                let mut sigma = soil.elastic_k.max(soil.k_phi) * (s - node.plastic);
+                if sigma > node.yield_pressure {
+                    let bekker = (soil.k_c / w.width + soil.k_phi) * s.powf(soil.n);
+                    sigma = bekker.min(sigma);
+                    node.yield_pressure = sigma;
+                    node.plastic = s - sigma / soil.elastic_k.max(soil.k_phi);
+                }
+                let sinking = -v.z;
+                if sinking > 0.0 {
+                    sigma += soil.damping * sinking;
+                }
+                let vt = Vector3::new(v.x, v.y, 0.0);
+                let slip = vt.norm();
+                node.shear += slip * dt;
+                let tau_max = soil.cohesion + sigma * soil.friction_angle_deg.to_radians().tan();
+                let ratio = (-node.shear / soil.janosi_k).exp();
+                let tau = tau_max * (1.0 - ratio);
+                let t = if slip > 1e-9 { -vt / slip } else { Vector3::zeros() };
+                let f = (up * sigma + t * tau) * area;
+                out.force += f;
+                out.torque += (p - w.centre).cross(&f);
+                out.normal += sigma * area;
+                out.sinkage = out.sinkage.max(s);
+                out.nodes += 1;
+                stiffness += area * (tau_max * ratio * dt / soil.janosi_k + tau / slip.max(0.05));
+            }
+        }
+        out.traction_stiffness = stiffness;
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests;

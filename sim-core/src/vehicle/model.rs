@@ -1,0 +1,757 @@
+//! The vehicle-terrain model: a 6-DoF chassis, one vertical (suspension) DOF and one spin DOF per wheel,
+//! multi-point wheel contact on the heightfield, tyre friction, soil, chassis contact, obstacles, powertrain,
+//! steering and brakes. Integrated with semi-implicit Euler at a fixed step; wheel spin is integrated implicitly in
+//! the tyre forces (so stiff friction is stable).
+//!
+//! Frames: the chassis frame is centred at the centre of mass, x forward, y left, z up. Wheel `k` hangs from a
+//! hard point at `(x_axle, +-track/2, -com_height)` (the wheel centre at static ride height); its compression `x`
+//! along the chassis up axis is measured from full droop, so the spring force is `spring * x` and the static sag is
+//! `load / spring` (tested).
+//!
+//! Contacts, all penalty-based with damping:
+//! - wheel-ground: 7 rim points (-60 .. 60 degrees) x 3 lateral offsets sample the bilinear heightfield; the
+//!   deepest point gives the tyre deflection and a radial normal, so a wheel climbs a step and rolls over a ridge;
+//! - tyre friction on rigid ground: `mu = min(tyre mu, patch mu)`; the rigid tyre is Coulomb friction regularised by
+//!   a stiff bristle (it holds on slopes below `atan(mu)` with brakes), the handling tyre a Magic-Formula curve of
+//!   the combined slip with a friction circle;
+//! - soil: on deformable patches the wheel's force comes from [`crate::soil::SoilGrid`] instead;
+//! - chassis-ground: points on the body box (bottom, edges, top) against the heightfield (high-centering,
+//!   bottoming out, rollover);
+//! - obstacles: body points and wheel spheres against rocks and trees ([`crate::collide`]).
+
+use crate::collide::ObstacleSet;
+use crate::planner::{Action, VehicleState};
+use crate::soil::{SoilGrid, WheelGeometry};
+use crate::vehicle::spec::{Differential, SteeringKind, TyreModel, VehicleSpec};
+use crate::world::{Surface, World};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+
+const G: f64 = 9.81;
+/// Rim sample angles (rad) and lateral offsets (fraction of the half width) of the wheel contact.
+const RIM_ANGLES: [f64; 7] = [-1.047, -0.698, -0.349, 0.0, 0.349, 0.698, 1.047];
+const RIM_LATERAL: [f64; 3] = [-0.66, 0.0, 0.66];
+/// Fraction of the total mass carried by each wheel as unsprung mass.
+const UNSPRUNG_FRACTION: f64 = 0.04;
+
+#[derive(Clone, Debug)]
+struct Wheel {
+    /// Hard point (wheel centre at static ride height) in the chassis frame.
+    hard: Vector3<f64>,
+    /// +1 left, -1 right.
+    side: f64,
+    steer_factor: f64,
+    steered: bool,
+    group: usize,
+    spring: f64,
+    damper: f64,
+    travel: f64,
+    /// Compression at static ride height (spring preload reference), m.
+    static_compression: f64,
+    compression: f64,
+    compression_rate: f64,
+    spin: f64,
+    bristle: [f64; 2],
+    steer_angle: f64,
+    /// Tyre deflection of the previous step (for damping).
+    deflection: f64,
+}
+
+/// What one step produced (for metrics).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepInfo {
+    /// Mechanical power delivered by the powertrain to the wheels, W (positive when driving).
+    pub drive_power: f64,
+    /// Whether any part of the vehicle touches an obstacle.
+    pub obstacle_contact: bool,
+}
+
+/// A vehicle driving in a world.
+#[derive(Clone, Debug)]
+pub struct Simulation {
+    spec: VehicleSpec,
+    world_patches: World,
+    soil: SoilGrid,
+    obstacles: ObstacleSet,
+    dt: f64,
+    mass: f64,
+    inertia: Matrix3<f64>,
+    inertia_inv: Matrix3<f64>,
+    unsprung: f64,
+    radius: f64,
+    width: f64,
+    wheel_inertia: f64,
+    tyre_mu: f64,
+    bristle_k: f64,
+    bristle_c: f64,
+    tyre_k: f64,
+    tyre_c: f64,
+    body_points: Vec<Vector3<f64>>,
+    body_k: f64,
+    body_c: f64,
+    obstacle_k: f64,
+    wheels: Vec<Wheel>,
+    groups: usize,
+    // state
+    time: f64,
+    pos: Vector3<f64>,
+    rot: UnitQuaternion<f64>,
+    vel: Vector3<f64>,
+    /// Angular velocity in the chassis frame.
+    omega: Vector3<f64>,
+    gear: usize,
+    steering: f64,
+    accel_prev: Vector3<f64>,
+    steps: u64,
+    // scratch (preallocated; no allocation in the step loop)
+    group_torque: Vec<f64>,
+    group_num: Vec<f64>,
+    group_den: Vec<f64>,
+    group_spin: Vec<f64>,
+    group_brake: Vec<f64>,
+    contacts: Vec<WheelContact>,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct WheelContact {
+    active: bool,
+    soil: bool,
+    point: Vector3<f64>,
+    normal: Vector3<f64>,
+    /// Normal force magnitude (tyre deflection force), N.
+    load: f64,
+    mu: f64,
+    tx: Vector3<f64>,
+    ty: Vector3<f64>,
+    /// Force on the wheel from the ground (soil: complete), world.
+    soil_force: Vector3<f64>,
+    soil_stiffness: f64,
+    r_eff: f64,
+}
+
+/// Fixed physics step for a vehicle scale: 2 ms at full scale, scaled by sqrt(scale) (Froude similitude keeps the
+/// ratio of step to natural periods); chosen by the stability tests in `tests/physics_*.rs`.
+pub fn default_dt(scale: f64) -> f64 {
+    0.002 * scale.sqrt()
+}
+
+impl Simulation {
+    /// Places the vehicle in `world` at `(x, y)` with heading `yaw`, resting on the ground.
+    pub fn new(world: &World, spec: &VehicleSpec, x: f64, y: f64, yaw: f64) -> Simulation {
+        let scale = spec.scale;
+        let dt = default_dt(scale);
+        let n_wheels_axle = 2;
+        let mut wheels = Vec::new();
+        let total = spec.chassis.mass;
+        let unsprung = UNSPRUNG_FRACTION * total;
+        let xs: Vec<f64> = spec.axles.iter().map(|a| a.x).collect();
+        let x_front = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let x_rear_ref = {
+            let rear: Vec<f64> = spec.axles.iter().filter(|a| !a.steered).map(|a| a.x).collect();
+            if rear.is_empty() { xs.iter().copied().fold(f64::INFINITY, f64::min) } else { rear.iter().sum::<f64>() / rear.len() as f64 }
+        };
+        // Static axle loads from the moment balance (two-axle exact; more axles: proportional to 1/|x - x_cg| weights
+        // normalised, a documented approximation for the preload reference only).
+        let n_axles = spec.axles.len();
+        let loads: Vec<f64> = if n_axles == 2 {
+            let (a, b) = (spec.axles[0].x, spec.axles[1].x);
+            vec![total * G * (-b) / (a - b), total * G * a / (a - b)]
+        } else {
+            vec![total * G / n_axles as f64; n_axles]
+        };
+        let skid = spec.steering.kind == SteeringKind::Skid;
+        let mut positions: Vec<(usize, f64)> = spec.axles.iter().enumerate().map(|(ai, a)| (ai, a.x)).collect();
+        if let Some(t) = &spec.tracks {
+            for w in 0..n_axles.saturating_sub(1) {
+                for k in 1..=t.belt_points_between_wheels {
+                    let f = k as f64 / (t.belt_points_between_wheels + 1) as f64;
+                    let x = spec.axles[w].x + (spec.axles[w + 1].x - spec.axles[w].x) * f;
+                    positions.push((w, x));
+                }
+            }
+        }
+        let contact_count = positions.len() * n_wheels_axle;
+        for (ai, px) in &positions {
+            let a = &spec.axles[*ai];
+            for side in [1.0, -1.0] {
+                let per_wheel_load = loads[*ai] / 2.0 * (n_axles * 2) as f64 / contact_count as f64;
+                let group = match (skid, a.driven, spec.powertrain.differential) {
+                    (true, _, _) => usize::from(side < 0.0),
+                    (false, true, Differential::Locked) => 0,
+                    _ => usize::MAX,
+                };
+                let steer_factor = if a.steered && x_front != x_rear_ref { (a.x - x_rear_ref) / (x_front - x_rear_ref) } else { 0.0 };
+                wheels.push(Wheel {
+                    hard: Vector3::new(*px, side * a.track / 2.0, -spec.chassis.com_height),
+                    side,
+                    steer_factor,
+                    steered: a.steered && !skid,
+                    group,
+                    spring: a.spring,
+                    damper: a.damper,
+                    travel: a.travel,
+                    static_compression: (per_wheel_load - unsprung * G).max(0.0) / a.spring,
+                    compression: 0.0,
+                    compression_rate: 0.0,
+                    spin: 0.0,
+                    bristle: [0.0; 2],
+                    steer_angle: 0.0,
+                    deflection: 0.0,
+                });
+            }
+        }
+        // Groups: locked drivelines share one spin group; others each wheel its own.
+        let mut next = if skid { 2 } else { 1 };
+        for w in wheels.iter_mut() {
+            if w.group == usize::MAX {
+                w.group = next;
+                next += 1;
+            }
+        }
+        let groups = next;
+        let n = wheels.len() as f64;
+        let sprung = total - n * unsprung;
+        let i = spec.chassis.inertia;
+        let inertia = Matrix3::from_diagonal(&Vector3::new(i[0], i[1], i[2]));
+        let static_load = total * G / n;
+        let tyre_k = static_load / (0.01 * scale);
+        let bristle_k = static_load / (0.005 * scale);
+        let body_k = total * G / (0.02 * scale) / 4.0;
+        let [l, w, h] = spec.chassis.size;
+        let bottom = -spec.chassis.com_height - spec.wheels.radius + spec.chassis.ground_clearance;
+        let mut body_points = Vec::new();
+        for xi in 0..5 {
+            for yi in 0..3 {
+                let px = -l / 2.0 + l * xi as f64 / 4.0;
+                let py = -w / 2.0 + w * yi as f64 / 2.0;
+                body_points.push(Vector3::new(px, py, bottom));
+                body_points.push(Vector3::new(px, py, bottom + h));
+                if yi != 1 {
+                    body_points.push(Vector3::new(px, py, bottom + h / 2.0));
+                }
+            }
+        }
+        let mut sim = Simulation {
+            world_patches: world.clone(),
+            soil: SoilGrid::new(world),
+            obstacles: ObstacleSet::new(&world.obstacles),
+            spec: spec.clone(),
+            dt,
+            mass: sprung,
+            inertia,
+            inertia_inv: inertia.try_inverse().unwrap_or_else(Matrix3::identity),
+            unsprung,
+            radius: spec.wheels.radius,
+            width: spec.wheels.width,
+            wheel_inertia: spec.wheels.inertia,
+            tyre_mu: spec.wheels.mu,
+            bristle_k,
+            bristle_c: 2.0 * 0.7 * (bristle_k * total / n).sqrt(),
+            tyre_k,
+            tyre_c: 2.0 * 0.5 * (tyre_k * unsprung).sqrt(),
+            body_points,
+            body_k,
+            body_c: 2.0 * 0.7 * (body_k * total / 4.0).sqrt(),
+            obstacle_k: total * G / (0.002 * scale),
+            groups,
+            group_torque: vec![0.0; groups],
+            group_num: vec![0.0; groups],
+            group_den: vec![0.0; groups],
+            group_spin: vec![0.0; groups],
+            group_brake: vec![0.0; groups],
+            contacts: vec![WheelContact::default(); wheels.len()],
+            wheels,
+            time: 0.0,
+            pos: Vector3::zeros(),
+            rot: UnitQuaternion::identity(),
+            vel: Vector3::zeros(),
+            omega: Vector3::zeros(),
+            gear: 0,
+            steering: 0.0,
+            accel_prev: Vector3::zeros(),
+            steps: 0,
+        };
+        sim.place(x, y, yaw);
+        sim
+    }
+
+    /// Puts the vehicle at rest at `(x, y)` with heading `yaw`, pitched and rolled to the local terrain, its
+    /// wheels at static compression.
+    pub fn place(&mut self, x: f64, y: f64, yaw: f64) {
+        let h = &self.world_patches.heightmap;
+        let (l, w) = (self.spec.wheelbase().max(1e-3), self.spec.track().max(1e-3));
+        let (c, s) = (yaw.cos(), yaw.sin());
+        let hf = h.height_bilinear(x + c * l / 2.0, y + s * l / 2.0);
+        let hb = h.height_bilinear(x - c * l / 2.0, y - s * l / 2.0);
+        let hl = h.height_bilinear(x - s * w / 2.0, y + c * w / 2.0);
+        let hr = h.height_bilinear(x + s * w / 2.0, y - c * w / 2.0);
+        let pitch = -((hf - hb) / l).atan();
+        let roll = ((hr - hl) / w).atan();
+        self.rot = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
+        let ground = h.height_bilinear(x, y).max((hf + hb + hl + hr) / 4.0);
+        self.pos = Vector3::new(x, y, ground + self.radius + self.spec.chassis.com_height + 0.02 * self.spec.scale);
+        self.vel = Vector3::zeros();
+        self.omega = Vector3::zeros();
+        for wh in &mut self.wheels {
+            wh.compression = wh.static_compression.min(wh.travel);
+            wh.compression_rate = 0.0;
+            wh.spin = 0.0;
+            wh.bristle = [0.0; 2];
+            wh.deflection = 0.0;
+        }
+        self.gear = 0;
+        self.steering = 0.0;
+        self.time = 0.0;
+        self.steps = 0;
+        self.accel_prev = Vector3::zeros();
+        self.soil.reset();
+        self.obstacles.refresh_near(x, y, self.reach());
+    }
+
+    fn reach(&self) -> f64 {
+        0.5 * self.spec.chassis.size[0].hypot(self.spec.chassis.size[1]) + self.radius + 15.0 * self.spec.scale
+    }
+
+    /// Physics time step, s.
+    pub fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    pub fn spec(&self) -> &VehicleSpec {
+        &self.spec
+    }
+
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    pub fn position(&self) -> Vector3<f64> {
+        self.pos
+    }
+
+    pub fn velocity(&self) -> Vector3<f64> {
+        self.vel
+    }
+
+    pub fn orientation(&self) -> UnitQuaternion<f64> {
+        self.rot
+    }
+
+    /// Spin rate of every wheel contact, rad/s.
+    pub fn wheel_spins(&self) -> impl Iterator<Item = f64> + '_ {
+        self.wheels.iter().map(|w| w.spin)
+    }
+
+    /// Suspension compression of every wheel from full droop, m.
+    pub fn compressions(&self) -> impl Iterator<Item = f64> + '_ {
+        self.wheels.iter().map(|w| w.compression)
+    }
+
+    /// Total kinetic energy (chassis translation and rotation, wheel spin), J.
+    pub fn kinetic_energy(&self) -> f64 {
+        let n = self.wheels.len() as f64;
+        0.5 * (self.mass + n * self.unsprung) * self.vel.norm_squared()
+            + 0.5 * self.omega.dot(&(self.inertia * self.omega))
+            + self.wheels.iter().map(|w| 0.5 * self.wheel_inertia * w.spin * w.spin).sum::<f64>()
+    }
+
+    /// The soil grid (ruts).
+    pub fn soil(&self) -> &SoilGrid {
+        &self.soil
+    }
+
+    /// Physics steps taken.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Sets position and velocity directly (tests: launch the vehicle).
+    pub fn set_velocity(&mut self, v: Vector3<f64>) {
+        self.vel = v;
+        for w in &mut self.wheels {
+            let fwd = self.rot * Vector3::x();
+            w.spin = v.dot(&fwd) / self.radius;
+        }
+    }
+
+    /// Ground-truth state.
+    pub fn state(&self) -> VehicleState {
+        let (roll, pitch, yaw) = self.rot.euler_angles();
+        let fwd = self.rot * Vector3::x();
+        VehicleState {
+            time: self.time,
+            position: [self.pos.x, self.pos.y, self.pos.z],
+            roll,
+            pitch,
+            yaw,
+            velocity: [self.vel.x, self.vel.y, self.vel.z],
+            angular_velocity: [self.omega.x, self.omega.y, self.omega.z],
+            speed: self.vel.dot(&fwd),
+            steering: self.steering,
+        }
+    }
+
+    fn torque_curve(&self, rpm: f64) -> f64 {
+        let c = &self.spec.powertrain.torque_curve;
+        let rpm = rpm.max(0.0);
+        for w in c.windows(2) {
+            if rpm <= w[1][0] {
+                let t = ((rpm - w[0][0]) / (w[1][0] - w[0][0])).clamp(0.0, 1.0);
+                return w[0][1] + (w[1][1] - w[0][1]) * t;
+            }
+        }
+        0.0
+    }
+
+    /// Advances the simulation by one fixed step with the given (validated) action.
+    pub fn step(&mut self, action: &Action) -> StepInfo {
+        let dt = self.dt;
+        let mut info = StepInfo::default();
+        self.steps += 1;
+        self.soil.begin_step();
+        if self.steps % 20 == 0 {
+            self.obstacles.refresh_near(self.pos.x, self.pos.y, self.reach());
+        }
+        // Steering with its rate limit.
+        let max_delta = self.spec.steering.rate * dt;
+        self.steering += (action.steering.clamp(-1.0, 1.0) - self.steering).clamp(-max_delta, max_delta);
+        let up = self.rot * Vector3::z();
+        let fwd_body = self.rot * Vector3::x();
+        let omega_w = self.rot * self.omega;
+        let mut force = Vector3::new(0.0, 0.0, -self.mass * G);
+        let mut torque_w = Vector3::zeros();
+        // Ackermann angles.
+        let wheelbase = self.spec.wheelbase().max(1e-6);
+        let delta = self.steering * self.spec.steering.max_angle;
+        let skid = self.spec.steering.kind == SteeringKind::Skid;
+        for w in &mut self.wheels {
+            w.steer_angle = if w.steered && delta.abs() > 1e-6 {
+                let r = wheelbase / delta.tan();
+                let li = w.steer_factor * wheelbase;
+                (li / (r - w.side * w.hard.y.abs())).atan()
+            } else {
+                0.0
+            };
+        }
+        // Powertrain: automatic gearbox on the mean driven-wheel speed.
+        let pt = &self.spec.powertrain;
+        let driven_spin = self.wheels.iter().map(|w| w.spin.abs()).sum::<f64>() / self.wheels.len().max(1) as f64;
+        let reverse = action.throttle < 0.0;
+        let ratio = if reverse { pt.reverse_gear.abs() } else { pt.gears[self.gear] } * pt.final_drive;
+        let rpm = driven_spin / ratio * 60.0 / std::f64::consts::TAU;
+        if !reverse {
+            if rpm > pt.upshift_rpm && self.gear + 1 < pt.gears.len() {
+                self.gear += 1;
+            } else if rpm < pt.downshift_rpm && self.gear > 0 {
+                self.gear -= 1;
+            }
+        }
+        let motor_torque = self.torque_curve(rpm);
+        let wheel_torque_total = motor_torque / ratio;
+        // Distribute drive torque to spin groups.
+        for g in 0..self.groups {
+            self.group_torque[g] = 0.0;
+            self.group_num[g] = 0.0;
+            self.group_den[g] = 0.0;
+            self.group_brake[g] = 0.0;
+            self.group_spin[g] = 0.0;
+        }
+        let n_driven = self.wheels.iter().filter(|w| self.is_driven(w)).count().max(1) as f64;
+        if skid {
+            let s = self.steering;
+            let (ul, ur) = ((action.throttle - s).clamp(-1.0, 1.0), (action.throttle + s).clamp(-1.0, 1.0));
+            self.group_torque[0] = ul * wheel_torque_total / 2.0;
+            self.group_torque[1] = ur * wheel_torque_total / 2.0;
+        } else {
+            for k in 0..self.wheels.len() {
+                if self.is_driven(&self.wheels[k]) {
+                    let g = self.wheels[k].group;
+                    self.group_torque[g] += action.throttle * wheel_torque_total / n_driven;
+                }
+            }
+        }
+        // Contacts and tyre force trials.
+        let mut power = 0.0;
+        for k in 0..self.wheels.len() {
+            let c = self.wheel_contact(k, &up, &fwd_body);
+            self.contacts[k] = c;
+            let w = &self.wheels[k];
+            let g = w.group;
+            self.group_den[g] += self.wheel_inertia;
+            self.group_spin[g] += w.spin * self.wheel_inertia;
+            self.group_brake[g] += self.spec.powertrain.brake_torque * action.brake.clamp(0.0, 1.0);
+            if !c.active {
+                continue;
+            }
+            let v_p = self.vel + omega_w.cross(&(c.point - self.pos));
+            let (fx0, kx) = if c.soil {
+                (c.soil_force.dot(&c.tx), c.soil_stiffness)
+            } else {
+                let vsx = v_p.dot(&c.tx) - w.spin * c.r_eff;
+                let vsy = v_p.dot(&c.ty);
+                let (f, _, k) = self.tyre_force(w, &c, vsx, vsy, dt);
+                (f[0], k)
+            };
+            self.group_num[g] -= fx0 * c.r_eff;
+            self.group_den[g] += dt * kx * c.r_eff * c.r_eff;
+        }
+        // Implicit spin update per group, with Coulomb brakes.
+        for g in 0..self.groups {
+            let den = self.group_den[g];
+            if den <= 0.0 {
+                continue;
+            }
+            let members = self.wheels.iter().filter(|w| w.group == g).count().max(1) as f64;
+            let spin = self.group_spin[g] / (self.wheel_inertia * members);
+            let free = spin + dt * (self.group_torque[g] + self.group_num[g]) / den;
+            let brake_step = dt * self.group_brake[g] / den;
+            let new = if free.abs() <= brake_step { 0.0 } else { free - free.signum() * brake_step };
+            power += self.group_torque[g] * new;
+            for w in self.wheels.iter_mut().filter(|w| w.group == g) {
+                w.spin = new;
+            }
+        }
+        info.drive_power = power;
+        // Apply contact forces with the new spins.
+        for k in 0..self.wheels.len() {
+            let c = self.contacts[k];
+            let hard_world = self.pos + self.rot * (self.wheels[k].hard - Vector3::new(0.0, 0.0, self.wheels[k].static_compression.min(self.wheels[k].travel)) + Vector3::new(0.0, 0.0, self.wheels[k].compression));
+            let mut ground = Vector3::zeros();
+            if c.active {
+                if c.soil {
+                    ground = c.soil_force;
+                } else {
+                    let w = &self.wheels[k];
+                    let v_p = self.vel + omega_w.cross(&(c.point - self.pos));
+                    let vsx = v_p.dot(&c.tx) - w.spin * c.r_eff;
+                    let vsy = v_p.dot(&c.ty);
+                    let (f, _, _) = self.tyre_force(w, &c, vsx, vsy, dt);
+                    // Update the bristle state for the rigid tyre.
+                    let wm = &mut self.wheels[k];
+                    if self.spec.wheels.tyre == TyreModel::Rigid {
+                        let lim = c.mu * c.load;
+                        let trial = [-(self.bristle_k * (wm.bristle[0] + vsx * dt)) - self.bristle_c * vsx, -(self.bristle_k * (wm.bristle[1] + vsy * dt)) - self.bristle_c * vsy];
+                        let norm = trial[0].hypot(trial[1]);
+                        if norm > lim && norm > 0.0 {
+                            wm.bristle = [-f[0] / self.bristle_k, -f[1] / self.bristle_k];
+                        } else {
+                            wm.bristle = [wm.bristle[0] + vsx * dt, wm.bristle[1] + vsy * dt];
+                        }
+                    }
+                    ground = c.normal * c.load + c.tx * f[0] + c.ty * f[1];
+                }
+            }
+            // Wheel vertical DOF along the chassis up axis.
+            let a_rel = self.accel_prev;
+            let wm = &mut self.wheels[k];
+            let f_spring = wm.spring * wm.compression + wm.damper * wm.compression_rate;
+            let bump = if wm.compression > wm.travel { 20.0 * wm.spring * (wm.compression - wm.travel) + wm.damper * wm.compression_rate.max(0.0) } else { 0.0 };
+            let f_strut = (f_spring + bump).max(0.0);
+            let gvec = Vector3::new(0.0, 0.0, -G) * self.unsprung;
+            let along = (ground + gvec - self.unsprung * a_rel).dot(&up);
+            let acc = (along - f_strut) / self.unsprung;
+            wm.compression_rate += acc * dt;
+            wm.compression += wm.compression_rate * dt;
+            if wm.compression < 0.0 {
+                wm.compression = 0.0;
+                wm.compression_rate = wm.compression_rate.max(0.0);
+            }
+            // Chassis: strut force at the hard point plus the ground force components across the strut.
+            let across = ground + gvec - up * (ground + gvec).dot(&up);
+            let f_chassis = up * f_strut + across;
+            force += f_chassis;
+            let arm = if c.active { c.point } else { hard_world };
+            torque_w += (arm - self.pos).cross(&across) + (hard_world - self.pos).cross(&(up * f_strut));
+        }
+        // Chassis-ground and chassis-obstacle contacts.
+        let ground_mu = self.patch_mu(self.pos.x, self.pos.y);
+        for p in &self.body_points {
+            let pw = self.pos + self.rot * p;
+            let v = self.vel + omega_w.cross(&(pw - self.pos));
+            let hg = self.world_patches.heightmap.height_bilinear(pw.x, pw.y);
+            let depth = hg - pw.z;
+            if depth > 0.0 {
+                let n = self.normal_at(pw.x, pw.y);
+                let vn = v.dot(&n);
+                let fnrm = (self.body_k * depth - self.body_c * vn).max(0.0);
+                let vt = v - n * vn;
+                let vtn = vt.norm();
+                let ft = if vtn > 1e-9 { -vt / vtn.max(0.05 * self.spec.scale.sqrt()) * ground_mu * fnrm } else { Vector3::zeros() };
+                let f = n * fnrm + ft;
+                force += f;
+                torque_w += (pw - self.pos).cross(&f);
+            }
+            if let Some(oc) = self.obstacles.sphere_contact(&pw, 0.0) {
+                let vn = v.dot(&oc.normal);
+                let fnrm = (self.obstacle_k * oc.depth - 2.0 * 0.5 * (self.obstacle_k * self.mass).sqrt() * vn.min(0.0)).max(0.0);
+                let vt = v - oc.normal * vn;
+                let vtn = vt.norm();
+                let ft = if vtn > 1e-9 { -vt / vtn.max(0.05) * 0.5 * fnrm } else { Vector3::zeros() };
+                let f = oc.normal * fnrm + ft;
+                force += f;
+                torque_w += (pw - self.pos).cross(&f);
+                info.obstacle_contact = true;
+            }
+        }
+        for k in 0..self.wheels.len() {
+            let w = &self.wheels[k];
+            let centre = self.pos + self.rot * (w.hard + Vector3::new(0.0, 0.0, w.compression - w.static_compression.min(w.travel)));
+            if let Some(oc) = self.obstacles.sphere_contact(&centre, self.radius) {
+                let v = self.vel + omega_w.cross(&(centre - self.pos));
+                let vn = v.dot(&oc.normal);
+                let fnrm = (self.obstacle_k * oc.depth - 2.0 * 0.5 * (self.obstacle_k * self.mass).sqrt() * vn.min(0.0)).max(0.0);
+                let f = oc.normal * fnrm;
+                force += f;
+                torque_w += (centre - self.pos).cross(&f);
+                info.obstacle_contact = true;
+            }
+        }
+        // Integrate the chassis (semi-implicit Euler).
+        let acc = force / self.mass;
+        self.accel_prev = acc;
+        self.vel += acc * dt;
+        self.pos += self.vel * dt;
+        let torque_b = self.rot.inverse() * torque_w;
+        let gyro = self.omega.cross(&(self.inertia * self.omega));
+        self.omega += self.inertia_inv * (torque_b - gyro) * dt;
+        self.rot = UnitQuaternion::new_normalize(self.rot.into_inner() * nalgebra::Quaternion::new(1.0, 0.5 * self.omega.x * dt, 0.5 * self.omega.y * dt, 0.5 * self.omega.z * dt));
+        self.time += dt;
+        info
+    }
+
+    fn is_driven(&self, w: &Wheel) -> bool {
+        let x = w.hard.x;
+        self.spec.axles.iter().any(|a| a.driven && (a.x - x).abs() < 1e-9) || self.spec.tracks.is_some()
+    }
+
+    fn patch_mu(&self, x: f64, y: f64) -> f64 {
+        match self.world_patches.patch_at(x, y).surface {
+            Surface::Rigid { friction } => friction.min(self.tyre_mu),
+            Surface::Deformable { soil } => soil.friction_angle_deg.to_radians().tan(),
+        }
+    }
+
+    fn normal_at(&self, x: f64, y: f64) -> Vector3<f64> {
+        let h = &self.world_patches.heightmap;
+        let e = 0.5 * h.cell;
+        let gx = (h.height_bilinear(x + e, y) - h.height_bilinear(x - e, y)) / (2.0 * e);
+        let gy = (h.height_bilinear(x, y + e) - h.height_bilinear(x, y - e)) / (2.0 * e);
+        Vector3::new(-gx, -gy, 1.0).normalize()
+    }
+
+    /// Tyre friction force in the contact frame `[fx, fy]` on rigid ground, whether it slides, and d fx / d(slip).
+    fn tyre_force(&self, w: &Wheel, c: &WheelContact, vsx: f64, vsy: f64, dt: f64) -> ([f64; 2], bool, f64) {
+        let lim = c.mu * c.load;
+        match self.spec.wheels.tyre {
+            TyreModel::Rigid => {
+                let trial = [
+                    -(self.bristle_k * (w.bristle[0] + vsx * dt)) - self.bristle_c * vsx,
+                    -(self.bristle_k * (w.bristle[1] + vsy * dt)) - self.bristle_c * vsy,
+                ];
+                let norm = trial[0].hypot(trial[1]);
+                if norm > lim && norm > 0.0 {
+                    let s = vsx.hypot(vsy).max(0.01);
+                    ([trial[0] / norm * lim, trial[1] / norm * lim], true, lim / s)
+                } else {
+                    (trial, false, self.bristle_k * dt + self.bristle_c)
+                }
+            }
+            TyreModel::Handling => {
+                let v_ref = (w.spin * c.r_eff).abs().max((vsx + w.spin * c.r_eff).abs()).max(0.5 * self.spec.scale.sqrt());
+                let s = vsx.hypot(vsy) / v_ref;
+                let (b, cc) = (10.0, 1.9);
+                let mag = lim * (cc * (b * s).atan()).sin();
+                if s < 1e-9 {
+                    return ([0.0, 0.0], false, lim * b * cc / v_ref);
+                }
+                let d = [-vsx / (s * v_ref), -vsy / (s * v_ref)];
+                ([mag * d[0], mag * d[1]], s > 0.11, lim * b * cc / v_ref)
+            }
+        }
+    }
+
+    /// Finds the contact of wheel `k` with the ground (rigid or soil) and its tyre deflection force.
+    fn wheel_contact(&mut self, k: usize, up: &Vector3<f64>, fwd_body: &Vector3<f64>) -> WheelContact {
+        let w = &self.wheels[k];
+        let centre = self.pos + self.rot * (w.hard + Vector3::new(0.0, 0.0, w.compression - w.static_compression.min(w.travel)));
+        let heading = UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_normalize(*up), w.steer_angle) * fwd_body;
+        let axle = up.cross(&heading).normalize();
+        let h = &self.world_patches.heightmap;
+        if let Some(_soil) = self.soil.soil_at(centre.x, centre.y) {
+            let omega_w = self.rot * self.omega;
+            let vel = self.vel + omega_w.cross(&(centre - self.pos));
+            let spin_vec = axle * w.spin + omega_w;
+            let sc = self.soil.wheel_contact(
+                &WheelGeometry { centre, axle, radius: self.radius, width: self.width, velocity: vel, angular_velocity: spin_vec },
+                self.dt,
+            );
+            if sc.nodes == 0 {
+                return WheelContact::default();
+            }
+            let tx = (heading - Vector3::z() * heading.z).normalize();
+            let ty = Vector3::z().cross(&tx);
+            let point = centre - Vector3::z() * self.radius;
+            return WheelContact {
+                active: true,
+                soil: true,
+                point,
+                normal: Vector3::z(),
+                load: sc.normal,
+                mu: 0.0,
+                tx,
+                ty,
+                // Torque of the soil about the axle acts on the spin: fold it into an equivalent force at the rim.
+                soil_force: sc.force,
+                soil_stiffness: sc.traction_stiffness,
+                r_eff: self.radius,
+            };
+        }
+        let mut best = (0.0, Vector3::zeros(), 0.0);
+        for lat in RIM_LATERAL {
+            for ang in RIM_ANGLES {
+                let p = centre + axle * (lat * 0.5 * self.width) + (heading * ang.sin() - up * ang.cos()) * self.radius;
+                let depth_v = h.height_bilinear(p.x, p.y) - p.z;
+                let depth = depth_v * ang.cos();
+                if depth > best.0 {
+                    best = (depth, p, ang);
+                }
+            }
+        }
+        let wm = &mut self.wheels[k];
+        if best.0 <= 0.0 {
+            wm.deflection = 0.0;
+            return WheelContact::default();
+        }
+        let (depth, point, ang) = best;
+        let mut normal = (centre + axle * (point - centre).dot(&axle) - point).normalize();
+        if ang == 0.0 {
+            // Flat contact under the centre: the terrain normal is better conditioned than the radial one.
+            let (x, y) = (point.x, point.y);
+            let e = 0.5 * h.cell;
+            let gx = (h.height_bilinear(x + e, y) - h.height_bilinear(x - e, y)) / (2.0 * e);
+            let gy = (h.height_bilinear(x, y + e) - h.height_bilinear(x, y - e)) / (2.0 * e);
+            normal = Vector3::new(-gx, -gy, 1.0).normalize();
+        }
+        let rate = (depth - wm.deflection) / self.dt;
+        wm.deflection = depth;
+        let load = (self.tyre_k * depth + self.tyre_c * rate).max(0.0);
+        let tx = (heading - normal * heading.dot(&normal)).normalize();
+        let ty = normal.cross(&tx);
+        let mu = match self.world_patches.patch_at(point.x, point.y).surface {
+            Surface::Rigid { friction } => friction.min(self.tyre_mu),
+            Surface::Deformable { .. } => self.tyre_mu,
+        };
+        WheelContact {
+            active: true,
+            soil: false,
+            point,
+            normal,
+            load,
+            mu,
+            tx,
+            ty,
+            soil_force: Vector3::zeros(),
+            soil_stiffness: 0.0,
+            r_eff: (self.radius - depth).max(0.5 * self.radius),
+        }
+    }
+}
