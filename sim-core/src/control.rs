@@ -15,7 +15,11 @@ pub fn point_ahead(path: &[[f64; 2]], pos: [f64; 2], from: usize, ahead: f64) ->
         let (a, b) = (path[i], path[i + 1]);
         let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
         let len2 = dx * dx + dy * dy;
-        let t = if len2 > 0.0 { (((pos[0] - a[0]) * dx + (pos[1] - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+        let t = if len2 > 0.0 {
+            (((pos[0] - a[0]) * dx + (pos[1] - a[1]) * dy) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         let d = (a[0] + t * dx - pos[0]).hypot(a[1] + t * dy - pos[1]);
         if d < best.0 {
             best = (d, i, t);
@@ -23,9 +27,11 @@ pub fn point_ahead(path: &[[f64; 2]], pos: [f64; 2], from: usize, ahead: f64) ->
     }
     let (_, seg, t) = best;
     let mut remaining = ahead;
-    let mut a = [path[seg][0] + t * (path[seg + 1][0] - path[seg][0]), path[seg][1] + t * (path[seg + 1][1] - path[seg][1])];
-    for j in seg + 1..path.len() {
-        let b = path[j];
+    let mut a = [
+        path[seg][0] + t * (path[seg + 1][0] - path[seg][0]),
+        path[seg][1] + t * (path[seg + 1][1] - path[seg][1]),
+    ];
+    for &b in &path[seg + 1..] {
         let len = (b[0] - a[0]).hypot(b[1] - a[1]);
         if len >= remaining && len > 0.0 {
             let u = remaining / len;
@@ -51,7 +57,15 @@ pub struct PurePursuit {
 
 impl PurePursuit {
     pub fn new() -> Self {
-        PurePursuit { path: Vec::new(), lookahead: 6.0, speed: 4.0, wheelbase: 3.0, max_steer: 0.5, skid: false, progress: 0 }
+        PurePursuit {
+            path: Vec::new(),
+            lookahead: 6.0,
+            speed: 4.0,
+            wheelbase: 3.0,
+            max_steer: 0.5,
+            skid: false,
+            progress: 0,
+        }
     }
 }
 
@@ -95,6 +109,10 @@ impl Planner for PurePursuit {
         let err = self.speed - s.speed;
         let throttle = (err / self.speed.max(1e-6)).clamp(0.0, 1.0);
         let brake = if err < -0.3 * self.speed { 0.3 } else { 0.0 };
-        Ok(Action { steering, throttle, brake })
+        Ok(Action {
+            steering,
+            throttle,
+            brake,
+        })
     }
 }

@@ -47,7 +47,11 @@ impl Running {
         self.max = self.max.max(v);
     }
     fn stats(&self) -> SignalStats {
-        SignalStats { mean: self.mean, var: if self.n > 0.0 { self.m2 / self.n } else { 0.0 }, max: self.max }
+        SignalStats {
+            mean: self.mean,
+            var: if self.n > 0.0 { self.m2 / self.n } else { 0.0 },
+            max: self.max,
+        }
     }
 }
 
@@ -62,8 +66,20 @@ pub fn run_episode(
     run_episode_observed(world, task, vehicle, planner, cfg, &mut NoObserver)
 }
 
-fn finish(outcome: Outcome, reason: &str, detail: String, metrics: EpisodeMetrics, trajectory: Vec<TrajectorySample>) -> EpisodeResult {
-    EpisodeResult { outcome, reason: reason.into(), detail, metrics, trajectory }
+fn finish(
+    outcome: Outcome,
+    reason: &str,
+    detail: String,
+    metrics: EpisodeMetrics,
+    trajectory: Vec<TrajectorySample>,
+) -> EpisodeResult {
+    EpisodeResult {
+        outcome,
+        reason: reason.into(),
+        detail,
+        metrics,
+        trajectory,
+    }
 }
 
 /// Runs one episode, reporting every control step to `observer`.
@@ -81,17 +97,37 @@ pub fn run_episode_observed(
     let dt = sim.dt();
     let info = vehicle.info();
     let mut metrics = EpisodeMetrics::default();
-    let record_every = cfg.record_hz.map(|hz| ((1.0 / hz) / dt).round().max(1.0) as u64);
+    let record_every = cfg
+        .record_hz
+        .map(|hz| ((1.0 / hz) / dt).round().max(1.0) as u64);
     let mut trajectory = Vec::with_capacity(
-        cfg.record_hz.map_or(0, |hz| (cfg.max_time * hz).ceil() as usize + 2),
+        cfg.record_hz
+            .map_or(0, |hz| (cfg.max_time * hz).ceil() as usize + 2),
     );
-    let ctx = PlannerContext { world, task, vehicle: &info, sim_dt: dt };
+    let ctx = PlannerContext {
+        world,
+        task,
+        vehicle: &info,
+        sim_dt: dt,
+    };
     if let Err(e) = planner.reset(&ctx) {
-        return finish(Outcome::PlannerFailure, e.reason(), e.to_string(), metrics, trajectory);
+        return finish(
+            Outcome::PlannerFailure,
+            e.reason(),
+            e.to_string(),
+            metrics,
+            trajectory,
+        );
     }
     let rate = planner.control_rate_hz();
     if !(rate.is_finite() && rate > 0.0) {
-        return finish(Outcome::PlannerFailure, "planner_error", format!("control rate {rate} Hz is not positive"), metrics, trajectory);
+        return finish(
+            Outcome::PlannerFailure,
+            "planner_error",
+            format!("control rate {rate} Hz is not positive"),
+            metrics,
+            trajectory,
+        );
     }
     let control_every = ((1.0 / rate) / dt).round().max(1.0) as u64;
     // Stuck bookkeeping: positions sampled every `sample_dt`, window worth of samples in a ring.
@@ -107,7 +143,12 @@ pub fn run_episode_observed(
     let mut slow_since = 0.0;
     let goal_radius = cfg.goal_radius * scale;
     let (half_x, half_y) = (world.heightmap.half_x(), world.heightmap.half_y());
-    let (mut roll, mut roll_abs, mut pitch, mut pitch_abs) = (Running::default(), Running::default(), Running::default(), Running::default());
+    let (mut roll, mut roll_abs, mut pitch, mut pitch_abs) = (
+        Running::default(),
+        Running::default(),
+        Running::default(),
+        Running::default(),
+    );
     let (mut thr, mut steer) = (Running::default(), Running::default());
     let (mut thr_prev, mut steer_prev) = (0.0, 0.0);
     let mut action = Action::default();
@@ -116,7 +157,7 @@ pub fn run_episode_observed(
     let mut step: u64 = 0;
     let result = loop {
         let state = sim.state();
-        if step % control_every == 0 {
+        if step.is_multiple_of(control_every) {
             let obs = Observation { state };
             match planner.act(&obs) {
                 Ok(a) => {
@@ -136,11 +177,15 @@ pub fn run_episode_observed(
             thr.push(action.throttle);
             steer.push(action.steering);
             if observer.on_control_step(&state, &action).is_break() {
-                break (Outcome::Timeout, "cancelled", "cancelled by the caller".into());
+                break (
+                    Outcome::Timeout,
+                    "cancelled",
+                    "cancelled by the caller".into(),
+                );
             }
         }
         if let Some(every) = record_every {
-            if step % every == 0 && trajectory.len() < trajectory.capacity() {
+            if step.is_multiple_of(every) && trajectory.len() < trajectory.capacity() {
                 trajectory.push(TrajectorySample {
                     time: state.time,
                     x: state.position[0],
@@ -173,25 +218,37 @@ pub fn run_episode_observed(
         metrics.path_length += (pos - last_pos).xy().norm();
         last_pos = pos;
         if !(pos.x.is_finite() && pos.y.is_finite() && pos.z.is_finite()) {
-            break (Outcome::Rollover, "numerical_failure", "the simulation diverged".into());
+            break (
+                Outcome::Rollover,
+                "numerical_failure",
+                "the simulation diverged".into(),
+            );
         }
         if (pos.x - task.goal[0]).hypot(pos.y - task.goal[1]) < goal_radius {
             break (Outcome::Success, "success", String::new());
         }
         if r.abs() > cfg.rollover_deg {
-            break (Outcome::Rollover, "rollover", format!("|roll| = {:.1} deg", r.abs()));
+            break (
+                Outcome::Rollover,
+                "rollover",
+                format!("|roll| = {:.1} deg", r.abs()),
+            );
         }
         if pos.x.abs() > half_x || pos.y.abs() > half_y {
             break (Outcome::OffMap, "off_map", String::new());
         }
-        if step % sample_every == 0 {
+        if step.is_multiple_of(sample_every) {
             let len = ring.len();
             ring[ring_count % len] = [pos.x, pos.y];
             ring_count += 1;
             if stuck_distance.is_finite() && ring_count >= len {
                 let old = ring[ring_count % len];
                 if (pos.x - old[0]).hypot(pos.y - old[1]) < stuck_distance {
-                    break (Outcome::Stuck, "stuck", format!("moved less than {stuck_distance:.2} m in {window} s"));
+                    break (
+                        Outcome::Stuck,
+                        "stuck",
+                        format!("moved less than {stuck_distance:.2} m in {window} s"),
+                    );
                 }
             }
         }
@@ -199,7 +256,11 @@ pub fn run_episode_observed(
             if s.speed.abs() >= stuck_speed {
                 slow_since = s.time;
             } else if s.time - slow_since >= window {
-                break (Outcome::Stuck, "stuck", format!("speed below {stuck_speed} m/s for {window} s"));
+                break (
+                    Outcome::Stuck,
+                    "stuck",
+                    format!("speed below {stuck_speed} m/s for {window} s"),
+                );
             }
         }
         if s.time >= cfg.max_time {

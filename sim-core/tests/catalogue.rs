@@ -11,23 +11,46 @@ fn catalogue_has_nine_vehicles_of_every_scale_and_kind() {
     let all = builtin_vehicles();
     assert_eq!(all.len(), 9);
     for scale in [1.0, 0.16667, 0.1] {
-        assert!(all.iter().any(|v| (v.scale - scale).abs() < 1e-4), "no vehicle at scale {scale}");
+        assert!(
+            all.iter().any(|v| (v.scale - scale).abs() < 1e-4),
+            "no vehicle at scale {scale}"
+        );
     }
     for wheels in [2, 3, 4] {
-        assert!(all.iter().any(|v| v.axles.len() == wheels && v.tracks.is_none()), "no {}-wheeled vehicle", 2 * wheels);
+        assert!(
+            all.iter()
+                .any(|v| v.axles.len() == wheels && v.tracks.is_none()),
+            "no {}-wheeled vehicle",
+            2 * wheels
+        );
     }
     assert!(all.iter().any(|v| v.tracks.is_some()));
-    assert!(vehicle_by_name("nope").unwrap_err().to_string().contains("hmmwv"));
+    assert!(vehicle_by_name("nope")
+        .unwrap_err()
+        .to_string()
+        .contains("hmmwv"));
 }
 
 #[test]
 fn bad_vehicle_files_name_the_file_and_field() {
     let text = include_str!("../vehicles/hmmwv.toml");
-    let e = VehicleSpec::parse_toml(&text.replace("mass = 2568.0", "mass = -1.0"), "x.toml").unwrap_err().to_string();
+    let e = VehicleSpec::parse_toml(&text.replace("mass = 2568.0", "mass = -1.0"), "x.toml")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("x.toml") && e.contains("chassis"), "{e}");
-    let e = VehicleSpec::parse_toml(&text.replace("radius = 0.467", "radius = \"big\""), "y.toml").unwrap_err().to_string();
+    let e = VehicleSpec::parse_toml(
+        &text.replace("radius = 0.467", "radius = \"big\""),
+        "y.toml",
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("y.toml"), "{e}");
-    let e = VehicleSpec::parse_toml(&text.replace("[steering]", "bogus = 1\n[steering]"), "z.toml").unwrap_err().to_string();
+    let e = VehicleSpec::parse_toml(
+        &text.replace("[steering]", "bogus = 1\n[steering]"),
+        "z.toml",
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("bogus"), "{e}");
 }
 
@@ -45,8 +68,20 @@ fn every_vehicle_reaches_the_goal_on_flat_ground() {
         };
         let mut p = sim_core::control::PurePursuit::new();
         let r = sim_core::run_episode(&w, &task, &spec, &mut p, &EpisodeConfig::default());
-        assert_eq!(r.outcome, Outcome::Success, "{}: {} {}", spec.name, r.reason, r.detail);
+        assert_eq!(
+            r.outcome,
+            Outcome::Success,
+            "{}: {} {}",
+            spec.name,
+            r.reason,
+            r.detail
+        );
         // The path is 108 m at full scale; the driven one is a little longer but not a detour.
-        assert!(r.metrics.path_length < 1.2 * 108.0 * s, "{}: drove {:.1} m", spec.name, r.metrics.path_length);
+        assert!(
+            r.metrics.path_length < 1.2 * 108.0 * s,
+            "{}: drove {:.1} m",
+            spec.name,
+            r.metrics.path_length
+        );
     }
 }

@@ -39,7 +39,11 @@ pub fn sphere_obstacle(o: &Obstacle, c: &Vector3<f64>, r: f64) -> Option<(f64, V
             if top_depth < depth {
                 return Some((top_depth, Vector3::z()));
             }
-            let n = if d > 1e-9 { Vector3::new(dx / d, dy / d, 0.0) } else { Vector3::x() };
+            let n = if d > 1e-9 {
+                Vector3::new(dx / d, dy / d, 0.0)
+            } else {
+                Vector3::x()
+            };
             Some((depth, n))
         }
         ObstacleKind::Rock => {
@@ -48,7 +52,11 @@ pub fn sphere_obstacle(o: &Obstacle, c: &Vector3<f64>, r: f64) -> Option<(f64, V
             // Local coordinates, box centred at the origin.
             let l = Vector3::new(co * dx + s * dy, -s * dx + co * dy, lz - o.half_extents[2]);
             let h = Vector3::new(o.half_extents[0], o.half_extents[1], o.half_extents[2]);
-            let q = Vector3::new(l.x.clamp(-h.x, h.x), l.y.clamp(-h.y, h.y), l.z.clamp(-h.z, h.z));
+            let q = Vector3::new(
+                l.x.clamp(-h.x, h.x),
+                l.y.clamp(-h.y, h.y),
+                l.z.clamp(-h.z, h.z),
+            );
             let diff = l - q;
             let dist = diff.norm();
             let (depth, local_n) = if dist > 1e-12 {
@@ -59,12 +67,18 @@ pub fn sphere_obstacle(o: &Obstacle, c: &Vector3<f64>, r: f64) -> Option<(f64, V
             } else {
                 // Centre inside the box: push out through the nearest face.
                 let pen = [h.x - l.x.abs(), h.y - l.y.abs(), h.z - l.z.abs()];
-                let axis = (0..3).min_by(|a, b| pen[*a].total_cmp(&pen[*b])).unwrap_or(0);
+                let axis = (0..3)
+                    .min_by(|a, b| pen[*a].total_cmp(&pen[*b]))
+                    .unwrap_or(0);
                 let mut n = Vector3::zeros();
                 n[axis] = if l[axis] >= 0.0 { 1.0 } else { -1.0 };
                 (pen[axis] + r, n)
             };
-            let n = Vector3::new(co * local_n.x - s * local_n.y, s * local_n.x + co * local_n.y, local_n.z);
+            let n = Vector3::new(
+                co * local_n.x - s * local_n.y,
+                s * local_n.x + co * local_n.y,
+                local_n.z,
+            );
             Some((depth, n))
         }
     }
@@ -74,7 +88,9 @@ pub fn sphere_obstacle(o: &Obstacle, c: &Vector3<f64>, r: f64) -> Option<(f64, V
 fn bound(o: &Obstacle) -> f64 {
     match o.kind {
         ObstacleKind::Tree => o.half_extents[0],
-        ObstacleKind::Rock => o.half_extents[0].hypot(o.half_extents[1]).hypot(o.half_extents[2]),
+        ObstacleKind::Rock => o.half_extents[0]
+            .hypot(o.half_extents[1])
+            .hypot(o.half_extents[2]),
     }
 }
 
@@ -91,7 +107,11 @@ pub struct ObstacleSet {
 
 impl ObstacleSet {
     pub fn new(obstacles: &[Obstacle]) -> ObstacleSet {
-        ObstacleSet { obstacles: obstacles.to_vec(), near: [0; MAX_NEAR], near_len: 0 }
+        ObstacleSet {
+            obstacles: obstacles.to_vec(),
+            near: [0; MAX_NEAR],
+            near_len: 0,
+        }
     }
 
     pub fn obstacles(&self) -> &[Obstacle] {
@@ -116,7 +136,11 @@ impl ObstacleSet {
         for &i in &self.near[..self.near_len] {
             if let Some((depth, normal)) = sphere_obstacle(&self.obstacles[i], c, r) {
                 if best.is_none_or(|b| depth > b.depth) {
-                    best = Some(ObstacleContact { depth, normal, obstacle: i });
+                    best = Some(ObstacleContact {
+                        depth,
+                        normal,
+                        obstacle: i,
+                    });
                 }
             }
         }
@@ -129,7 +153,14 @@ mod tests {
     use super::*;
 
     fn rock(yaw: f64) -> Obstacle {
-        Obstacle { kind: ObstacleKind::Rock, x: 0.0, y: 0.0, z: 0.0, yaw, half_extents: [2.0, 1.0, 1.5] }
+        Obstacle {
+            kind: ObstacleKind::Rock,
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            yaw,
+            half_extents: [2.0, 1.0, 1.5],
+        }
     }
 
     #[test]
@@ -137,8 +168,16 @@ mod tests {
         let (d, n) = sphere_obstacle(&rock(0.0), &Vector3::new(1.8, 0.0, 1.5), 0.0).unwrap();
         assert!((d - 0.2).abs() < 1e-12 && (n - Vector3::x()).norm() < 1e-12);
         // Rotated by 90 degrees the long axis points along y.
-        let (d, n) = sphere_obstacle(&rock(std::f64::consts::FRAC_PI_2), &Vector3::new(0.0, 1.8, 1.5), 0.0).unwrap();
-        assert!((d - 0.2).abs() < 1e-9 && (n - Vector3::y()).norm() < 1e-9, "{d} {n}");
+        let (d, n) = sphere_obstacle(
+            &rock(std::f64::consts::FRAC_PI_2),
+            &Vector3::new(0.0, 1.8, 1.5),
+            0.0,
+        )
+        .unwrap();
+        assert!(
+            (d - 0.2).abs() < 1e-9 && (n - Vector3::y()).norm() < 1e-9,
+            "{d} {n}"
+        );
         assert!(sphere_obstacle(&rock(0.0), &Vector3::new(2.5, 0.0, 1.0), 0.4).is_none());
         let (d, _) = sphere_obstacle(&rock(0.0), &Vector3::new(2.3, 0.0, 1.0), 0.4).unwrap();
         assert!((d - 0.1).abs() < 1e-12);
@@ -146,7 +185,14 @@ mod tests {
 
     #[test]
     fn tree_contacts_are_radial_and_limited_in_height() {
-        let tree = Obstacle { kind: ObstacleKind::Tree, x: 1.0, y: 1.0, z: 2.0, yaw: 0.0, half_extents: [0.5, 0.5, 2.5] };
+        let tree = Obstacle {
+            kind: ObstacleKind::Tree,
+            x: 1.0,
+            y: 1.0,
+            z: 2.0,
+            yaw: 0.0,
+            half_extents: [0.5, 0.5, 2.5],
+        };
         let (d, n) = sphere_obstacle(&tree, &Vector3::new(1.0, 1.6, 3.0), 0.2).unwrap();
         assert!((d - 0.1).abs() < 1e-12 && (n - Vector3::y()).norm() < 1e-12);
         assert!(sphere_obstacle(&tree, &Vector3::new(1.0, 1.6, 8.0), 0.2).is_none());
@@ -155,10 +201,19 @@ mod tests {
 
     #[test]
     fn near_list_keeps_only_close_obstacles() {
-        let far = Obstacle { x: 50.0, ..rock(0.0) };
+        let far = Obstacle {
+            x: 50.0,
+            ..rock(0.0)
+        };
         let mut set = ObstacleSet::new(&[rock(0.0), far]);
         set.refresh_near(0.0, 0.0, 5.0);
-        assert!(set.sphere_contact(&Vector3::new(0.0, 0.0, 1.0), 0.1).is_some());
-        assert!(set.sphere_contact(&Vector3::new(50.0, 0.0, 1.0), 0.1).is_none(), "far rock is not in the near list");
+        assert!(set
+            .sphere_contact(&Vector3::new(0.0, 0.0, 1.0), 0.1)
+            .is_some());
+        assert!(
+            set.sphere_contact(&Vector3::new(50.0, 0.0, 1.0), 0.1)
+                .is_none(),
+            "far rock is not in the near list"
+        );
     }
 }

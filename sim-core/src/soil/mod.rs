@@ -192,10 +192,16 @@ impl SoilGrid {
         fwd /= fwd_norm;
         let area = self.delta * self.delta;
         let reach = w.radius + 0.5 * w.width;
-        let i0 = (((w.centre.x - reach + self.half_x) / self.delta).floor().max(0.0)) as usize;
-        let i1 = ((((w.centre.x + reach + self.half_x) / self.delta).ceil()) as usize).min(self.nx - 1);
-        let j0 = (((w.centre.y - reach + self.half_y) / self.delta).floor().max(0.0)) as usize;
-        let j1 = ((((w.centre.y + reach + self.half_y) / self.delta).ceil()) as usize).min(self.ny - 1);
+        let i0 = (((w.centre.x - reach + self.half_x) / self.delta)
+            .floor()
+            .max(0.0)) as usize;
+        let i1 =
+            ((((w.centre.x + reach + self.half_x) / self.delta).ceil()) as usize).min(self.nx - 1);
+        let j0 = (((w.centre.y - reach + self.half_y) / self.delta)
+            .floor()
+            .max(0.0)) as usize;
+        let j1 =
+            ((((w.centre.y + reach + self.half_y) / self.delta).ceil()) as usize).min(self.ny - 1);
         let step = self.step;
         let mut stiffness = 0.0;
         for j in j0..=j1 {
@@ -208,7 +214,9 @@ impl SoilGrid {
                 if a.abs() > 0.5 * w.width || u.abs() >= w.radius {
                     continue;
                 }
-                let Some(soil) = self.soil_at(x, y) else { continue };
+                let Some(soil) = self.soil_at(x, y) else {
+                    continue;
+                };
                 let z_wheel = w.centre.z - (w.radius * w.radius - u * u).sqrt();
                 let h0 = self.heights.height_bilinear(x, y);
                 let s = h0 - z_wheel;
@@ -217,7 +225,9 @@ impl SoilGrid {
                 }
                 let p = Vector3::new(x, y, z_wheel);
                 let v = w.velocity + w.angular_velocity.cross(&(p - w.centre));
-                let Some(node) = self.node_mut(i, j) else { continue };
+                let Some(node) = self.node_mut(i, j) else {
+                    continue;
+                };
                 if s - node.plastic <= 0.0 {
                     node.shear = 0.0;
                     continue;
@@ -243,7 +253,11 @@ impl SoilGrid {
                 let tau_max = soil.cohesion + sigma * soil.friction_angle_deg.to_radians().tan();
                 let ratio = (-node.shear / soil.janosi_k).exp();
                 let tau = tau_max * (1.0 - ratio);
-                let t = if slip > 1e-9 { -vt / slip } else { Vector3::zeros() };
+                let t = if slip > 1e-9 {
+                    -vt / slip
+                } else {
+                    Vector3::zeros()
+                };
                 let f = (up * sigma + t * tau) * area;
                 out.force += f;
                 out.torque += (p - w.centre).cross(&f);

@@ -146,8 +146,17 @@ impl Simulation {
         let xs: Vec<f64> = spec.axles.iter().map(|a| a.x).collect();
         let x_front = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let x_rear_ref = {
-            let rear: Vec<f64> = spec.axles.iter().filter(|a| !a.steered).map(|a| a.x).collect();
-            if rear.is_empty() { xs.iter().copied().fold(f64::INFINITY, f64::min) } else { rear.iter().sum::<f64>() / rear.len() as f64 }
+            let rear: Vec<f64> = spec
+                .axles
+                .iter()
+                .filter(|a| !a.steered)
+                .map(|a| a.x)
+                .collect();
+            if rear.is_empty() {
+                xs.iter().copied().fold(f64::INFINITY, f64::min)
+            } else {
+                rear.iter().sum::<f64>() / rear.len() as f64
+            }
         };
         // Static axle loads from the moment balance (two-axle exact; more axles: proportional to 1/|x - x_cg| weights
         // normalised, a documented approximation for the preload reference only).
@@ -159,7 +168,12 @@ impl Simulation {
             vec![total * G / n_axles as f64; n_axles]
         };
         let skid = spec.steering.kind == SteeringKind::Skid;
-        let mut positions: Vec<(usize, f64)> = spec.axles.iter().enumerate().map(|(ai, a)| (ai, a.x)).collect();
+        let mut positions: Vec<(usize, f64)> = spec
+            .axles
+            .iter()
+            .enumerate()
+            .map(|(ai, a)| (ai, a.x))
+            .collect();
         if let Some(t) = &spec.tracks {
             for w in 0..n_axles.saturating_sub(1) {
                 for k in 1..=t.belt_points_between_wheels {
@@ -179,7 +193,11 @@ impl Simulation {
                     (false, true, Differential::Locked) => 0,
                     _ => usize::MAX,
                 };
-                let steer_factor = if a.steered && x_front != x_rear_ref { (a.x - x_rear_ref) / (x_front - x_rear_ref) } else { 0.0 };
+                let steer_factor = if a.steered && x_front != x_rear_ref {
+                    (a.x - x_rear_ref) / (x_front - x_rear_ref)
+                } else {
+                    0.0
+                };
                 wheels.push(Wheel {
                     hard: Vector3::new(*px, side * a.track / 2.0, -spec.chassis.com_height),
                     side,
@@ -285,10 +303,12 @@ impl Simulation {
         let hl = h.height_bilinear(x - s * w / 2.0, y + c * w / 2.0);
         let hr = h.height_bilinear(x + s * w / 2.0, y - c * w / 2.0);
         let pitch = -((hf - hb) / l).atan();
-        let roll = ((hr - hl) / w).atan();
+        let roll = ((hl - hr) / w).atan();
         self.rot = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
         let ground = h.height_bilinear(x, y).max((hf + hb + hl + hr) / 4.0);
-        self.pos = Vector3::new(x, y, ground + self.radius + self.spec.chassis.com_height + 0.02 * self.spec.scale);
+        // Along the body's up axis, so the wheels just touch a sloped plane instead of starting inside it.
+        let lift = self.radius + self.spec.chassis.com_height + 0.01 * self.spec.scale;
+        self.pos = Vector3::new(x, y, ground) + (self.rot * Vector3::z()) * lift;
         self.vel = Vector3::zeros();
         self.omega = Vector3::zeros();
         for wh in &mut self.wheels {
@@ -308,7 +328,9 @@ impl Simulation {
     }
 
     fn reach(&self) -> f64 {
-        0.5 * self.spec.chassis.size[0].hypot(self.spec.chassis.size[1]) + self.radius + 15.0 * self.spec.scale
+        0.5 * self.spec.chassis.size[0].hypot(self.spec.chassis.size[1])
+            + self.radius
+            + 15.0 * self.spec.scale
     }
 
     /// Physics time step, s.
@@ -351,7 +373,11 @@ impl Simulation {
         let n = self.wheels.len() as f64;
         0.5 * (self.mass + n * self.unsprung) * self.vel.norm_squared()
             + 0.5 * self.omega.dot(&(self.inertia * self.omega))
-            + self.wheels.iter().map(|w| 0.5 * self.wheel_inertia * w.spin * w.spin).sum::<f64>()
+            + self
+                .wheels
+                .iter()
+                .map(|w| 0.5 * self.wheel_inertia * w.spin * w.spin)
+                .sum::<f64>()
     }
 
     /// The soil grid (ruts).
@@ -408,12 +434,14 @@ impl Simulation {
         let mut info = StepInfo::default();
         self.steps += 1;
         self.soil.begin_step();
-        if self.steps % 20 == 0 {
-            self.obstacles.refresh_near(self.pos.x, self.pos.y, self.reach());
+        if self.steps.is_multiple_of(20) {
+            self.obstacles
+                .refresh_near(self.pos.x, self.pos.y, self.reach());
         }
         // Steering with its rate limit.
         let max_delta = self.spec.steering.rate * dt;
-        self.steering += (action.steering.clamp(-1.0, 1.0) - self.steering).clamp(-max_delta, max_delta);
+        self.steering +=
+            (action.steering.clamp(-1.0, 1.0) - self.steering).clamp(-max_delta, max_delta);
         let up = self.rot * Vector3::z();
         let fwd_body = self.rot * Vector3::x();
         let omega_w = self.rot * self.omega;
@@ -434,9 +462,14 @@ impl Simulation {
         }
         // Powertrain: automatic gearbox on the mean driven-wheel speed.
         let pt = &self.spec.powertrain;
-        let driven_spin = self.wheels.iter().map(|w| w.spin.abs()).sum::<f64>() / self.wheels.len().max(1) as f64;
+        let driven_spin =
+            self.wheels.iter().map(|w| w.spin.abs()).sum::<f64>() / self.wheels.len().max(1) as f64;
         let reverse = action.throttle < 0.0;
-        let ratio = if reverse { pt.reverse_gear.abs() } else { pt.gears[self.gear] } * pt.final_drive;
+        let ratio = if reverse {
+            pt.reverse_gear.abs()
+        } else {
+            pt.gears[self.gear]
+        } * pt.final_drive;
         let rpm = driven_spin / ratio * 60.0 / std::f64::consts::TAU;
         if !reverse {
             if rpm > pt.upshift_rpm && self.gear + 1 < pt.gears.len() {
@@ -455,10 +488,18 @@ impl Simulation {
             self.group_brake[g] = 0.0;
             self.group_spin[g] = 0.0;
         }
-        let n_driven = self.wheels.iter().filter(|w| self.is_driven(w)).count().max(1) as f64;
+        let n_driven = self
+            .wheels
+            .iter()
+            .filter(|w| self.is_driven(w))
+            .count()
+            .max(1) as f64;
         if skid {
             let s = self.steering;
-            let (ul, ur) = ((action.throttle - s).clamp(-1.0, 1.0), (action.throttle + s).clamp(-1.0, 1.0));
+            let (ul, ur) = (
+                (action.throttle - s).clamp(-1.0, 1.0),
+                (action.throttle + s).clamp(-1.0, 1.0),
+            );
             self.group_torque[0] = ul * wheel_torque_total / 2.0;
             self.group_torque[1] = ur * wheel_torque_total / 2.0;
         } else {
@@ -504,7 +545,11 @@ impl Simulation {
             let spin = self.group_spin[g] / (self.wheel_inertia * members);
             let free = spin + dt * (self.group_torque[g] + self.group_num[g]) / den;
             let brake_step = dt * self.group_brake[g] / den;
-            let new = if free.abs() <= brake_step { 0.0 } else { free - free.signum() * brake_step };
+            let new = if free.abs() <= brake_step {
+                0.0
+            } else {
+                free - free.signum() * brake_step
+            };
             power += self.group_torque[g] * new;
             for w in self.wheels.iter_mut().filter(|w| w.group == g) {
                 w.spin = new;
@@ -514,7 +559,15 @@ impl Simulation {
         // Apply contact forces with the new spins.
         for k in 0..self.wheels.len() {
             let c = self.contacts[k];
-            let hard_world = self.pos + self.rot * (self.wheels[k].hard - Vector3::new(0.0, 0.0, self.wheels[k].static_compression.min(self.wheels[k].travel)) + Vector3::new(0.0, 0.0, self.wheels[k].compression));
+            let hard_world = self.pos
+                + self.rot
+                    * (self.wheels[k].hard
+                        - Vector3::new(
+                            0.0,
+                            0.0,
+                            self.wheels[k].static_compression.min(self.wheels[k].travel),
+                        )
+                        + Vector3::new(0.0, 0.0, self.wheels[k].compression));
             let mut ground = Vector3::zeros();
             if c.active {
                 if c.soil {
@@ -529,7 +582,10 @@ impl Simulation {
                     let wm = &mut self.wheels[k];
                     if self.spec.wheels.tyre == TyreModel::Rigid {
                         let lim = c.mu * c.load;
-                        let trial = [-(self.bristle_k * (wm.bristle[0] + vsx * dt)) - self.bristle_c * vsx, -(self.bristle_k * (wm.bristle[1] + vsy * dt)) - self.bristle_c * vsy];
+                        let trial = [
+                            -(self.bristle_k * (wm.bristle[0] + vsx * dt)) - self.bristle_c * vsx,
+                            -(self.bristle_k * (wm.bristle[1] + vsy * dt)) - self.bristle_c * vsy,
+                        ];
                         let norm = trial[0].hypot(trial[1]);
                         if norm > lim && norm > 0.0 {
                             wm.bristle = [-f[0] / self.bristle_k, -f[1] / self.bristle_k];
@@ -544,7 +600,12 @@ impl Simulation {
             let a_rel = self.accel_prev;
             let wm = &mut self.wheels[k];
             let f_spring = wm.spring * wm.compression + wm.damper * wm.compression_rate;
-            let bump = if wm.compression > wm.travel { 20.0 * wm.spring * (wm.compression - wm.travel) + wm.damper * wm.compression_rate.max(0.0) } else { 0.0 };
+            let bump = if wm.compression > wm.travel {
+                20.0 * wm.spring * (wm.compression - wm.travel)
+                    + wm.damper * wm.compression_rate.max(0.0)
+            } else {
+                0.0
+            };
             let f_strut = (f_spring + bump).max(0.0);
             let gvec = Vector3::new(0.0, 0.0, -G) * self.unsprung;
             let along = (ground + gvec - self.unsprung * a_rel).dot(&up);
@@ -560,7 +621,8 @@ impl Simulation {
             let f_chassis = up * f_strut + across;
             force += f_chassis;
             let arm = if c.active { c.point } else { hard_world };
-            torque_w += (arm - self.pos).cross(&across) + (hard_world - self.pos).cross(&(up * f_strut));
+            torque_w +=
+                (arm - self.pos).cross(&across) + (hard_world - self.pos).cross(&(up * f_strut));
         }
         // Chassis-ground and chassis-obstacle contacts.
         let ground_mu = self.patch_mu(self.pos.x, self.pos.y);
@@ -575,17 +637,27 @@ impl Simulation {
                 let fnrm = (self.body_k * depth - self.body_c * vn).max(0.0);
                 let vt = v - n * vn;
                 let vtn = vt.norm();
-                let ft = if vtn > 1e-9 { -vt / vtn.max(0.05 * self.spec.scale.sqrt()) * ground_mu * fnrm } else { Vector3::zeros() };
+                let ft = if vtn > 1e-9 {
+                    -vt / vtn.max(0.05 * self.spec.scale.sqrt()) * ground_mu * fnrm
+                } else {
+                    Vector3::zeros()
+                };
                 let f = n * fnrm + ft;
                 force += f;
                 torque_w += (pw - self.pos).cross(&f);
             }
             if let Some(oc) = self.obstacles.sphere_contact(&pw, 0.0) {
                 let vn = v.dot(&oc.normal);
-                let fnrm = (self.obstacle_k * oc.depth - 2.0 * 0.5 * (self.obstacle_k * self.mass).sqrt() * vn.min(0.0)).max(0.0);
+                let fnrm = (self.obstacle_k * oc.depth
+                    - 2.0 * 0.5 * (self.obstacle_k * self.mass).sqrt() * vn.min(0.0))
+                .max(0.0);
                 let vt = v - oc.normal * vn;
                 let vtn = vt.norm();
-                let ft = if vtn > 1e-9 { -vt / vtn.max(0.05) * 0.5 * fnrm } else { Vector3::zeros() };
+                let ft = if vtn > 1e-9 {
+                    -vt / vtn.max(0.05) * 0.5 * fnrm
+                } else {
+                    Vector3::zeros()
+                };
                 let f = oc.normal * fnrm + ft;
                 force += f;
                 torque_w += (pw - self.pos).cross(&f);
@@ -594,11 +666,20 @@ impl Simulation {
         }
         for k in 0..self.wheels.len() {
             let w = &self.wheels[k];
-            let centre = self.pos + self.rot * (w.hard + Vector3::new(0.0, 0.0, w.compression - w.static_compression.min(w.travel)));
+            let centre = self.pos
+                + self.rot
+                    * (w.hard
+                        + Vector3::new(
+                            0.0,
+                            0.0,
+                            w.compression - w.static_compression.min(w.travel),
+                        ));
             if let Some(oc) = self.obstacles.sphere_contact(&centre, self.radius) {
                 let v = self.vel + omega_w.cross(&(centre - self.pos));
                 let vn = v.dot(&oc.normal);
-                let fnrm = (self.obstacle_k * oc.depth - 2.0 * 0.5 * (self.obstacle_k * self.mass).sqrt() * vn.min(0.0)).max(0.0);
+                let fnrm = (self.obstacle_k * oc.depth
+                    - 2.0 * 0.5 * (self.obstacle_k * self.mass).sqrt() * vn.min(0.0))
+                .max(0.0);
                 let f = oc.normal * fnrm;
                 force += f;
                 torque_w += (centre - self.pos).cross(&f);
@@ -613,14 +694,26 @@ impl Simulation {
         let torque_b = self.rot.inverse() * torque_w;
         let gyro = self.omega.cross(&(self.inertia * self.omega));
         self.omega += self.inertia_inv * (torque_b - gyro) * dt;
-        self.rot = UnitQuaternion::new_normalize(self.rot.into_inner() * nalgebra::Quaternion::new(1.0, 0.5 * self.omega.x * dt, 0.5 * self.omega.y * dt, 0.5 * self.omega.z * dt));
+        self.rot = UnitQuaternion::new_normalize(
+            self.rot.into_inner()
+                * nalgebra::Quaternion::new(
+                    1.0,
+                    0.5 * self.omega.x * dt,
+                    0.5 * self.omega.y * dt,
+                    0.5 * self.omega.z * dt,
+                ),
+        );
         self.time += dt;
         info
     }
 
     fn is_driven(&self, w: &Wheel) -> bool {
         let x = w.hard.x;
-        self.spec.axles.iter().any(|a| a.driven && (a.x - x).abs() < 1e-9) || self.spec.tracks.is_some()
+        self.spec
+            .axles
+            .iter()
+            .any(|a| a.driven && (a.x - x).abs() < 1e-9)
+            || self.spec.tracks.is_some()
     }
 
     fn patch_mu(&self, x: f64, y: f64) -> f64 {
@@ -639,7 +732,14 @@ impl Simulation {
     }
 
     /// Tyre friction force in the contact frame `[fx, fy]` on rigid ground, whether it slides, and d fx / d(slip).
-    fn tyre_force(&self, w: &Wheel, c: &WheelContact, vsx: f64, vsy: f64, dt: f64) -> ([f64; 2], bool, f64) {
+    fn tyre_force(
+        &self,
+        w: &Wheel,
+        c: &WheelContact,
+        vsx: f64,
+        vsy: f64,
+        dt: f64,
+    ) -> ([f64; 2], bool, f64) {
         let lim = c.mu * c.load;
         match self.spec.wheels.tyre {
             TyreModel::Rigid => {
@@ -650,13 +750,20 @@ impl Simulation {
                 let norm = trial[0].hypot(trial[1]);
                 if norm > lim && norm > 0.0 {
                     let s = vsx.hypot(vsy).max(0.01);
-                    ([trial[0] / norm * lim, trial[1] / norm * lim], true, lim / s)
+                    (
+                        [trial[0] / norm * lim, trial[1] / norm * lim],
+                        true,
+                        lim / s,
+                    )
                 } else {
                     (trial, false, self.bristle_k * dt + self.bristle_c)
                 }
             }
             TyreModel::Handling => {
-                let v_ref = (w.spin * c.r_eff).abs().max((vsx + w.spin * c.r_eff).abs()).max(0.5 * self.spec.scale.sqrt());
+                let v_ref = (w.spin * c.r_eff)
+                    .abs()
+                    .max((vsx + w.spin * c.r_eff).abs())
+                    .max(0.5 * self.spec.scale.sqrt());
                 let s = vsx.hypot(vsy) / v_ref;
                 let (b, cc) = (10.0, 1.9);
                 let mag = lim * (cc * (b * s).atan()).sin();
@@ -670,10 +777,20 @@ impl Simulation {
     }
 
     /// Finds the contact of wheel `k` with the ground (rigid or soil) and its tyre deflection force.
-    fn wheel_contact(&mut self, k: usize, up: &Vector3<f64>, fwd_body: &Vector3<f64>) -> WheelContact {
+    fn wheel_contact(
+        &mut self,
+        k: usize,
+        up: &Vector3<f64>,
+        fwd_body: &Vector3<f64>,
+    ) -> WheelContact {
         let w = &self.wheels[k];
-        let centre = self.pos + self.rot * (w.hard + Vector3::new(0.0, 0.0, w.compression - w.static_compression.min(w.travel)));
-        let heading = UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_normalize(*up), w.steer_angle) * fwd_body;
+        let centre = self.pos
+            + self.rot
+                * (w.hard
+                    + Vector3::new(0.0, 0.0, w.compression - w.static_compression.min(w.travel)));
+        let heading =
+            UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_normalize(*up), w.steer_angle)
+                * fwd_body;
         let axle = up.cross(&heading).normalize();
         let h = &self.world_patches.heightmap;
         if let Some(_soil) = self.soil.soil_at(centre.x, centre.y) {
@@ -681,7 +798,14 @@ impl Simulation {
             let vel = self.vel + omega_w.cross(&(centre - self.pos));
             let spin_vec = axle * w.spin + omega_w;
             let sc = self.soil.wheel_contact(
-                &WheelGeometry { centre, axle, radius: self.radius, width: self.width, velocity: vel, angular_velocity: spin_vec },
+                &WheelGeometry {
+                    centre,
+                    axle,
+                    radius: self.radius,
+                    width: self.width,
+                    velocity: vel,
+                    angular_velocity: spin_vec,
+                },
                 self.dt,
             );
             if sc.nodes == 0 {
@@ -708,7 +832,9 @@ impl Simulation {
         let mut best = (0.0, Vector3::zeros(), 0.0);
         for lat in RIM_LATERAL {
             for ang in RIM_ANGLES {
-                let p = centre + axle * (lat * 0.5 * self.width) + (heading * ang.sin() - up * ang.cos()) * self.radius;
+                let p = centre
+                    + axle * (lat * 0.5 * self.width)
+                    + (heading * ang.sin() - up * ang.cos()) * self.radius;
                 let depth_v = h.height_bilinear(p.x, p.y) - p.z;
                 let depth = depth_v * ang.cos();
                 if depth > best.0 {

@@ -10,7 +10,11 @@ pub enum VehicleError {
     #[error("vehicle file `{file}`: {message}")]
     Parse { file: String, message: String },
     #[error("vehicle file `{file}`: field `{field}`: {message}")]
-    Field { file: String, field: String, message: String },
+    Field {
+        file: String,
+        field: String,
+        message: String,
+    },
     #[error("unknown vehicle `{0}` (known: {1})")]
     Unknown(String, String),
 }
@@ -152,15 +156,21 @@ pub struct VehicleSpec {
 impl VehicleSpec {
     /// Parses and validates a vehicle file; `file` names it in errors.
     pub fn parse_toml(text: &str, file: &str) -> Result<VehicleSpec, VehicleError> {
-        let spec: VehicleSpec =
-            toml::from_str(text).map_err(|e| VehicleError::Parse { file: file.into(), message: e.to_string() })?;
+        let spec: VehicleSpec = toml::from_str(text).map_err(|e| VehicleError::Parse {
+            file: file.into(),
+            message: e.to_string(),
+        })?;
         spec.validate(file)?;
         Ok(spec)
     }
 
     fn validate(&self, file: &str) -> Result<(), VehicleError> {
         let bad = |field: &str, message: &str| {
-            Err(VehicleError::Field { file: file.into(), field: field.into(), message: message.into() })
+            Err(VehicleError::Field {
+                file: file.into(),
+                field: field.into(),
+                message: message.into(),
+            })
         };
         let pos = |v: f64| v.is_finite() && v > 0.0;
         if !pos(self.scale) || !pos(self.nominal_speed) || !pos(self.max_speed) {
@@ -174,24 +184,46 @@ impl VehicleSpec {
         }
         for (i, a) in self.axles.iter().enumerate() {
             if !pos(a.track) || !pos(a.spring) || a.damper < 0.0 || !pos(a.travel) {
-                return bad(&format!("axles[{i}]"), "track, spring and travel must be positive, damper >= 0");
+                return bad(
+                    &format!("axles[{i}]"),
+                    "track, spring and travel must be positive, damper >= 0",
+                );
             }
         }
         if !self.axles.iter().any(|a| a.driven) {
             return bad("axles", "no driven axle");
         }
-        if !pos(self.wheels.radius) || !pos(self.wheels.width) || !pos(self.wheels.inertia) || !pos(self.wheels.mu) {
+        if !pos(self.wheels.radius)
+            || !pos(self.wheels.width)
+            || !pos(self.wheels.inertia)
+            || !pos(self.wheels.mu)
+        {
             return bad("wheels", "radius, width, inertia and mu must be positive");
         }
         let p = &self.powertrain;
         if p.torque_curve.len() < 2 || p.torque_curve.windows(2).any(|w| w[1][0] <= w[0][0]) {
-            return bad("powertrain.torque_curve", "needs at least two points with increasing speed");
+            return bad(
+                "powertrain.torque_curve",
+                "needs at least two points with increasing speed",
+            );
         }
-        if p.gears.is_empty() || p.gears.iter().any(|g| !pos(*g)) || p.reverse_gear >= 0.0 || !pos(p.final_drive) {
-            return bad("powertrain.gears", "forward gears and final drive must be positive, reverse negative");
+        if p.gears.is_empty()
+            || p.gears.iter().any(|g| !pos(*g))
+            || p.reverse_gear >= 0.0
+            || !pos(p.final_drive)
+        {
+            return bad(
+                "powertrain.gears",
+                "forward gears and final drive must be positive, reverse negative",
+            );
         }
-        if self.steering.kind == SteeringKind::Ackermann && !(self.steering.max_angle > 0.0 && self.steering.max_angle < 1.2) {
-            return bad("steering.max_angle", "must be in (0, 1.2) rad for Ackermann steering");
+        if self.steering.kind == SteeringKind::Ackermann
+            && !(self.steering.max_angle > 0.0 && self.steering.max_angle < 1.2)
+        {
+            return bad(
+                "steering.max_angle",
+                "must be in (0, 1.2) rad for Ackermann steering",
+            );
         }
         if !pos(self.steering.rate) {
             return bad("steering.rate", "must be positive");
@@ -219,7 +251,11 @@ impl VehicleSpec {
             track: self.track(),
             length: self.chassis.size[0],
             width: self.chassis.size[1].max(self.track() + self.wheels.width),
-            max_steer: if self.steering.kind == SteeringKind::Ackermann { self.steering.max_angle } else { 0.0 },
+            max_steer: if self.steering.kind == SteeringKind::Ackermann {
+                self.steering.max_angle
+            } else {
+                0.0
+            },
             skid_steer: self.steering.kind == SteeringKind::Skid,
             nominal_speed: self.nominal_speed,
             max_speed: self.max_speed,
@@ -230,7 +266,10 @@ impl VehicleSpec {
 /// The built-in catalogue, one file per vehicle.
 const BUILTIN: &[(&str, &str)] = &[
     ("hmmwv.toml", include_str!("../../vehicles/hmmwv.toml")),
-    ("hmmwv_sixth.toml", include_str!("../../vehicles/hmmwv_sixth.toml")),
+    (
+        "hmmwv_sixth.toml",
+        include_str!("../../vehicles/hmmwv_sixth.toml"),
+    ),
     ("v4w.toml", include_str!("../../vehicles/v4w.toml")),
     ("artcar.toml", include_str!("../../vehicles/artcar.toml")),
     ("gator.toml", include_str!("../../vehicles/gator.toml")),
@@ -242,12 +281,22 @@ const BUILTIN: &[(&str, &str)] = &[
 
 /// Every built-in vehicle, in catalogue order.
 pub fn builtin_vehicles() -> Vec<VehicleSpec> {
-    BUILTIN.iter().map(|(f, t)| VehicleSpec::parse_toml(t, f).expect("built-in vehicle files are valid")).collect()
+    BUILTIN
+        .iter()
+        .map(|(f, t)| VehicleSpec::parse_toml(t, f).expect("built-in vehicle files are valid"))
+        .collect()
 }
 
 /// A built-in vehicle by name.
 pub fn vehicle_by_name(name: &str) -> Result<VehicleSpec, VehicleError> {
     let all = builtin_vehicles();
-    let names = all.iter().map(|v| v.name.as_str()).collect::<Vec<_>>().join(", ");
-    all.iter().find(|v| v.name == name).cloned().ok_or_else(|| VehicleError::Unknown(name.into(), names))
+    let names = all
+        .iter()
+        .map(|v| v.name.as_str())
+        .collect::<Vec<_>>()
+        .join(", ");
+    all.iter()
+        .find(|v| v.name == name)
+        .cloned()
+        .ok_or_else(|| VehicleError::Unknown(name.into(), names))
 }

@@ -22,7 +22,12 @@ pub fn world_with(f: impl Fn(f64, f64) -> f64, surface: Surface) -> World {
         level: ElevationLevel::Low,
         semantics: SemanticsKind::Rigid,
         density: ObstacleDensity::Sparse,
-        heightmap: Heightmap { nx: n, ny: n, cell: 1.0, heights },
+        heightmap: Heightmap {
+            nx: n,
+            ny: n,
+            cell: 1.0,
+            heights,
+        },
         patches: vec![Patch { semantic, surface }; PATCHES * PATCHES],
         obstacles: Vec::new(),
     }
@@ -35,15 +40,25 @@ pub fn flat(mu: f64) -> World {
 /// A plane rising along +x at angle `deg`.
 pub fn slope_x(deg: f64, mu: f64) -> World {
     let t = deg.to_radians().tan();
-    world_with(move |x, _| x * t + 64.0 * t, Surface::Rigid { friction: mu })
+    world_with(
+        move |x, _| x * t + 64.0 * t,
+        Surface::Rigid { friction: mu },
+    )
 }
 
 /// A plane rising along +y (a side slope for a vehicle heading along x).
 pub fn slope_y(deg: f64, mu: f64) -> World {
     let t = deg.to_radians().tan();
-    world_with(move |_, y| y * t + 64.0 * t, Surface::Rigid { friction: mu })
+    world_with(
+        move |_, y| y * t + 64.0 * t,
+        Surface::Rigid { friction: mu },
+    )
 }
 
 pub fn action(throttle: f64, steering: f64, brake: f64) -> sim_core::planner::Action {
-    sim_core::planner::Action { steering, throttle, brake }
+    sim_core::planner::Action {
+        steering,
+        throttle,
+        brake,
+    }
 }
