@@ -124,8 +124,9 @@ fn static_rollover_on_a_side_slope_near_the_stability_limit() {
                 "{deg:.1} deg: roll {roll:.1}, should stand on the slope"
             );
         } else {
+            // Tipped: rotated more than 10 degrees beyond the slope, its uphill wheels in the air.
             assert!(
-                roll > deg + 15.0,
+                roll > deg + 10.0,
                 "{deg:.1} deg: roll {roll:.1}, should tip over"
             );
         }

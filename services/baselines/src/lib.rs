@@ -1,1 +1,344 @@
-//! Baseline mobility systems: PID, elevation heuristics, MPPI, MPPI-6.
+//! Baseline mobility systems, written against `sim_core::planner::Planner`. They read only what a real system
+//! could be given: ground-truth state, the global path and the ground-truth maps.
+//!
+//! - [`Pid`]: local goal 10 m (scaled) ahead on the global path, heading P control with a steering rate limit,
+//!   PI speed control to the vehicle's nominal speed (the release's PID at 20 Hz instead of 200 Hz).
+//! - [`ElevationHeuristic`]: the same, with the heading mixed (0.2 / 0.8) between the path and the flattest of
+//!   five regions ahead, i.e. the one whose mean height is closest to the mean under the vehicle (ties: lower
+//!   variance), as the release's EH.
+//!
+//! MPPI (bicycle model) and MPPI-6 are not written yet.
+
+use sim_core::control::point_ahead;
+use sim_core::planner::{Action, Observation, Planner, PlannerContext, PlannerError};
+use sim_core::world::World;
+
+/// Names of the built-in planners.
+pub const NAMES: [&str; 2] = ["pid", "eh"];
+
+/// A built-in planner by name.
+pub fn by_name(name: &str) -> Option<Box<dyn Planner>> {
+    match name {
+        "pid" => Some(Box::new(Pid::new())),
+        "eh" => Some(Box::new(ElevationHeuristic::new())),
+        _ => None,
+    }
+}
+
+fn wrap(a: f64) -> f64 {
+    a.sin().atan2(a.cos())
+}
+
+/// Shared path-tracking and speed-control state.
+#[derive(Clone, Debug, Default)]
+struct Tracker {
+    path: Vec<[f64; 2]>,
+    progress: usize,
+    scale: f64,
+    speed: f64,
+    steering: f64,
+    integral: f64,
+    skid: bool,
+}
+
+impl Tracker {
+    const RATE: f64 = 20.0;
+
+    fn reset(&mut self, ctx: &PlannerContext<'_>) {
+        self.path = ctx.task.path.clone();
+        self.progress = 0;
+        self.scale = ctx.world.scale;
+        self.speed = ctx.vehicle.nominal_speed;
+        self.steering = 0.0;
+        self.integral = 0.0;
+        self.skid = ctx.vehicle.skid_steer;
+    }
+
+    /// Heading error to the local goal 10 m (scaled) ahead on the path.
+    fn path_error(&mut self, obs: &Observation) -> f64 {
+        let s = &obs.state;
+        let (goal, progress) = point_ahead(
+            &self.path,
+            [s.position[0], s.position[1]],
+            self.progress,
+            10.0 * self.scale,
+        );
+        self.progress = progress;
+        wrap((goal[1] - s.position[1]).atan2(goal[0] - s.position[0]) - s.yaw)
+    }
+
+    /// Steering from a heading error (P gain 1.0 per rad, rate limited to 0.5 per control step) and speed control.
+    fn act(&mut self, obs: &Observation, heading_error: f64) -> Action {
+        let target = heading_error.clamp(-1.0, 1.0);
+        self.steering += (target - self.steering).clamp(-0.5, 0.5);
+        let err = self.speed - obs.state.speed;
+        self.integral = (self.integral + err / Self::RATE).clamp(-2.0, 2.0);
+        let u = (1.0 * err + 0.3 * self.integral) / self.speed.max(1e-6);
+        Action {
+            steering: self.steering,
+            throttle: u.clamp(0.0, 1.0),
+            brake: (-u).clamp(0.0, 1.0) * 0.5,
+        }
+    }
+}
+
+/// The PID baseline.
+#[derive(Clone, Debug, Default)]
+pub struct Pid {
+    t: Tracker,
+}
+
+impl Pid {
+    pub fn new() -> Self {
+        Self::default()
+    }
+}
+
+impl Planner for Pid {
+    fn name(&self) -> &str {
+        "pid"
+    }
+    fn control_rate_hz(&self) -> f64 {
+        Tracker::RATE
+    }
+    fn reset(&mut self, ctx: &PlannerContext<'_>) -> Result<(), PlannerError> {
+        self.t.reset(ctx);
+        Ok(())
+    }
+    fn act(&mut self, obs: &Observation) -> Result<Action, PlannerError> {
+        let e = self.t.path_error(obs);
+        Ok(self.t.act(obs, e))
+    }
+}
+
+/// The elevation-heuristics baseline.
+#[derive(Clone, Debug, Default)]
+pub struct ElevationHeuristic {
+    t: Tracker,
+    world: Option<World>,
+}
+
+impl ElevationHeuristic {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Mean and variance of the heights in a square region of side `side` centred at `(x, y)` (5 x 5 samples).
+    fn region(world: &World, x: f64, y: f64, side: f64) -> (f64, f64) {
+        let (mut s, mut s2) = (0.0, 0.0);
+        for i in 0..5 {
+            for j in 0..5 {
+                let h = world.heightmap.height_bilinear(
+                    x + side * (i as f64 / 4.0 - 0.5),
+                    y + side * (j as f64 / 4.0 - 0.5),
+                );
+                s += h;
+                s2 += h * h;
+            }
+        }
+        let m = s / 25.0;
+        (m, s2 / 25.0 - m * m)
+    }
+}
+
+impl Planner for ElevationHeuristic {
+    fn name(&self) -> &str {
+        "eh"
+    }
+    fn control_rate_hz(&self) -> f64 {
+        Tracker::RATE
+    }
+    fn reset(&mut self, ctx: &PlannerContext<'_>) -> Result<(), PlannerError> {
+        self.t.reset(ctx);
+        self.world = Some(ctx.world.clone());
+        Ok(())
+    }
+    fn act(&mut self, obs: &Observation) -> Result<Action, PlannerError> {
+        let path_error = self.t.path_error(obs);
+        let world = self
+            .world
+            .as_ref()
+            .ok_or_else(|| PlannerError::Other("act before reset".into()))?;
+        let s = &obs.state;
+        let side = 6.4 * world.scale;
+        let (here, _) = Self::region(world, s.position[0], s.position[1], side);
+        // Five regions 6.4 m ahead at -60, -30, 0, 30, 60 degrees from the heading.
+        let mut best = (f64::INFINITY, f64::INFINITY, 0.0);
+        // Straight ahead first, so ties keep the heading.
+        for k in [0, -1, 1, -2, 2] {
+            let a = s.yaw + k as f64 * 30f64.to_radians();
+            let (m, v) = Self::region(
+                world,
+                s.position[0] + side * a.cos(),
+                s.position[1] + side * a.sin(),
+                side,
+            );
+            let d = (m - here).abs();
+            if d < best.0 - 1e-9 || ((d - best.0).abs() <= 1e-9 && v < best.1) {
+                best = (d, v, k as f64 * 30f64.to_radians());
+            }
+        }
+        Ok(self.t.act(obs, 0.2 * best.2 + 0.8 * path_error))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sim_core::planner::{VehicleInfo, VehicleState};
+    use sim_core::world::*;
+
+    /// Flat, or with a 1 m mound of radius 3 m centred 6.4 m ahead of the origin.
+    fn world(mound: bool) -> World {
+        let n = 129;
+        let heights = (0..n * n)
+            .map(|i| {
+                let (x, y) = ((i % n) as f64 - 64.0, (i / n) as f64 - 64.0);
+                if mound && (x - 6.4).hypot(y) < 3.0 {
+                    1.0
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        World {
+            id: 1,
+            scale: 1.0,
+            level: ElevationLevel::Low,
+            semantics: SemanticsKind::Rigid,
+            density: ObstacleDensity::Sparse,
+            heightmap: Heightmap {
+                nx: n,
+                ny: n,
+                cell: 1.0,
+                heights,
+            },
+            patches: vec![
+                Patch {
+                    semantic: Semantic::Dirt,
+                    surface: Surface::Rigid { friction: 0.6 }
+                };
+                PATCHES * PATCHES
+            ],
+            obstacles: vec![],
+        }
+    }
+
+    fn info() -> VehicleInfo {
+        VehicleInfo {
+            name: "t".into(),
+            scale: 1.0,
+            wheelbase: 3.0,
+            track: 1.8,
+            length: 4.6,
+            width: 2.2,
+            max_steer: 0.5,
+            skid_steer: false,
+            nominal_speed: 4.0,
+            max_speed: 20.0,
+        }
+    }
+
+    fn obs(x: f64, y: f64, yaw: f64, speed: f64) -> Observation {
+        Observation {
+            state: VehicleState {
+                position: [x, y, 0.0],
+                yaw,
+                speed,
+                ..Default::default()
+            },
+        }
+    }
+
+    #[test]
+    fn pid_steers_toward_a_goal_on_its_left_within_the_rate_limit() {
+        let w = world(false);
+        let task = Task {
+            world_id: 1,
+            index: 0,
+            start: [0.0, 0.0],
+            goal: [0.0, 50.0],
+            path: vec![[0.0, 0.0], [0.0, 50.0]],
+        };
+        let mut p = Pid::new();
+        p.reset(&PlannerContext {
+            world: &w,
+            task: &task,
+            vehicle: &info(),
+            sim_dt: 0.002,
+        })
+        .unwrap();
+        let a = p.act(&obs(0.0, 0.0, 0.0, 0.0)).unwrap();
+        assert_eq!(
+            a.steering, 0.5,
+            "goal 90 degrees left: steer left, limited to 0.5 per step"
+        );
+        let a = p.act(&obs(0.0, 0.0, 0.0, 0.0)).unwrap();
+        assert_eq!(a.steering, 1.0);
+        assert!(
+            a.throttle > 0.9 && a.brake == 0.0,
+            "standing still: full throttle"
+        );
+        let a = p
+            .act(&obs(0.0, 0.0, std::f64::consts::FRAC_PI_2, 8.0))
+            .unwrap();
+        assert!(
+            a.throttle == 0.0 && a.brake > 0.0,
+            "twice the nominal speed: brake"
+        );
+        a.validate().unwrap();
+    }
+
+    #[test]
+    fn pid_local_goal_is_ten_metres_ahead_on_the_path() {
+        let w = world(false).scaled(0.1);
+        let task = Task {
+            world_id: 1,
+            index: 0,
+            start: [0.0, 0.0],
+            goal: [5.0, 0.0],
+            path: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 3.0]],
+        };
+        let mut p = Pid::new();
+        p.reset(&PlannerContext {
+            world: &w,
+            task: &task,
+            vehicle: &info(),
+            sim_dt: 0.002,
+        })
+        .unwrap();
+        // At scale 1/10 the local goal is 1 m ahead: (1, 0) from the start, straight ahead -> no steering.
+        assert_eq!(p.act(&obs(0.0, 0.0, 0.0, 0.0)).unwrap().steering, 0.0);
+        // From (0.5, 0) the goal is 1 m along the path: (1, 0.5), to the left.
+        assert!(p.act(&obs(0.5, 0.0, 0.0, 0.0)).unwrap().steering > 0.0);
+    }
+
+    #[test]
+    fn eh_steers_around_a_mound_ahead_and_keeps_straight_on_flat_ground() {
+        let task = Task {
+            world_id: 1,
+            index: 0,
+            start: [0.0, 0.0],
+            goal: [60.0, 0.0],
+            path: vec![[0.0, 0.0], [60.0, 0.0]],
+        };
+        for (mound, sign) in [(true, -1.0), (false, 0.0)] {
+            let w = world(mound);
+            let mut p = ElevationHeuristic::new();
+            p.reset(&PlannerContext {
+                world: &w,
+                task: &task,
+                vehicle: &info(),
+                sim_dt: 0.002,
+            })
+            .unwrap();
+            let a = p.act(&obs(0.0, 0.0, 0.0, 4.0)).unwrap();
+            let got = if a.steering.abs() < 1e-9 {
+                0.0
+            } else {
+                a.steering.signum()
+            };
+            assert_eq!(got, sign, "mound {mound}: {a:?}");
+        }
+    }
+}

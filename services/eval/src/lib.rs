@@ -1,1 +1,37 @@
-//! Local parallel evaluation of a planner on the task set: results, summaries, charts, comparisons.
+//! Local evaluation of a planner on the task set.
+//!
+//! - [`run`]: episodes in parallel on all cores (rayon), each appended as one JSON line to `results.jsonl` as soon
+//!   as it finishes (flushed), so an interrupted evaluation resumes where it stopped: finished task ids are skipped,
+//!   a torn last line is ignored and nothing is counted twice.
+//! - [`summary`]: success rate with a 95% Wilson interval, traversal time (successes only), roll and pitch, failure
+//!   mix, each broken down by elevation level, semantics kind and obstacle density.
+//! - [`report`]: `episodes.csv`, `summary.json`, `summary.txt` and SVG charts of the breakdowns.
+//! - [`compare`]: paired comparison of two evaluations (difference in success rate with a 95% interval, exact
+//!   McNemar test).
+
+pub mod compare;
+pub mod report;
+pub mod run;
+pub mod summary;
+
+pub use run::{run, EpisodeRow, EvalConfig};
+
+/// Errors of the evaluator; each names the file or the parameter.
+#[derive(Debug, thiserror::Error)]
+pub enum EvalError {
+    #[error("{path}: {message}")]
+    Io { path: String, message: String },
+    #[error("{0}")]
+    Tasks(#[from] tasks::TasksError),
+    #[error("{0}")]
+    Vehicle(#[from] sim_core::vehicle::VehicleError),
+    #[error("invalid {field}: {message}")]
+    Param { field: String, message: String },
+}
+
+pub(crate) fn io_err(path: &std::path::Path, e: impl std::fmt::Display) -> EvalError {
+    EvalError::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    }
+}

@@ -30,6 +30,8 @@ enum Command {
     Eval(cmd::eval::EvalArgs),
     /// Compare two evaluation results on the same tasks with paired statistics.
     Compare(cmd::compare::CompareArgs),
+    /// Write a static leaderboard page from evaluation directories.
+    Leaderboard(cmd::leaderboard::LeaderboardArgs),
     /// Measure performance.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
@@ -43,6 +45,7 @@ fn main() -> anyhow::Result<()> {
         Command::Sim(c) => cmd::sim::run(c),
         Command::Eval(a) => cmd::eval::run(a),
         Command::Compare(a) => cmd::compare::run(a),
+        Command::Leaderboard(a) => cmd::leaderboard::run(a),
         Command::Bench(c) => cmd::bench::run(c),
     }
 }

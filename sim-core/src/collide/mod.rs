@@ -25,6 +25,16 @@ pub struct ObstacleContact {
 
 /// Penetration of a sphere (centre `c`, radius `r`; `r = 0` for a point) into one obstacle.
 pub fn sphere_obstacle(o: &Obstacle, c: &Vector3<f64>, r: f64) -> Option<(f64, Vector3<f64>)> {
+    sphere_obstacle_with(o, o.yaw.sin_cos(), c, r)
+}
+
+/// [`sphere_obstacle`] with the obstacle's `(sin, cos)` of yaw precomputed.
+fn sphere_obstacle_with(
+    o: &Obstacle,
+    (s, co): (f64, f64),
+    c: &Vector3<f64>,
+    r: f64,
+) -> Option<(f64, Vector3<f64>)> {
     let height = 2.0 * o.half_extents[2];
     let lz = c.z - o.z;
     match o.kind {
@@ -47,7 +57,6 @@ pub fn sphere_obstacle(o: &Obstacle, c: &Vector3<f64>, r: f64) -> Option<(f64, V
             Some((depth, n))
         }
         ObstacleKind::Rock => {
-            let (s, co) = o.yaw.sin_cos();
             let (dx, dy) = (c.x - o.x, c.y - o.y);
             // Local coordinates, box centred at the origin.
             let l = Vector3::new(co * dx + s * dy, -s * dx + co * dy, lz - o.half_extents[2]);
@@ -101,6 +110,10 @@ pub const MAX_NEAR: usize = 32;
 #[derive(Clone, Debug)]
 pub struct ObstacleSet {
     obstacles: Vec<Obstacle>,
+    /// `(sin, cos)` of each obstacle's yaw.
+    yaw_sin_cos: Vec<(f64, f64)>,
+    /// Horizontal bounding radius of each obstacle.
+    bounds: Vec<f64>,
     near: [usize; MAX_NEAR],
     near_len: usize,
 }
@@ -109,6 +122,8 @@ impl ObstacleSet {
     pub fn new(obstacles: &[Obstacle]) -> ObstacleSet {
         ObstacleSet {
             obstacles: obstacles.to_vec(),
+            yaw_sin_cos: obstacles.iter().map(|o| o.yaw.sin_cos()).collect(),
+            bounds: obstacles.iter().map(bound).collect(),
             near: [0; MAX_NEAR],
             near_len: 0,
         }
@@ -130,11 +145,21 @@ impl ObstacleSet {
         }
     }
 
+    /// Whether any near obstacle comes within `radius` of `(x, y)` (a quick test before many point queries).
+    pub fn any_within(&self, x: f64, y: f64, radius: f64) -> bool {
+        self.near[..self.near_len].iter().any(|&i| {
+            let o = &self.obstacles[i];
+            (o.x - x).hypot(o.y - y) <= radius + self.bounds[i]
+        })
+    }
+
     /// Deepest contact of a sphere with the near obstacles.
     pub fn sphere_contact(&self, c: &Vector3<f64>, r: f64) -> Option<ObstacleContact> {
         let mut best: Option<ObstacleContact> = None;
         for &i in &self.near[..self.near_len] {
-            if let Some((depth, normal)) = sphere_obstacle(&self.obstacles[i], c, r) {
+            if let Some((depth, normal)) =
+                sphere_obstacle_with(&self.obstacles[i], self.yaw_sin_cos[i], c, r)
+            {
                 if best.is_none_or(|b| depth > b.depth) {
                     best = Some(ObstacleContact {
                         depth,

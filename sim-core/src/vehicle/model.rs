@@ -28,7 +28,25 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 const G: f64 = 9.81;
 /// Rim sample angles (rad) and lateral offsets (fraction of the half width) of the wheel contact.
-const RIM_ANGLES: [f64; 7] = [-1.047, -0.698, -0.349, 0.0, 0.349, 0.698, 1.047];
+const RIM_ANGLES: [f64; 7] = [
+    -1.047_197_551_196_597_6,
+    -0.698_131_700_797_731_8,
+    -0.349_065_850_398_865_9,
+    0.0,
+    0.349_065_850_398_865_9,
+    0.698_131_700_797_731_8,
+    1.047_197_551_196_597_6,
+];
+/// `(sin, cos)` of [`RIM_ANGLES`] (-60 .. 60 degrees in steps of 20), precomputed: no trigonometry in the step loop.
+const RIM_SIN_COS: [(f64, f64); 7] = [
+    (-0.866_025_403_784_438_6, 0.5),
+    (-0.642_787_609_686_539_4, 0.766_044_443_118_978),
+    (-0.342_020_143_325_668_7, 0.939_692_620_785_908_4),
+    (0.0, 1.0),
+    (0.342_020_143_325_668_7, 0.939_692_620_785_908_4),
+    (0.642_787_609_686_539_4, 0.766_044_443_118_978),
+    (0.866_025_403_784_438_6, 0.5),
+];
 const RIM_LATERAL: [f64; 3] = [-0.66, 0.0, 0.66];
 /// Fraction of the total mass carried by each wheel as unsprung mass.
 const UNSPRUNG_FRACTION: f64 = 0.04;
@@ -91,6 +109,9 @@ pub struct Simulation {
     obstacle_k: f64,
     wheels: Vec<Wheel>,
     groups: usize,
+    /// Highest terrain (plus one cell of slack) over 4 x 4-sample blocks: a body point above it cannot touch.
+    block_max: Vec<f64>,
+    blocks_x: usize,
     // state
     time: f64,
     pos: Vector3<f64>,
@@ -128,10 +149,10 @@ struct WheelContact {
     r_eff: f64,
 }
 
-/// Fixed physics step for a vehicle scale: 2 ms at full scale, scaled by sqrt(scale) (Froude similitude keeps the
+/// Fixed physics step for a vehicle scale: 4 ms at full scale (Chrono: 5 ms), scaled by sqrt(scale) (Froude similitude keeps the
 /// ratio of step to natural periods); chosen by the stability tests in `tests/physics_*.rs`.
 pub fn default_dt(scale: f64) -> f64 {
-    0.002 * scale.sqrt()
+    0.004 * scale.sqrt()
 }
 
 impl Simulation {
@@ -248,7 +269,24 @@ impl Simulation {
                 }
             }
         }
+        let hm = &world.heightmap;
+        let blocks_x = hm.nx.div_ceil(4);
+        let blocks_y = hm.ny.div_ceil(4);
+        let mut block_max = vec![f64::NEG_INFINITY; blocks_x * blocks_y];
+        for iy in 0..hm.ny {
+            for ix in 0..hm.nx {
+                // Each sample influences the bilinear surface of the cells around it: widen by one block.
+                for by in (iy / 4).saturating_sub(1)..=(iy / 4 + 1).min(blocks_y - 1) {
+                    for bx in (ix / 4).saturating_sub(1)..=(ix / 4 + 1).min(blocks_x - 1) {
+                        let m = &mut block_max[by * blocks_x + bx];
+                        *m = m.max(hm.at(ix, iy));
+                    }
+                }
+            }
+        }
         let mut sim = Simulation {
+            block_max,
+            blocks_x,
             world_patches: world.clone(),
             soil: SoilGrid::new(world),
             obstacles: ObstacleSet::new(&world.obstacles),
@@ -309,6 +347,18 @@ impl Simulation {
         // Along the body's up axis, so the wheels just touch a sloped plane instead of starting inside it.
         let lift = self.radius + self.spec.chassis.com_height + 0.01 * self.spec.scale;
         self.pos = Vector3::new(x, y, ground) + (self.rot * Vector3::z()) * lift;
+        // On rough ground no wheel may start inside the terrain: raise the vehicle until every rim sample clears
+        // it (it then drops a little and settles, as the release's spawn 1 m above the ground).
+        let mut raise: f64 = 0.0;
+        let (up, fwd) = (self.rot * Vector3::z(), self.rot * Vector3::x());
+        for wh in &self.wheels {
+            let centre = self.pos + self.rot * wh.hard;
+            for &(sin, cos) in &RIM_SIN_COS {
+                let p = centre + (fwd * sin - up * cos) * self.radius;
+                raise = raise.max(h.height_bilinear(p.x, p.y) - p.z);
+            }
+        }
+        self.pos.z += raise;
         self.vel = Vector3::zeros();
         self.omega = Vector3::zeros();
         for wh in &mut self.wheels {
@@ -626,11 +676,28 @@ impl Simulation {
         }
         // Chassis-ground and chassis-obstacle contacts.
         let ground_mu = self.patch_mu(self.pos.x, self.pos.y);
+        let rot_m = self.rot.to_rotation_matrix();
+        let body_radius = 0.5
+            * self.spec.chassis.size[0]
+                .hypot(self.spec.chassis.size[1])
+                .hypot(self.spec.chassis.size[2])
+            + self.radius;
+        let obstacles_close = self
+            .obstacles
+            .any_within(self.pos.x, self.pos.y, body_radius);
+        let hm = &self.world_patches.heightmap;
+        let blocks_y = self.block_max.len() / self.blocks_x.max(1);
         for p in &self.body_points {
-            let pw = self.pos + self.rot * p;
+            let pw = self.pos + rot_m * p;
             let v = self.vel + omega_w.cross(&(pw - self.pos));
-            let hg = self.world_patches.heightmap.height_bilinear(pw.x, pw.y);
-            let depth = hg - pw.z;
+            let (fx, fy) = hm.grid_coords(pw.x, pw.y);
+            let bx = ((fx.max(0.0) as usize) / 4).min(self.blocks_x - 1);
+            let by = ((fy.max(0.0) as usize) / 4).min(blocks_y - 1);
+            let depth = if pw.z > self.block_max[by * self.blocks_x + bx] {
+                -1.0
+            } else {
+                hm.height_bilinear(pw.x, pw.y) - pw.z
+            };
             if depth > 0.0 {
                 let n = self.normal_at(pw.x, pw.y);
                 let vn = v.dot(&n);
@@ -646,7 +713,10 @@ impl Simulation {
                 force += f;
                 torque_w += (pw - self.pos).cross(&f);
             }
-            if let Some(oc) = self.obstacles.sphere_contact(&pw, 0.0) {
+            if let Some(oc) = obstacles_close
+                .then(|| self.obstacles.sphere_contact(&pw, 0.0))
+                .flatten()
+            {
                 let vn = v.dot(&oc.normal);
                 let fnrm = (self.obstacle_k * oc.depth
                     - 2.0 * 0.5 * (self.obstacle_k * self.mass).sqrt() * vn.min(0.0))
@@ -674,7 +744,10 @@ impl Simulation {
                             0.0,
                             w.compression - w.static_compression.min(w.travel),
                         ));
-            if let Some(oc) = self.obstacles.sphere_contact(&centre, self.radius) {
+            if let Some(oc) = obstacles_close
+                .then(|| self.obstacles.sphere_contact(&centre, self.radius))
+                .flatten()
+            {
                 let v = self.vel + omega_w.cross(&(centre - self.pos));
                 let vn = v.dot(&oc.normal);
                 let fnrm = (self.obstacle_k * oc.depth
@@ -788,9 +861,14 @@ impl Simulation {
             + self.rot
                 * (w.hard
                     + Vector3::new(0.0, 0.0, w.compression - w.static_compression.min(w.travel)));
-        let heading =
-            UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_normalize(*up), w.steer_angle)
-                * fwd_body;
+        // Rotate the body's forward axis about its up axis by the steering angle (Rodrigues; up is a unit vector
+        // perpendicular to fwd).
+        let heading = if w.steer_angle == 0.0 {
+            *fwd_body
+        } else {
+            let (s, c) = w.steer_angle.sin_cos();
+            fwd_body * c + up.cross(fwd_body) * s
+        };
         let axle = up.cross(&heading).normalize();
         let h = &self.world_patches.heightmap;
         if let Some(_soil) = self.soil.soil_at(centre.x, centre.y) {
@@ -831,14 +909,14 @@ impl Simulation {
         }
         let mut best = (0.0, Vector3::zeros(), 0.0);
         for lat in RIM_LATERAL {
-            for ang in RIM_ANGLES {
+            for (k, &(sin, cos)) in RIM_SIN_COS.iter().enumerate() {
                 let p = centre
                     + axle * (lat * 0.5 * self.width)
-                    + (heading * ang.sin() - up * ang.cos()) * self.radius;
+                    + (heading * sin - up * cos) * self.radius;
                 let depth_v = h.height_bilinear(p.x, p.y) - p.z;
-                let depth = depth_v * ang.cos();
+                let depth = depth_v * cos;
                 if depth > best.0 {
-                    best = (depth, p, ang);
+                    best = (depth, p, RIM_ANGLES[k]);
                 }
             }
         }

@@ -1,8 +1,85 @@
-//! `vb eval ...`
+//! `vb eval`: evaluate a planner on the task set, locally and in parallel.
+
+use sim_core::episode::{EpisodeConfig, StuckRule};
+use std::io::Write;
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
-pub struct EvalArgs {}
+pub struct EvalArgs {
+    /// Built-in planner: pid or eh.
+    #[arg(long, default_value = "pid")]
+    planner: String,
+    /// `all`, or comma-separated world ids (17) and task ids (w017-t3).
+    #[arg(long, default_value = "all")]
+    tasks: String,
+    #[arg(long, default_value = "hmmwv")]
+    vehicle: String,
+    /// World scale (default: the vehicle's own scale).
+    #[arg(long)]
+    scale: Option<f64>,
+    /// Task-set directory (default: the committed set).
+    #[arg(long)]
+    task_dir: Option<PathBuf>,
+    /// Output directory; running again resumes an interrupted evaluation.
+    #[arg(long, default_value = "out/eval")]
+    out: PathBuf,
+    /// Use the original release's rules: 8 m goal radius and speed-based stuck (< 2 m/s for 10 s).
+    #[arg(long)]
+    release_rules: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+}
 
-pub fn run(_args: EvalArgs) -> anyhow::Result<()> {
-    anyhow::bail!("vb eval is not implemented yet")
+pub fn run(a: EvalArgs) -> anyhow::Result<()> {
+    if let Some(t) = a.threads {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(t.max(1))
+            .build_global()?;
+    }
+    let mut episode = EpisodeConfig::default();
+    if a.release_rules {
+        episode.goal_radius = 8.0;
+        episode.stuck = StuckRule::Speed {
+            speed: 2.0,
+            window: 10.0,
+        };
+    }
+    let cfg = eval::EvalConfig {
+        planner: a.planner,
+        task_dir: a.task_dir.unwrap_or_else(tasks::TaskSet::default_dir),
+        tasks: a.tasks,
+        vehicle: a.vehicle,
+        scale: a.scale,
+        out: a.out.clone(),
+        episode,
+    };
+    let start = std::time::Instant::now();
+    let progress = |done: usize, total: usize, secs: f64| {
+        let width = 40;
+        let filled = width * done / total.max(1);
+        let eta = if done > 0 {
+            secs / done as f64 * (total - done) as f64
+        } else {
+            0.0
+        };
+        eprint!(
+            "\r[{}{}] {done}/{total} episodes, {secs:.0} s elapsed, ETA {eta:.0} s ",
+            "#".repeat(filled),
+            ".".repeat(width - filled)
+        );
+        let _ = std::io::stderr().flush();
+    };
+    let rows = eval::run(&cfg, &progress)?;
+    eprintln!();
+    let summary = eval::summary::summarise(&rows);
+    eval::report::write(&a.out, &rows, &summary)?;
+    print!("{}", eval::report::summary_text(&summary));
+    println!(
+        "{} episodes in {:.1} s wall time; results in {}",
+        rows.len(),
+        start.elapsed().as_secs_f64(),
+        a.out.display()
+    );
+    Ok(())
 }

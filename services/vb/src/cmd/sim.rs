@@ -1,15 +1,84 @@
-//! `vb sim ...`
+//! `vb sim run`: one episode with the built-in pure-pursuit controller (or a baseline), with trajectory and plot.
 
 use clap::Subcommand;
+use sim_core::episode::EpisodeConfig;
+use std::path::PathBuf;
 
 #[derive(Subcommand)]
 pub enum SimCmd {
-    /// Not implemented yet.
-    Placeholder,
+    /// Run one episode and write trajectory.csv, episode.png and result.json.
+    Run {
+        #[arg(long)]
+        world: u32,
+        /// Task index within the world (0..9).
+        #[arg(long, default_value_t = 0)]
+        task: u32,
+        #[arg(long, default_value = "hmmwv")]
+        vehicle: String,
+        /// pure_pursuit (built-in controller), pid or eh.
+        #[arg(long, default_value = "pure_pursuit")]
+        planner: String,
+        #[arg(long)]
+        scale: Option<f64>,
+        #[arg(long)]
+        task_dir: Option<PathBuf>,
+        /// Trajectory recording rate, Hz.
+        #[arg(long, default_value_t = 20.0)]
+        record_hz: f64,
+        #[arg(long, default_value = "out/sim")]
+        out: PathBuf,
+    },
+    /// List the vehicle catalogue.
+    Vehicles,
 }
 
 pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
     match cmd {
-        SimCmd::Placeholder => anyhow::bail!("vb sim is not implemented yet"),
+        SimCmd::Run {
+            world,
+            task,
+            vehicle,
+            planner,
+            scale,
+            task_dir,
+            record_hz,
+            out,
+        } => {
+            anyhow::ensure!(
+                record_hz.is_finite() && record_hz > 0.0,
+                "--record-hz must be positive"
+            );
+            let spec = sim_core::vehicle::vehicle_by_name(&vehicle)?;
+            let scale = scale.unwrap_or(spec.scale);
+            let set = tasks::TaskSet::load(&task_dir.unwrap_or_else(tasks::TaskSet::default_dir))?;
+            let w = set.world(world, scale)?;
+            let t = set
+                .tasks(world, scale)?
+                .into_iter()
+                .nth(task as usize)
+                .ok_or_else(|| anyhow::anyhow!("world {world} has no task {task} (0..9)"))?;
+            let mut p: Box<dyn sim_core::planner::Planner> = match planner.as_str() {
+                "pure_pursuit" => Box::new(sim_core::control::PurePursuit::new()),
+                other => baselines::by_name(other)
+                    .ok_or_else(|| anyhow::anyhow!("unknown planner `{other}`"))?,
+            };
+            let cfg = EpisodeConfig {
+                record_hz: Some(record_hz),
+                ..Default::default()
+            };
+            let r = sim_core::run_episode(&w, &t, &spec, p.as_mut(), &cfg);
+            let json = serde_json::to_string_pretty(&serde_json::json!({
+                "task": t.id(), "vehicle": spec.name, "scale": scale, "planner": planner,
+                "outcome": r.outcome.as_str(), "reason": r.reason, "detail": r.detail, "metrics": r.metrics,
+            }))?;
+            viz::write_episode(&out, &w, &t, &r, &json)?;
+            println!("{}: {} ({}) after {:.1} s, {:.1} m driven; wrote {}/trajectory.csv, episode.png, result.json", t.id(), r.outcome.as_str(), r.reason, r.metrics.time, r.metrics.path_length, out.display());
+        }
+        SimCmd::Vehicles => {
+            for v in sim_core::vehicle::builtin_vehicles() {
+                println!("{:<12} scale {:<8} {}", v.name, v.scale, v.description);
+            }
+        }
     }
+    Ok(())
 }
