@@ -2,16 +2,16 @@
 
 use eval::{run, EvalConfig};
 use sim_core::episode::EpisodeConfig;
-use std::path::PathBuf;
+use std::path::Path;
 
-fn cfg(out: &PathBuf, tasks: &str) -> EvalConfig {
+fn cfg(out: &Path, tasks: &str) -> EvalConfig {
     EvalConfig {
         planner: "pid".into(),
         task_dir: tasks::TaskSet::default_dir(),
         tasks: tasks.into(),
         vehicle: "hmmwv".into(),
         scale: None,
-        out: out.clone(),
+        out: out.to_path_buf(),
         episode: EpisodeConfig {
             max_time: 20.0,
             ..Default::default()

@@ -57,6 +57,9 @@ pub fn run(a: EvalArgs) -> anyhow::Result<()> {
     let start = std::time::Instant::now();
     let progress = |done: usize, total: usize, secs: f64| {
         let width = 40;
+        if !(done.is_multiple_of(10) || done == total) {
+            return;
+        }
         let filled = width * done / total.max(1);
         let eta = if done > 0 {
             secs / done as f64 * (total - done) as f64
@@ -81,5 +84,17 @@ pub fn run(a: EvalArgs) -> anyhow::Result<()> {
         start.elapsed().as_secs_f64(),
         a.out.display()
     );
-    Ok(())
+    // Refresh the leaderboard over every evaluation next to this one.
+    let parent = a
+        .out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    let mut dirs: Vec<PathBuf> = std::fs::read_dir(parent)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.join("summary.json").is_file())
+        .collect();
+    dirs.sort();
+    let page = parent.join("leaderboard.html");
+    super::leaderboard::run(super::leaderboard::LeaderboardArgs { dirs, out: page })
 }

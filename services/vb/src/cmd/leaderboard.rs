@@ -6,9 +6,9 @@ use std::path::PathBuf;
 pub struct LeaderboardArgs {
     /// Evaluation directories (each with a summary.json written by `vb eval`).
     #[arg(required = true)]
-    dirs: Vec<PathBuf>,
+    pub dirs: Vec<PathBuf>,
     #[arg(long, default_value = "out/leaderboard.html")]
-    out: PathBuf,
+    pub out: PathBuf,
 }
 
 pub fn run(a: LeaderboardArgs) -> anyhow::Result<()> {
