@@ -13,6 +13,7 @@
 pub mod collide;
 pub mod control;
 pub mod episode;
+pub mod observe;
 pub mod planner;
 pub mod runner;
 pub mod soil;

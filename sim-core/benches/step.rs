@@ -1,0 +1,76 @@
+//! Criterion benches of the physics step: HMMWV driving on rigid ground, on mud, and the M113 on rigid ground.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use sim_core::planner::Action;
+use sim_core::vehicle::vehicle_by_name;
+use sim_core::world::*;
+use sim_core::Simulation;
+use std::hint::black_box;
+
+fn world(surface: Surface) -> World {
+    let n = 129;
+    let heights = (0..n * n)
+        .map(|i| {
+            let (x, y) = ((i % n) as f64, (i / n) as f64);
+            (0.8 * (0.13 * x).sin() * (0.09 * y).cos()) as f32
+        })
+        .collect();
+    let semantic = if matches!(surface, Surface::Rigid { .. }) {
+        Semantic::Dirt
+    } else {
+        Semantic::Mud
+    };
+    World {
+        id: 1,
+        scale: 1.0,
+        level: ElevationLevel::Medium,
+        semantics: SemanticsKind::Rigid,
+        density: ObstacleDensity::Sparse,
+        heightmap: Heightmap {
+            nx: n,
+            ny: n,
+            cell: 1.0,
+            heights,
+        },
+        patches: vec![Patch { semantic, surface }; PATCHES * PATCHES],
+        obstacles: vec![],
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    let cases = [
+        ("hmmwv_rigid", "hmmwv", Surface::Rigid { friction: 0.7 }),
+        (
+            "hmmwv_mud",
+            "hmmwv",
+            Surface::Deformable {
+                soil: SoilParams::MUD,
+            },
+        ),
+        ("m113_rigid", "m113", Surface::Rigid { friction: 0.7 }),
+    ];
+    let drive = Action {
+        steering: 0.1,
+        throttle: 0.3,
+        brake: 0.0,
+    };
+    for (name, vehicle, surface) in cases {
+        let w = world(surface);
+        let spec = vehicle_by_name(vehicle).unwrap();
+        let mut sim = Simulation::new(&w, &spec, -50.0, 0.0, 0.0);
+        for _ in 0..500 {
+            sim.step(&drive);
+        }
+        c.bench_function(&format!("step_{name}"), |b| {
+            b.iter(|| {
+                if sim.position().x > 50.0 || sim.position().y.abs() > 50.0 {
+                    sim.place(-50.0, 0.0, 0.0);
+                }
+                black_box(sim.step(black_box(&drive)))
+            })
+        });
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

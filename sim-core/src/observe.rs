@@ -1,0 +1,196 @@
+//! Ground-truth observations for planners: heading-aligned crops of the elevation, semantics and obstacle maps
+//! around the vehicle, of a chosen size and resolution, and the full obstacle occupancy grid.
+//!
+//! A crop is `size x size` cells of `resolution` metres, centred on the vehicle and rotated with its heading:
+//! row `r` (0 = front) lies `((size - 1) / 2 - r) * resolution` ahead of the vehicle, column `c` (0 = left)
+//! `((size - 1) / 2 - c) * resolution` to its left. Cells off the map repeat the map edge (elevation), take class
+//! 255 (semantics) and count as occupied (obstacles). Crops are written into caller-provided buffers, so a planner
+//! can call them at every step without allocating.
+
+use crate::collide::sphere_obstacle;
+use crate::planner::VehicleState;
+use crate::world::World;
+use nalgebra::Vector3;
+
+/// Shape of a crop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CropSpec {
+    pub size: usize,
+    /// Metres per cell.
+    pub resolution: f64,
+}
+
+/// World position of crop cell `(row, col)`.
+pub fn cell_position(state: &VehicleState, spec: &CropSpec, row: usize, col: usize) -> (f64, f64) {
+    let half = (spec.size as f64 - 1.0) / 2.0;
+    let ahead = (half - row as f64) * spec.resolution;
+    let left = (half - col as f64) * spec.resolution;
+    let (s, c) = state.yaw.sin_cos();
+    (
+        state.position[0] + c * ahead - s * left,
+        state.position[1] + s * ahead + c * left,
+    )
+}
+
+fn fill<T: Copy>(
+    state: &VehicleState,
+    spec: &CropSpec,
+    out: &mut [T],
+    mut f: impl FnMut(f64, f64) -> T,
+) {
+    let n = spec.size;
+    for (k, v) in out.iter_mut().enumerate().take(n * n) {
+        let (x, y) = cell_position(state, spec, k / n, k % n);
+        *v = f(x, y);
+    }
+}
+
+/// Heading-aligned elevation crop (metres, bilinear), `out.len() >= size * size`.
+pub fn elevation_crop(world: &World, state: &VehicleState, spec: &CropSpec, out: &mut [f32]) {
+    fill(state, spec, out, |x, y| {
+        world.heightmap.height_bilinear(x, y) as f32
+    });
+}
+
+/// Heading-aligned semantic crop (release label ids; 255 off the map).
+pub fn semantics_crop(world: &World, state: &VehicleState, spec: &CropSpec, out: &mut [u8]) {
+    fill(state, spec, out, |x, y| {
+        if world.heightmap.contains(x, y) {
+            world.patch_at(x, y).semantic.id()
+        } else {
+            255
+        }
+    });
+}
+
+/// Whether a world point lies inside an obstacle's footprint.
+pub fn occupied(world: &World, x: f64, y: f64) -> bool {
+    world.obstacles.iter().any(|o| {
+        let top = Vector3::new(x, y, o.z + o.half_extents[2]);
+        sphere_obstacle(o, &top, 0.0).is_some()
+    })
+}
+
+/// Heading-aligned obstacle crop (1 = occupied or off the map).
+pub fn obstacle_crop(world: &World, state: &VehicleState, spec: &CropSpec, out: &mut [u8]) {
+    fill(state, spec, out, |x, y| {
+        u8::from(!world.heightmap.contains(x, y) || occupied(world, x, y))
+    });
+}
+
+/// Obstacle occupancy of every heightmap sample, `grid[iy * nx + ix]`.
+pub fn occupancy_grid(world: &World) -> Vec<u8> {
+    let h = &world.heightmap;
+    let mut grid = vec![0u8; h.nx * h.ny];
+    for iy in 0..h.ny {
+        for ix in 0..h.nx {
+            let (x, y) = h.sample_position(ix, iy);
+            grid[iy * h.nx + ix] = u8::from(occupied(world, x, y));
+        }
+    }
+    grid
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::world::*;
+
+    fn world() -> World {
+        let n = 129;
+        // Height = x, so "ahead" is easy to read off the crop.
+        let heights = (0..n * n).map(|i| ((i % n) as f64 - 64.0) as f32).collect();
+        let mut patches = vec![
+            Patch {
+                semantic: Semantic::Dirt,
+                surface: Surface::Rigid { friction: 0.6 }
+            };
+            PATCHES * PATCHES
+        ];
+        // The patch containing (10, 0) is grass.
+        let w0 = World {
+            id: 1,
+            scale: 1.0,
+            level: ElevationLevel::Low,
+            semantics: SemanticsKind::Rigid,
+            density: ObstacleDensity::Sparse,
+            heightmap: Heightmap {
+                nx: n,
+                ny: n,
+                cell: 1.0,
+                heights,
+            },
+            patches: patches.clone(),
+            obstacles: vec![],
+        };
+        let k = w0.patch_index_at(10.0, 0.0);
+        patches[k] = Patch {
+            semantic: Semantic::Grass,
+            surface: Surface::Rigid { friction: 0.4 },
+        };
+        World {
+            patches,
+            obstacles: vec![Obstacle {
+                kind: ObstacleKind::Tree,
+                x: 0.0,
+                y: 5.0,
+                z: 0.0,
+                yaw: 0.0,
+                half_extents: [0.5, 0.5, 2.5],
+            }],
+            ..w0
+        }
+    }
+
+    #[test]
+    fn crops_are_aligned_with_the_heading() {
+        let w = world();
+        let spec = CropSpec {
+            size: 5,
+            resolution: 1.0,
+        };
+        let state = VehicleState {
+            yaw: std::f64::consts::FRAC_PI_2,
+            ..Default::default()
+        };
+        // Facing +y (north): the crop's left column lies to the west (x = -2), its right column to the east.
+        let mut e = vec![0f32; 25];
+        elevation_crop(&w, &state, &spec, &mut e);
+        assert!(
+            (e[0] - (-2.0)).abs() < 1e-5 && (e[4] - 2.0).abs() < 1e-5,
+            "{e:?}"
+        );
+        // The tree at (0, 5) is 5 m ahead: in a crop of 11 cells, row 0 is 5 m ahead, centre column.
+        let spec = CropSpec {
+            size: 11,
+            resolution: 1.0,
+        };
+        let mut o = vec![0u8; 121];
+        obstacle_crop(&w, &state, &spec, &mut o);
+        assert_eq!(o[5], 1);
+        assert_eq!(o[60], 0);
+    }
+
+    #[test]
+    fn semantics_crop_reads_the_patch_under_each_cell_and_marks_off_map() {
+        let w = world();
+        let spec = CropSpec {
+            size: 3,
+            resolution: 1.0,
+        };
+        let state = VehicleState {
+            position: [10.0, 0.0, 0.0],
+            ..Default::default()
+        };
+        let mut s = vec![0u8; 9];
+        semantics_crop(&w, &state, &spec, &mut s);
+        assert_eq!(s[4], Semantic::Grass.id());
+        let far = VehicleState {
+            position: [64.0, 0.0, 0.0],
+            ..Default::default()
+        };
+        semantics_crop(&w, &far, &spec, &mut s);
+        assert_eq!(s[1], 255, "1 m beyond the east edge is off the map");
+        assert_eq!(occupancy_grid(&w).iter().filter(|v| **v == 1).count(), 1);
+    }
+}
