@@ -8,32 +8,17 @@ use sim_core::Simulation;
 use std::hint::black_box;
 
 fn world(surface: Surface) -> World {
-    let n = 129;
-    let heights = (0..n * n)
-        .map(|i| {
-            let (x, y) = ((i % n) as f64, (i / n) as f64);
-            (0.8 * (0.13 * x).sin() * (0.09 * y).cos()) as f32
-        })
-        .collect();
     let semantic = if matches!(surface, Surface::Rigid { .. }) {
         Semantic::Dirt
     } else {
         Semantic::Mud
     };
+    let h = Heightmap::from_fn(1.0, |x, y| {
+        0.8 * (0.13 * (x + 64.0)).sin() * (0.09 * (y + 64.0)).cos()
+    });
     World {
-        id: 1,
-        scale: 1.0,
         level: ElevationLevel::Medium,
-        semantics: SemanticsKind::Rigid,
-        density: ObstacleDensity::Sparse,
-        heightmap: Heightmap {
-            nx: n,
-            ny: n,
-            cell: 1.0,
-            heights,
-        },
-        patches: vec![Patch { semantic, surface }; PATCHES * PATCHES],
-        obstacles: vec![],
+        ..World::uniform(h, semantic, surface)
     }
 }
 

@@ -97,49 +97,26 @@ mod tests {
     use crate::world::*;
 
     fn world() -> World {
-        let n = 129;
-        // Height = x, so "ahead" is easy to read off the crop.
-        let heights = (0..n * n).map(|i| ((i % n) as f64 - 64.0) as f32).collect();
-        let mut patches = vec![
-            Patch {
-                semantic: Semantic::Dirt,
-                surface: Surface::Rigid { friction: 0.6 }
-            };
-            PATCHES * PATCHES
-        ];
-        // The patch containing (10, 0) is grass.
-        let w0 = World {
-            id: 1,
-            scale: 1.0,
-            level: ElevationLevel::Low,
-            semantics: SemanticsKind::Rigid,
-            density: ObstacleDensity::Sparse,
-            heightmap: Heightmap {
-                nx: n,
-                ny: n,
-                cell: 1.0,
-                heights,
-            },
-            patches: patches.clone(),
-            obstacles: vec![],
-        };
-        let k = w0.patch_index_at(10.0, 0.0);
-        patches[k] = Patch {
+        // Height = x, so "ahead" is easy to read off the crop; the patch containing (10, 0) is grass; a tree at (0, 5).
+        let mut w = World::uniform(
+            Heightmap::from_fn(1.0, |x, _| x),
+            Semantic::Dirt,
+            Surface::Rigid { friction: 0.6 },
+        );
+        let k = w.patch_index_at(10.0, 0.0);
+        w.patches[k] = Patch {
             semantic: Semantic::Grass,
             surface: Surface::Rigid { friction: 0.4 },
         };
-        World {
-            patches,
-            obstacles: vec![Obstacle {
-                kind: ObstacleKind::Tree,
-                x: 0.0,
-                y: 5.0,
-                z: 0.0,
-                yaw: 0.0,
-                half_extents: [0.5, 0.5, 2.5],
-            }],
-            ..w0
-        }
+        w.obstacles.push(Obstacle {
+            kind: ObstacleKind::Tree,
+            x: 0.0,
+            y: 5.0,
+            z: 0.0,
+            yaw: 0.0,
+            half_extents: [0.5, 0.5, 2.5],
+        });
+        w
     }
 
     #[test]

@@ -266,6 +266,25 @@ pub struct Heightmap {
 }
 
 impl Heightmap {
+    /// A `MAP_PX x MAP_PX` map at `cell` metres whose height at world point `(x, y)` is `f(x, y)`.
+    pub fn from_fn(cell: f64, f: impl Fn(f64, f64) -> f64) -> Heightmap {
+        let n = MAP_PX;
+        let mut heights = vec![0f32; n * n];
+        let half = (n - 1) as f64 / 2.0;
+        for iy in 0..n {
+            for ix in 0..n {
+                heights[iy * n + ix] =
+                    f((ix as f64 - half) * cell, (iy as f64 - half) * cell) as f32;
+            }
+        }
+        Heightmap {
+            nx: n,
+            ny: n,
+            cell,
+            heights,
+        }
+    }
+
     /// Height at sample `(ix, iy)`.
     #[inline]
     pub fn at(&self, ix: usize, iy: usize) -> f64 {
@@ -370,6 +389,26 @@ pub struct World {
 }
 
 impl World {
+    /// A world of one surface everywhere and no obstacles around a heightmap (id 1, full scale, factors low /
+    /// rigid or deformable / sparse): the building block of hand-made test terrains and custom worlds.
+    pub fn uniform(heightmap: Heightmap, semantic: Semantic, surface: Surface) -> World {
+        let semantics = if matches!(surface, Surface::Deformable { .. }) {
+            SemanticsKind::Deformable
+        } else {
+            SemanticsKind::Rigid
+        };
+        World {
+            id: 1,
+            scale: 1.0,
+            level: ElevationLevel::Low,
+            semantics,
+            density: ObstacleDensity::Sparse,
+            heightmap,
+            patches: vec![Patch { semantic, surface }; PATCHES * PATCHES],
+            obstacles: Vec::new(),
+        }
+    }
+
     /// Index into `patches` of the patch under a world point (clamped to the map).
     pub fn patch_index_at(&self, x: f64, y: f64) -> usize {
         let (fx, fy) = self.heightmap.grid_coords(x, y);

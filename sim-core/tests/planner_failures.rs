@@ -8,11 +8,14 @@ use sim_core::planner::{Action, Observation, Planner, PlannerContext, PlannerErr
 use sim_core::vehicle::vehicle_by_name;
 use sim_core::world::Task;
 
+/// What a scripted planner returns once it starts failing.
+type Failure = fn() -> Result<Action, PlannerError>;
+
 struct Scripted {
     rate: f64,
     step: usize,
     fail_at: usize,
-    failure: fn() -> Result<Action, PlannerError>,
+    failure: Failure,
 }
 
 impl Planner for Scripted {
@@ -68,7 +71,7 @@ fn run(
 
 #[test]
 fn planner_failures_end_the_episode_with_their_reason() {
-    let cases: [(fn() -> Result<Action, PlannerError>, &str); 5] = [
+    let cases: [(Failure, &str); 5] = [
         (
             || {
                 Ok(Action {

@@ -185,26 +185,10 @@ mod tests {
     use sim_core::world::*;
 
     fn world(obstacles: Vec<Obstacle>) -> World {
+        let flat = Heightmap::from_fn(1.0, |_, _| 0.0);
         World {
-            id: 1,
-            scale: 1.0,
-            level: ElevationLevel::Low,
-            semantics: SemanticsKind::Rigid,
-            density: ObstacleDensity::Sparse,
-            heightmap: Heightmap {
-                nx: 129,
-                ny: 129,
-                cell: 1.0,
-                heights: vec![0.0; 129 * 129],
-            },
-            patches: vec![
-                Patch {
-                    semantic: Semantic::Dirt,
-                    surface: Surface::Rigid { friction: 0.6 }
-                };
-                PATCHES * PATCHES
-            ],
             obstacles,
+            ..World::uniform(flat, Semantic::Dirt, Surface::Rigid { friction: 0.6 })
         }
     }
 

@@ -190,38 +190,14 @@ mod tests {
 
     /// Flat, or with a 1 m mound of radius 3 m centred 6.4 m ahead of the origin.
     fn world(mound: bool) -> World {
-        let n = 129;
-        let heights = (0..n * n)
-            .map(|i| {
-                let (x, y) = ((i % n) as f64 - 64.0, (i / n) as f64 - 64.0);
-                if mound && (x - 6.4).hypot(y) < 3.0 {
-                    1.0
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        World {
-            id: 1,
-            scale: 1.0,
-            level: ElevationLevel::Low,
-            semantics: SemanticsKind::Rigid,
-            density: ObstacleDensity::Sparse,
-            heightmap: Heightmap {
-                nx: n,
-                ny: n,
-                cell: 1.0,
-                heights,
-            },
-            patches: vec![
-                Patch {
-                    semantic: Semantic::Dirt,
-                    surface: Surface::Rigid { friction: 0.6 }
-                };
-                PATCHES * PATCHES
-            ],
-            obstacles: vec![],
-        }
+        let h = Heightmap::from_fn(1.0, |x, y| {
+            if mound && (x - 6.4).hypot(y) < 3.0 {
+                1.0
+            } else {
+                0.0
+            }
+        });
+        World::uniform(h, Semantic::Dirt, Surface::Rigid { friction: 0.6 })
     }
 
     fn info() -> VehicleInfo {

@@ -4,27 +4,11 @@ use super::*;
 use crate::world::*;
 
 fn soil_world(soil: SoilParams) -> World {
-    World {
-        id: 1,
-        scale: 1.0,
-        level: ElevationLevel::Low,
-        semantics: SemanticsKind::Deformable,
-        density: ObstacleDensity::Sparse,
-        heightmap: Heightmap {
-            nx: 129,
-            ny: 129,
-            cell: 1.0,
-            heights: vec![0.0; 129 * 129],
-        },
-        patches: vec![
-            Patch {
-                semantic: Semantic::Mud,
-                surface: Surface::Deformable { soil }
-            };
-            PATCHES * PATCHES
-        ],
-        obstacles: Vec::new(),
-    }
+    World::uniform(
+        Heightmap::from_fn(1.0, |_, _| 0.0),
+        Semantic::Mud,
+        Surface::Deformable { soil },
+    )
 }
 
 fn wheel(z: f64, vx: f64, spin: f64) -> WheelGeometry {

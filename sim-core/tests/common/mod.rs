@@ -5,32 +5,11 @@ use sim_core::world::*;
 
 /// A 129 x 129 world at 1 m whose height is `f(x, y)`, one surface everywhere, no obstacles.
 pub fn world_with(f: impl Fn(f64, f64) -> f64, surface: Surface) -> World {
-    let n = 129;
-    let mut heights = vec![0f32; n * n];
-    for iy in 0..n {
-        for ix in 0..n {
-            heights[iy * n + ix] = f(ix as f64 - 64.0, iy as f64 - 64.0) as f32;
-        }
-    }
     let semantic = match surface {
         Surface::Rigid { .. } => Semantic::Concrete,
         Surface::Deformable { .. } => Semantic::Mud,
     };
-    World {
-        id: 1,
-        scale: 1.0,
-        level: ElevationLevel::Low,
-        semantics: SemanticsKind::Rigid,
-        density: ObstacleDensity::Sparse,
-        heightmap: Heightmap {
-            nx: n,
-            ny: n,
-            cell: 1.0,
-            heights,
-        },
-        patches: vec![Patch { semantic, surface }; PATCHES * PATCHES],
-        obstacles: Vec::new(),
-    }
+    World::uniform(Heightmap::from_fn(1.0, f), semantic, surface)
 }
 
 pub fn flat(mu: f64) -> World {
