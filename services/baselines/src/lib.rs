@@ -7,20 +7,25 @@
 //!   five regions ahead, i.e. the one whose mean height is closest to the mean under the vehicle (ties: lower
 //!   variance), as the release's EH.
 //!
-//! MPPI (bicycle model) and MPPI-6 are not written yet.
+//! - [`mppi::Mppi`]: MPPI with a kinematic bicycle model.
+//!
+//! MPPI-6 is not written yet.
+
+pub mod mppi;
 
 use sim_core::control::point_ahead;
 use sim_core::planner::{Action, Observation, Planner, PlannerContext, PlannerError};
 use sim_core::world::World;
 
 /// Names of the built-in planners.
-pub const NAMES: [&str; 2] = ["pid", "eh"];
+pub const NAMES: [&str; 3] = ["pid", "eh", "mppi"];
 
 /// A built-in planner by name.
 pub fn by_name(name: &str) -> Option<Box<dyn Planner>> {
     match name {
         "pid" => Some(Box::new(Pid::new())),
         "eh" => Some(Box::new(ElevationHeuristic::new())),
+        "mppi" => Some(Box::new(mppi::Mppi::new())),
         _ => None,
     }
 }
@@ -287,6 +292,53 @@ mod tests {
         assert_eq!(p.act(&obs(0.0, 0.0, 0.0, 0.0)).unwrap().steering, 0.0);
         // From (0.5, 0) the goal is 1 m along the path: (1, 0.5), to the left.
         assert!(p.act(&obs(0.5, 0.0, 0.0, 0.0)).unwrap().steering > 0.0);
+    }
+
+    #[test]
+    fn mppi_steers_around_an_obstacle_on_the_path_and_goes_straight_without_it() {
+        let task = Task {
+            world_id: 1,
+            index: 0,
+            start: [0.0, 0.0],
+            goal: [60.0, 0.0],
+            path: vec![[0.0, 0.0], [60.0, 0.0]],
+        };
+        let mut w = world(false);
+        let mut p = mppi::Mppi::new();
+        p.reset(&PlannerContext {
+            world: &w,
+            task: &task,
+            vehicle: &info(),
+            sim_dt: 0.002,
+        })
+        .unwrap();
+        let free = p.act(&obs(0.0, 0.0, 0.0, 4.0)).unwrap();
+        assert!(free.steering.abs() < 0.15, "free path: {free:?}");
+        w.obstacles.push(Obstacle {
+            kind: ObstacleKind::Rock,
+            x: 6.0,
+            y: 0.0,
+            z: 0.0,
+            yaw: 0.0,
+            half_extents: [1.5, 1.5, 1.0],
+        });
+        let mut p = mppi::Mppi::new();
+        p.reset(&PlannerContext {
+            world: &w,
+            task: &task,
+            vehicle: &info(),
+            sim_dt: 0.002,
+        })
+        .unwrap();
+        let mut a = Action::default();
+        for _ in 0..3 {
+            a = p.act(&obs(0.0, 0.0, 0.0, 4.0)).unwrap();
+        }
+        assert!(
+            a.steering.abs() > 0.2,
+            "a rock 6 m ahead on the path: {a:?}"
+        );
+        a.validate().unwrap();
     }
 
     #[test]
