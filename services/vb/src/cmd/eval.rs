@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct EvalArgs {
-    /// Built-in planner: pid or eh.
+    /// Built-in planner: pid, eh or mppi.
     #[arg(long, default_value = "pid")]
     planner: String,
     /// `all`, or comma-separated world ids (17) and task ids (w017-t3).
