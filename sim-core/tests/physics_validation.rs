@@ -251,3 +251,33 @@ fn a_wheel_climbs_a_step_and_the_chassis_high_centres_on_a_crest() {
         sim.position().x
     );
 }
+
+#[test]
+fn on_soft_soil_the_climbable_grade_is_set_by_the_friction_angle() {
+    // Mud: cohesion 0, friction angle 30 degrees, so shear strength is sigma tan 30: the HMMWV climbs 25 degrees
+    // (> 15 m in 10 s) and not 32 degrees (< 2 m), just as on rigid ground with mu = tan 30.
+    for (deg, climbs) in [(25.0f64, true), (32.0, false)] {
+        let t = deg.to_radians().tan();
+        let w = world_with(
+            move |x, _| x * t + 64.0 * t,
+            Surface::Deformable {
+                soil: sim_core::world::SoilParams::MUD,
+            },
+        );
+        let mut sim = Simulation::new(&w, &hmmwv(), -40.0, 0.0, 0.0);
+        let x0 = sim.position().x;
+        for _ in 0..(10.0 / sim.dt()) as usize {
+            let v = sim.state().speed;
+            sim.step(&action(((4.0 - v) * 0.5).clamp(0.0, 1.0), 0.0, 0.0));
+        }
+        let gain = sim.position().x - x0;
+        if climbs {
+            assert!(gain > 15.0, "{deg} deg: only {gain:.1} m uphill on mud");
+        } else {
+            assert!(
+                gain < 2.0,
+                "{deg} deg: climbed {gain:.1} m on mud above the friction angle"
+            );
+        }
+    }
+}

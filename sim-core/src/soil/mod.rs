@@ -44,8 +44,10 @@ pub struct SoilContact {
     pub torque: Vector3<f64>,
     /// Largest sinkage below the undeformed surface, m.
     pub sinkage: f64,
-    /// Normal (vertical) part of the force, N.
+    /// Normal part of the force, N.
     pub normal: f64,
+    /// Unit surface normal the pressure acts along.
+    pub normal_dir: Vector3<f64>,
     /// d(traction)/d(slip velocity) estimate for implicit wheel-spin integration, N s/m.
     pub traction_stiffness: f64,
     /// Nodes in contact.
@@ -113,6 +115,15 @@ impl SoilGrid {
             step: 0,
             exhausted: false,
         }
+    }
+
+    /// Unit normal of the undeformed surface (bilinear heightmap, central differences over one cell).
+    pub fn surface_normal(&self, x: f64, y: f64) -> Vector3<f64> {
+        let h = &self.heights;
+        let e = 0.5 * h.cell;
+        let gx = (h.height_bilinear(x + e, y) - h.height_bilinear(x - e, y)) / (2.0 * e);
+        let gy = (h.height_bilinear(x, y + e) - h.height_bilinear(x, y - e)) / (2.0 * e);
+        Vector3::new(-gx, -gy, 1.0).normalize()
     }
 
     /// Soil parameters at a point, `None` on rigid ground.
@@ -183,8 +194,12 @@ impl SoilGrid {
         if self.tile_index.is_empty() {
             return out;
         }
-        let up = Vector3::z();
-        let mut fwd = up.cross(&w.axle);
+        // Pressure acts along the local surface normal and shear in the tangent plane (as Chrono's SCM, whose forces
+        // follow the mesh normals), so soft ground on a slope does not hold the vehicle up for free; sinkage is
+        // measured vertically, along the nodes' rays.
+        let up = self.surface_normal(w.centre.x, w.centre.y);
+        out.normal_dir = up;
+        let mut fwd = Vector3::z().cross(&w.axle);
         let fwd_norm = fwd.norm();
         if fwd_norm < 1e-9 {
             return out;
@@ -243,11 +258,11 @@ impl SoilGrid {
                     node.yield_pressure = sigma;
                     node.plastic = s - sigma / soil.elastic_k.max(soil.k_phi);
                 }
-                let sinking = -v.z;
-                if sinking > 0.0 {
-                    sigma += soil.damping * sinking;
+                let vn = v.dot(&up);
+                if vn < 0.0 {
+                    sigma -= soil.damping * vn;
                 }
-                let vt = Vector3::new(v.x, v.y, 0.0);
+                let vt = v - up * vn;
                 let slip = vt.norm();
                 node.shear += slip * dt;
                 let tau_max = soil.cohesion + sigma * soil.friction_angle_deg.to_radians().tan();

@@ -889,14 +889,15 @@ impl Simulation {
             if sc.nodes == 0 {
                 return WheelContact::default();
             }
-            let tx = (heading - Vector3::z() * heading.z).normalize();
-            let ty = Vector3::z().cross(&tx);
-            let point = centre - Vector3::z() * self.radius;
+            let n = sc.normal_dir;
+            let tx = (heading - n * heading.dot(&n)).normalize();
+            let ty = n.cross(&tx);
+            let point = centre - n * self.radius;
             return WheelContact {
                 active: true,
                 soil: true,
                 point,
-                normal: Vector3::z(),
+                normal: n,
                 load: sc.normal,
                 mu: 0.0,
                 tx,
