@@ -323,8 +323,9 @@ impl Heightmap {
         let (fx, fy) = self.grid_coords(x, y);
         let fx = fx.clamp(0.0, (self.nx - 1) as f64);
         let fy = fy.clamp(0.0, (self.ny - 1) as f64);
-        let ix = (fx.floor() as usize).min(self.nx - 2);
-        let iy = (fy.floor() as usize).min(self.ny - 2);
+        // fx, fy >= 0 here, so truncation is floor (and avoids a libm call on baseline x86-64).
+        let ix = (fx as usize).min(self.nx - 2);
+        let iy = (fy as usize).min(self.ny - 2);
         let tx = fx - ix as f64;
         let ty = fy - iy as f64;
         let h00 = self.at(ix, iy);
@@ -412,8 +413,9 @@ impl World {
     /// Index into `patches` of the patch under a world point (clamped to the map).
     pub fn patch_index_at(&self, x: f64, y: f64) -> usize {
         let (fx, fy) = self.heightmap.grid_coords(x, y);
-        let pj = ((fx / PATCH_STRIDE as f64).floor().max(0.0) as usize).min(PATCHES - 1);
-        let pi = ((fy / PATCH_STRIDE as f64).floor().max(0.0) as usize).min(PATCHES - 1);
+        // Clamped to >= 0 first, so truncation is floor.
+        let pj = ((fx / PATCH_STRIDE as f64).max(0.0) as usize).min(PATCHES - 1);
+        let pi = ((fy / PATCH_STRIDE as f64).max(0.0) as usize).min(PATCHES - 1);
         pi * PATCHES + pj
     }
     /// The patch under a world point.
