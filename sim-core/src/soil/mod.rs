@@ -17,6 +17,16 @@
 //! 4. Janosi shear `tau = (c + sigma tan phi) (1 - exp(-j / K))` opposing the slip velocity, with `j` the slip
 //!    distance accumulated while the node stays in contact (reset when contact is lost);
 //! 5. force `A (sigma n + tau t)` with `A = delta^2`.
+//!
+//! API (called by the vehicle model once per wheel / track shoe and step, after [`SoilGrid::begin_step`]):
+//! [`SoilGrid::new`] (allocates everything), [`SoilGrid::soil_at`] / [`SoilGrid::has_soil_at`] ("no soil here"
+//! on rigid patches: use rigid contact), [`SoilGrid::surface_height`] (deformed surface),
+//! [`SoilGrid::wheel_contact`] (rigid cylinder), [`SoilGrid::plate_contact`] (flat rectangle),
+//! [`SoilGrid::touched_cells`], [`SoilGrid::reset`] (undeformed again, no reallocation).
+//!
+//! Each cell takes the [`SoilParams`] of the patch it lies in, so one world can hold several soils.
+//! Sinkage, rolling resistance (pressure on the leading arc of a sinking wheel) and traction loss (shear
+//! saturating at `c + sigma tan phi`) are not added by hand: they emerge from the per-node law above.
 
 use crate::world::{SoilParams, Surface, World, PATCHES};
 use nalgebra::Vector3;
@@ -67,6 +77,34 @@ pub struct WheelGeometry {
     pub angular_velocity: Vector3<f64>,
 }
 
+/// A flat rectangular contact for [`SoilGrid::plate_contact`] (a track shoe, a belt segment, a test plate).
+#[derive(Clone, Copy, Debug)]
+pub struct PlateGeometry {
+    /// Centre of the plate's lower face (world).
+    pub centre: Vector3<f64>,
+    /// Unit vector along the plate's length, in the face.
+    pub forward: Vector3<f64>,
+    /// Unit normal of the face, pointing up (away from the soil).
+    pub up: Vector3<f64>,
+    pub length: f64,
+    pub width: f64,
+    /// Velocity of the centre and angular velocity of the plate (world).
+    pub velocity: Vector3<f64>,
+    pub angular_velocity: Vector3<f64>,
+}
+
+/// Direction along which a node's pressure pushes a wheel (see [`SoilGrid::set_pressure_direction`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PressureDirection {
+    /// Normal of the undeformed ground at the wheel (the default; the vehicle model is validated with it). The
+    /// shear acts in the ground's tangent plane; rolling resistance then comes from the shear of the leading arc.
+    #[default]
+    GroundNormal,
+    /// Radial direction of the rim at the node, as Chrono's deformed-mesh normals and Wong-Reece: the pressure
+    /// on the leading arc pushes back (compaction resistance) and the shear acts along the rim.
+    WheelRadial,
+}
+
 /// The soil of a world.
 #[derive(Clone, Debug)]
 pub struct SoilGrid {
@@ -82,6 +120,7 @@ pub struct SoilGrid {
     heights: crate::world::Heightmap,
     step: u64,
     exhausted: bool,
+    pressure: PressureDirection,
 }
 
 impl SoilGrid {
@@ -114,7 +153,13 @@ impl SoilGrid {
             heights: h.clone(),
             step: 0,
             exhausted: false,
+            pressure: PressureDirection::GroundNormal,
         }
+    }
+
+    /// Chooses the direction of the pressure on wheels ([`PressureDirection`]); plates always use the ground normal.
+    pub fn set_pressure_direction(&mut self, d: PressureDirection) {
+        self.pressure = d;
     }
 
     /// Unit normal of the undeformed surface (bilinear heightmap, central differences over one cell).
@@ -182,10 +227,117 @@ impl SoilGrid {
         }
         let i = (((x + self.half_x) / self.delta).round().max(0.0) as usize).min(self.nx - 1);
         let j = (((y + self.half_y) / self.delta).round().max(0.0) as usize).min(self.ny - 1);
+        self.plastic_at(i, j)
+    }
+
+    /// Current (deformed) surface height: the bilinear heightmap minus the plastic sinkage interpolated bilinearly
+    /// between the four surrounding nodes.
+    pub fn surface_height(&self, x: f64, y: f64) -> f64 {
+        let h0 = self.heights.height_bilinear(x, y);
+        if self.tile_index.is_empty() {
+            return h0;
+        }
+        let fx = ((x + self.half_x) / self.delta).clamp(0.0, (self.nx - 1) as f64);
+        let fy = ((y + self.half_y) / self.delta).clamp(0.0, (self.ny - 1) as f64);
+        let (i, j) = (
+            (fx as usize).min(self.nx - 2),
+            (fy as usize).min(self.ny - 2),
+        );
+        let (tx, ty) = (fx - i as f64, fy - j as f64);
+        let p = |i: usize, j: usize| self.plastic_at(i, j);
+        let rut = (1.0 - ty) * ((1.0 - tx) * p(i, j) + tx * p(i + 1, j))
+            + ty * ((1.0 - tx) * p(i, j + 1) + tx * p(i + 1, j + 1));
+        h0 - rut
+    }
+
+    fn plastic_at(&self, i: usize, j: usize) -> f64 {
         match self.tile_index[(j / TILE) * self.tiles_x + i / TILE] {
             NO_TILE => 0.0,
             t => self.pool[t as usize][(j % TILE) * TILE + i % TILE].plastic,
         }
+    }
+
+    /// Nodes that have memory (touched tiles times nodes per tile).
+    pub fn touched_cells(&self) -> usize {
+        self.pool.len() * TILE * TILE
+    }
+
+    /// Node index range covering `[c - reach, c + reach]` along x and y (inclusive).
+    fn node_range(&self, c: &Vector3<f64>, reach: f64) -> (usize, usize, usize, usize) {
+        let i0 = ((c.x - reach + self.half_x) / self.delta).floor().max(0.0) as usize;
+        let i1 =
+            (((c.x + reach + self.half_x) / self.delta).ceil().max(0.0) as usize).min(self.nx - 1);
+        let j0 = ((c.y - reach + self.half_y) / self.delta).floor().max(0.0) as usize;
+        let j1 =
+            (((c.y + reach + self.half_y) / self.delta).ceil().max(0.0) as usize).min(self.ny - 1);
+        (i0, i1, j0, j1)
+    }
+
+    /// SCM update of node `(i, j)` at `(x, y)` pressed by a body whose lowest point above it is at `z_body`, moving
+    /// with velocity `v` there; `b` is the Bekker contact width. Adds the node's force to `out` (torque about
+    /// `centre`). Returns the node's contribution to the traction stiffness.
+    #[allow(clippy::too_many_arguments)]
+    fn press_node(
+        &mut self,
+        (i, j): (usize, usize),
+        p: Vector3<f64>,
+        v: Vector3<f64>,
+        b: f64,
+        up: Vector3<f64>,
+        centre: &Vector3<f64>,
+        dt: f64,
+        out: &mut SoilContact,
+    ) -> f64 {
+        let Some(soil) = self.soil_at(p.x, p.y) else {
+            return 0.0;
+        };
+        let s = self.heights.height_bilinear(p.x, p.y) - p.z;
+        if s <= 0.0 {
+            return 0.0;
+        }
+        let step = self.step;
+        let area = self.delta * self.delta;
+        let Some(node) = self.node_mut(i, j) else {
+            return 0.0;
+        };
+        if s - node.plastic <= 0.0 {
+            node.shear = 0.0;
+            return 0.0;
+        }
+        if node.last_step + 1 < step {
+            node.shear = 0.0;
+        }
+        node.last_step = step;
+        let k_e = soil.elastic_k.max(soil.k_phi);
+        let mut sigma = k_e * (s - node.plastic);
+        if sigma > node.yield_pressure {
+            let bekker = (soil.k_c / b + soil.k_phi) * s.powf(soil.n);
+            sigma = bekker.min(sigma);
+            node.yield_pressure = sigma;
+            node.plastic = s - sigma / k_e;
+        }
+        let vn = v.dot(&up);
+        if vn < 0.0 {
+            sigma -= soil.damping * vn;
+        }
+        let vt = v - up * vn;
+        let slip = vt.norm();
+        node.shear += slip * dt;
+        let tau_max = soil.cohesion + sigma * soil.friction_angle_deg.to_radians().tan();
+        let ratio = (-node.shear / soil.janosi_k).exp();
+        let tau = tau_max * (1.0 - ratio);
+        let t = if slip > 1e-9 {
+            -vt / slip
+        } else {
+            Vector3::zeros()
+        };
+        let f = (up * sigma + t * tau) * area;
+        out.force += f;
+        out.torque += (p - centre).cross(&f);
+        out.normal += sigma * area;
+        out.sinkage = out.sinkage.max(s);
+        out.nodes += 1;
+        area * (tau_max * ratio * dt / soil.janosi_k + tau / slip.max(0.05))
     }
 
     /// Soil force on a rigid wheel, updating the soil's memory. Nodes on rigid patches are skipped.
@@ -205,19 +357,7 @@ impl SoilGrid {
             return out;
         }
         fwd /= fwd_norm;
-        let area = self.delta * self.delta;
-        let reach = w.radius + 0.5 * w.width;
-        let i0 = (((w.centre.x - reach + self.half_x) / self.delta)
-            .floor()
-            .max(0.0)) as usize;
-        let i1 =
-            ((((w.centre.x + reach + self.half_x) / self.delta).ceil()) as usize).min(self.nx - 1);
-        let j0 = (((w.centre.y - reach + self.half_y) / self.delta)
-            .floor()
-            .max(0.0)) as usize;
-        let j1 =
-            ((((w.centre.y + reach + self.half_y) / self.delta).ceil()) as usize).min(self.ny - 1);
-        let step = self.step;
+        let (i0, i1, j0, j1) = self.node_range(&w.centre, w.radius + 0.5 * w.width);
         let mut stiffness = 0.0;
         for j in j0..=j1 {
             for i in i0..=i1 {
@@ -229,57 +369,55 @@ impl SoilGrid {
                 if a.abs() > 0.5 * w.width || u.abs() >= w.radius {
                     continue;
                 }
-                let Some(soil) = self.soil_at(x, y) else {
-                    continue;
-                };
                 let z_wheel = w.centre.z - (w.radius * w.radius - u * u).sqrt();
-                let h0 = self.heights.height_bilinear(x, y);
-                let s = h0 - z_wheel;
-                if s <= 0.0 {
-                    continue;
-                }
                 let p = Vector3::new(x, y, z_wheel);
                 let v = w.velocity + w.angular_velocity.cross(&(p - w.centre));
-                let Some(node) = self.node_mut(i, j) else {
-                    continue;
+                let up = match self.pressure {
+                    PressureDirection::GroundNormal => up,
+                    PressureDirection::WheelRadial => {
+                        // The deformed surface under a node in contact follows the rim.
+                        let radial = Vector3::new(-u * fwd.x, -u * fwd.y, w.centre.z - z_wheel);
+                        radial / radial.norm()
+                    }
                 };
-                if s - node.plastic <= 0.0 {
-                    node.shear = 0.0;
+                stiffness += self.press_node((i, j), p, v, w.width, up, &w.centre, dt, &mut out);
+            }
+        }
+        out.traction_stiffness = stiffness;
+        out
+    }
+
+    /// Soil force on a flat rectangular plate (a track shoe or belt segment), updating the soil's memory. The
+    /// plate's lower face is the plane through `centre` with normal `plate.up`; nodes whose vertical ray meets the
+    /// face inside the `length x width` rectangle are pressed. The Bekker width is the plate's smaller side.
+    pub fn plate_contact(&mut self, plate: &PlateGeometry, dt: f64) -> SoilContact {
+        let mut out = SoilContact::default();
+        if self.tile_index.is_empty() || plate.up.z < 1e-3 {
+            return out;
+        }
+        let up = self.surface_normal(plate.centre.x, plate.centre.y);
+        out.normal_dir = up;
+        let side = plate.up.cross(&plate.forward);
+        let b = plate.length.min(plate.width);
+        let (i0, i1, j0, j1) =
+            self.node_range(&plate.centre, 0.5 * plate.length.hypot(plate.width));
+        let mut stiffness = 0.0;
+        for j in j0..=j1 {
+            for i in i0..=i1 {
+                let x = i as f64 * self.delta - self.half_x;
+                let y = j as f64 * self.delta - self.half_y;
+                let (dx, dy) = (x - plate.centre.x, y - plate.centre.y);
+                // Height of the face above (x, y): on the plane n . (p - c) = 0.
+                let dz = -(plate.up.x * dx + plate.up.y * dy) / plate.up.z;
+                let d = Vector3::new(dx, dy, dz);
+                if d.dot(&plate.forward).abs() > 0.5 * plate.length
+                    || d.dot(&side).abs() > 0.5 * plate.width
+                {
                     continue;
                 }
-                if node.last_step + 1 < step {
-                    node.shear = 0.0;
-                }
-                node.last_step = step;
-                let mut sigma = soil.elastic_k.max(soil.k_phi) * (s - node.plastic);
-                if sigma > node.yield_pressure {
-                    let bekker = (soil.k_c / w.width + soil.k_phi) * s.powf(soil.n);
-                    sigma = bekker.min(sigma);
-                    node.yield_pressure = sigma;
-                    node.plastic = s - sigma / soil.elastic_k.max(soil.k_phi);
-                }
-                let vn = v.dot(&up);
-                if vn < 0.0 {
-                    sigma -= soil.damping * vn;
-                }
-                let vt = v - up * vn;
-                let slip = vt.norm();
-                node.shear += slip * dt;
-                let tau_max = soil.cohesion + sigma * soil.friction_angle_deg.to_radians().tan();
-                let ratio = (-node.shear / soil.janosi_k).exp();
-                let tau = tau_max * (1.0 - ratio);
-                let t = if slip > 1e-9 {
-                    -vt / slip
-                } else {
-                    Vector3::zeros()
-                };
-                let f = (up * sigma + t * tau) * area;
-                out.force += f;
-                out.torque += (p - w.centre).cross(&f);
-                out.normal += sigma * area;
-                out.sinkage = out.sinkage.max(s);
-                out.nodes += 1;
-                stiffness += area * (tau_max * ratio * dt / soil.janosi_k + tau / slip.max(0.05));
+                let p = plate.centre + d;
+                let v = plate.velocity + plate.angular_velocity.cross(&d);
+                stiffness += self.press_node((i, j), p, v, b, up, &plate.centre, dt, &mut out);
             }
         }
         out.traction_stiffness = stiffness;
