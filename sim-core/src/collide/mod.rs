@@ -1,17 +1,27 @@
-//! Collision geometry of rigid obstacles (rocks, tree trunks) against points and spheres.
+//! Collision geometry of rigid obstacles (rocks, tree trunks) against points, spheres and oriented boxes.
 //!
 //! - A rock is an oriented box of `half_extents`, rotated by `yaw` about +z, standing on the ground at `z`.
 //! - A tree is a vertical cylinder of radius `half_extents[0]` from `z` to `z + 2 * half_extents[2]`.
 //!
 //! Queries return the penetration depth and the outward unit normal of the obstacle surface, or `None`. They are
-//! analytic (no allocation). A broad phase keeps the obstacles near the vehicle in a fixed-capacity list refreshed
-//! by the caller (see [`ObstacleSet::refresh_near`]).
+//! analytic (no allocation). A broad phase (a uniform grid built once, [`broad_phase`]) keeps the obstacles near the
+//! vehicle in a fixed-capacity list refreshed by the caller (see [`ObstacleSet::refresh_near`]); the narrow phase
+//! queries a sphere ([`ObstacleSet::sphere_contact`]) or an oriented box, the chassis
+//! ([`ObstacleSet::box_contacts`], [`chassis`]), against the near list.
 //!
-//! No tunnelling: contacts are penalty forces stiff enough that a vehicle at its top speed stops within a fraction
-//! of the thinnest obstacle (a 0.5 m trunk; see the collision test), and the per-step displacement at top speed
-//! (30 m/s x 2 ms = 6 cm at full scale) is far below it.
+//! No tunnelling: the per-step displacement at the fastest vehicle's top speed (30 m/s x 4 ms = 12 cm at full
+//! scale; the step scales with sqrt(scale)) is far below the thinnest obstacle plus the thinnest colliding body
+//! (a 1 m trunk plus a wheel or a chassis), so some step always overlaps, the first overlap is at most one step
+//! deep and its normal opposes the motion; the penalty contacts are stiff enough to stop the vehicle within a
+//! fraction of the trunk (tests: `collide_chassis` and `physics_validation`'s top-speed collision).
+
+pub mod broad_phase;
+pub mod chassis;
+
+pub use chassis::OrientedBox;
 
 use crate::world::{Obstacle, ObstacleKind};
+use broad_phase::ObstacleGrid;
 use nalgebra::Vector3;
 
 /// A contact with an obstacle.
@@ -20,6 +30,8 @@ pub struct ObstacleContact {
     pub depth: f64,
     /// Outward normal of the obstacle at the contact, unit.
     pub normal: Vector3<f64>,
+    /// Contact point on the obstacle's surface.
+    pub point: Vector3<f64>,
     pub obstacle: usize,
 }
 
@@ -116,6 +128,9 @@ pub struct ObstacleSet {
     bounds: Vec<f64>,
     near: [usize; MAX_NEAR],
     near_len: usize,
+    grid: ObstacleGrid,
+    /// Candidate buffer of the broad phase (one slot per obstacle, allocated once).
+    scratch: Vec<u32>,
 }
 
 impl ObstacleSet {
@@ -126,6 +141,11 @@ impl ObstacleSet {
             bounds: obstacles.iter().map(bound).collect(),
             near: [0; MAX_NEAR],
             near_len: 0,
+            grid: ObstacleGrid::new(
+                &obstacles.iter().map(|o| (o.x, o.y)).collect::<Vec<_>>(),
+                &obstacles.iter().map(bound).collect::<Vec<_>>(),
+            ),
+            scratch: vec![0; obstacles.len()],
         }
     }
 
@@ -133,16 +153,27 @@ impl ObstacleSet {
         &self.obstacles
     }
 
-    /// Keeps the obstacles whose bounding circle comes within `radius` of `(x, y)` (at most [`MAX_NEAR`], nearest
-    /// first is not needed: the list is in id order).
+    /// Keeps the obstacles whose bounding circle comes within `radius` of `(x, y)`: at most [`MAX_NEAR`], the lowest
+    /// ids first (the list is in id order, so results do not depend on the grid's layout).
     pub fn refresh_near(&mut self, x: f64, y: f64, radius: f64) {
         self.near_len = 0;
-        for (i, o) in self.obstacles.iter().enumerate() {
-            if (o.x - x).hypot(o.y - y) <= radius + bound(o) && self.near_len < MAX_NEAR {
-                self.near[self.near_len] = i;
+        let n = self.grid.candidates(x, y, radius, &mut self.scratch);
+        let found = &mut self.scratch[..n];
+        found.sort_unstable();
+        for &i in found.iter() {
+            let o = &self.obstacles[i as usize];
+            if (o.x - x).hypot(o.y - y) <= radius + self.bounds[i as usize]
+                && self.near_len < MAX_NEAR
+            {
+                self.near[self.near_len] = i as usize;
                 self.near_len += 1;
             }
         }
+    }
+
+    /// Ids of the obstacles in the near list.
+    pub fn near(&self) -> &[usize] {
+        &self.near[..self.near_len]
     }
 
     /// Whether any near obstacle comes within `radius` of `(x, y)` (a quick test before many point queries).
@@ -151,6 +182,23 @@ impl ObstacleSet {
             let o = &self.obstacles[i];
             (o.x - x).hypot(o.y - y) <= radius + self.bounds[i]
         })
+    }
+
+    /// Contacts of an oriented box (the chassis) with the near obstacles, one per touching obstacle in id order,
+    /// written into `out`; returns how many (at most `out.len()`, further contacts are dropped).
+    pub fn box_contacts(&self, b: &OrientedBox, out: &mut [ObstacleContact]) -> usize {
+        let mut n = 0;
+        for &i in &self.near[..self.near_len] {
+            if n == out.len() {
+                break;
+            }
+            if let Some(mut c) = chassis::box_obstacle(&self.obstacles[i], self.yaw_sin_cos[i], b) {
+                c.obstacle = i;
+                out[n] = c;
+                n += 1;
+            }
+        }
+        n
     }
 
     /// Deepest contact of a sphere with the near obstacles.
@@ -164,6 +212,7 @@ impl ObstacleSet {
                     best = Some(ObstacleContact {
                         depth,
                         normal,
+                        point: c - normal * (r - depth),
                         obstacle: i,
                     });
                 }
