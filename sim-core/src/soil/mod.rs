@@ -288,13 +288,13 @@ impl SoilGrid {
         dt: f64,
         out: &mut SoilContact,
     ) -> f64 {
-        let Some(soil) = self.soil_at(p.x, p.y) else {
-            return 0.0;
-        };
         let s = self.heights.height_bilinear(p.x, p.y) - p.z;
         if s <= 0.0 {
             return 0.0;
         }
+        let Some(soil) = self.soil_at(p.x, p.y) else {
+            return 0.0;
+        };
         let step = self.step;
         let area = self.delta * self.delta;
         let Some(node) = self.node_mut(i, j) else {
