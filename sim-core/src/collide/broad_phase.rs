@@ -1,7 +1,7 @@
 //! Uniform-grid broad phase over the obstacles' horizontal bounding circles, built once per world.
 //!
-//! Cells are [`CELL`] m square (times the world's scale is not needed: the cell size only trades memory for
-//! candidates) over the bounding rectangle of all obstacles; each cell lists, in id order, the obstacles whose
+//! Cells are [`CELL`] m square (coarser if the obstacles spread over more than 4 km; the cell size only trades
+//! memory for candidates) over the bounding rectangle of all obstacles; each cell lists, in id order, the obstacles whose
 //! bounding circle overlaps it (compressed rows: `starts` and `items`). A query walks the cells overlapping a
 //! disc and writes candidate ids into a caller-provided slice, skipping duplicates with a per-obstacle stamp; no
 //! allocation per query.
@@ -39,12 +39,14 @@ impl ObstacleGrid {
             x1 = x1.max(x + r);
             y1 = y1.max(y + r);
         }
-        let cell = CELL;
-        // Non-finite or absurd extents (bad input) collapse to one cell rather than a huge allocation.
+        // At most 1024 cells a side: huge extents get coarser cells rather than a huge allocation.
+        let cell = CELL.max((x1 - x0) / 1024.0).max((y1 - y0) / 1024.0);
+        // Non-finite extents (bad input; such obstacles never pass the distance filter) collapse to one cell.
+        let cell = if cell.is_finite() { cell } else { CELL };
         let span = |a: f64, b: f64| {
             let n = ((b - a) / cell).floor() + 1.0;
             if n.is_finite() && n >= 1.0 {
-                (n as usize).min(4096)
+                (n as usize).min(1025)
             } else {
                 1
             }
@@ -154,5 +156,9 @@ mod tests {
         assert_eq!(&out[..n], &[2]);
         assert_eq!(g.candidates(-100.0, 0.0, 1.0, &mut out), 0);
         assert_eq!(g.candidates(f64::NAN, 0.0, 1.0, &mut out), 0);
+        // Obstacles 100 km apart: coarse cells, still found.
+        let mut g = ObstacleGrid::new(&[(0.0, 0.0), (1e5, 1e5)], &[1.0, 1.0]);
+        assert_eq!(g.candidates(1e5, 1e5, 1.0, &mut out), 1);
+        assert_eq!(out[0], 1);
     }
 }
