@@ -334,6 +334,14 @@ impl Heightmap {
         let h11 = self.at(ix + 1, iy + 1);
         (h00 * (1.0 - tx) + h10 * tx) * (1.0 - ty) + (h01 * (1.0 - tx) + h11 * tx) * ty
     }
+    /// Unit normal of the bilinear surface (central differences over half a cell each way).
+    pub fn surface_normal(&self, x: f64, y: f64) -> nalgebra::Vector3<f64> {
+        let e = 0.5 * self.cell;
+        let gx = (self.height_bilinear(x + e, y) - self.height_bilinear(x - e, y)) / (2.0 * e);
+        let gy = (self.height_bilinear(x, y + e) - self.height_bilinear(x, y - e)) / (2.0 * e);
+        nalgebra::Vector3::new(-gx, -gy, 1.0).normalize()
+    }
+
     /// Returns a copy with every length multiplied by `s`.
     pub fn scaled(&self, s: f64) -> Heightmap {
         Heightmap {

@@ -164,11 +164,7 @@ impl SoilGrid {
 
     /// Unit normal of the undeformed surface (bilinear heightmap, central differences over one cell).
     pub fn surface_normal(&self, x: f64, y: f64) -> Vector3<f64> {
-        let h = &self.heights;
-        let e = 0.5 * h.cell;
-        let gx = (h.height_bilinear(x + e, y) - h.height_bilinear(x - e, y)) / (2.0 * e);
-        let gy = (h.height_bilinear(x, y + e) - h.height_bilinear(x, y - e)) / (2.0 * e);
-        Vector3::new(-gx, -gy, 1.0).normalize()
+        self.heights.surface_normal(x, y)
     }
 
     /// Soil parameters at a point, `None` on rigid ground.

@@ -59,6 +59,8 @@ struct Wheel {
     side: f64,
     steer_factor: f64,
     steered: bool,
+    /// Whether the powertrain drives this contact (all contacts of a tracked vehicle are driven).
+    driven: bool,
     group: usize,
     spring: f64,
     damper: f64,
@@ -72,6 +74,15 @@ struct Wheel {
     steer_angle: f64,
     /// Tyre deflection of the previous step (for damping).
     deflection: f64,
+}
+
+/// Tyre friction at one contact: the force `[fx, fy]` in the contact frame, `d fx / d(rim speed)` for the implicit
+/// spin update, and the tyre's bristle deflection after this step (unchanged for the handling tyre).
+#[derive(Clone, Copy, Debug)]
+struct TyreForce {
+    force: [f64; 2],
+    stiffness: f64,
+    bristle: [f64; 2],
 }
 
 /// What one step produced (for metrics).
@@ -129,6 +140,8 @@ pub struct Simulation {
     group_den: Vec<f64>,
     group_spin: Vec<f64>,
     group_brake: Vec<f64>,
+    /// Total spin inertia of each group (constant).
+    group_inertia: Vec<f64>,
     contacts: Vec<WheelContact>,
 }
 
@@ -224,6 +237,7 @@ impl Simulation {
                     side,
                     steer_factor,
                     steered: a.steered && !skid,
+                    driven: a.driven || spec.tracks.is_some(),
                     group,
                     spring: a.spring,
                     damper: a.damper,
@@ -314,6 +328,12 @@ impl Simulation {
             group_den: vec![0.0; groups],
             group_spin: vec![0.0; groups],
             group_brake: vec![0.0; groups],
+            group_inertia: (0..groups)
+                .map(|g| {
+                    spec.wheels.inertia
+                        * wheels.iter().filter(|w| w.group == g).count().max(1) as f64
+                })
+                .collect(),
             contacts: vec![WheelContact::default(); wheels.len()],
             wheels,
             time: 0.0,
@@ -538,12 +558,7 @@ impl Simulation {
             self.group_brake[g] = 0.0;
             self.group_spin[g] = 0.0;
         }
-        let n_driven = self
-            .wheels
-            .iter()
-            .filter(|w| self.is_driven(w))
-            .count()
-            .max(1) as f64;
+        let n_driven = self.wheels.iter().filter(|w| w.driven).count().max(1) as f64;
         if skid {
             let s = self.steering;
             let (ul, ur) = (
@@ -553,11 +568,8 @@ impl Simulation {
             self.group_torque[0] = ul * wheel_torque_total / 2.0;
             self.group_torque[1] = ur * wheel_torque_total / 2.0;
         } else {
-            for k in 0..self.wheels.len() {
-                if self.is_driven(&self.wheels[k]) {
-                    let g = self.wheels[k].group;
-                    self.group_torque[g] += action.throttle * wheel_torque_total / n_driven;
-                }
+            for w in self.wheels.iter().filter(|w| w.driven) {
+                self.group_torque[w.group] += action.throttle * wheel_torque_total / n_driven;
             }
         }
         // Contacts and tyre force trials.
@@ -579,8 +591,8 @@ impl Simulation {
             } else {
                 let vsx = v_p.dot(&c.tx) - w.spin * c.r_eff;
                 let vsy = v_p.dot(&c.ty);
-                let (f, _, k) = self.tyre_force(w, &c, vsx, vsy, dt);
-                (f[0], k)
+                let t = self.tyre_force(w, &c, vsx, vsy, dt);
+                (t.force[0], t.stiffness)
             };
             self.group_num[g] -= fx0 * c.r_eff;
             self.group_den[g] += dt * kx * c.r_eff * c.r_eff;
@@ -591,8 +603,8 @@ impl Simulation {
             if den <= 0.0 {
                 continue;
             }
-            let members = self.wheels.iter().filter(|w| w.group == g).count().max(1) as f64;
-            let spin = self.group_spin[g] / (self.wheel_inertia * members);
+            // The members of a group share one spin; this recovers it from the inertia-weighted sum.
+            let spin = self.group_spin[g] / self.group_inertia[g];
             let free = spin + dt * (self.group_torque[g] + self.group_num[g]) / den;
             let brake_step = dt * self.group_brake[g] / den;
             let new = if free.abs() <= brake_step {
@@ -627,22 +639,9 @@ impl Simulation {
                     let v_p = self.vel + omega_w.cross(&(c.point - self.pos));
                     let vsx = v_p.dot(&c.tx) - w.spin * c.r_eff;
                     let vsy = v_p.dot(&c.ty);
-                    let (f, _, _) = self.tyre_force(w, &c, vsx, vsy, dt);
-                    // Update the bristle state for the rigid tyre.
-                    let wm = &mut self.wheels[k];
-                    if self.spec.wheels.tyre == TyreModel::Rigid {
-                        let lim = c.mu * c.load;
-                        let trial = [
-                            -(self.bristle_k * (wm.bristle[0] + vsx * dt)) - self.bristle_c * vsx,
-                            -(self.bristle_k * (wm.bristle[1] + vsy * dt)) - self.bristle_c * vsy,
-                        ];
-                        let norm = trial[0].hypot(trial[1]);
-                        if norm > lim && norm > 0.0 {
-                            wm.bristle = [-f[0] / self.bristle_k, -f[1] / self.bristle_k];
-                        } else {
-                            wm.bristle = [wm.bristle[0] + vsx * dt, wm.bristle[1] + vsy * dt];
-                        }
-                    }
+                    let t = self.tyre_force(w, &c, vsx, vsy, dt);
+                    self.wheels[k].bristle = t.bristle;
+                    let f = t.force;
                     ground = c.normal * c.load + c.tx * f[0] + c.ty * f[1];
                 }
             }
@@ -699,7 +698,7 @@ impl Simulation {
                 hm.height_bilinear(pw.x, pw.y) - pw.z
             };
             if depth > 0.0 {
-                let n = self.normal_at(pw.x, pw.y);
+                let n = self.world_patches.heightmap.surface_normal(pw.x, pw.y);
                 let vn = v.dot(&n);
                 let fnrm = (self.body_k * depth - self.body_c * vn).max(0.0);
                 let vt = v - n * vn;
@@ -780,15 +779,6 @@ impl Simulation {
         info
     }
 
-    fn is_driven(&self, w: &Wheel) -> bool {
-        let x = w.hard.x;
-        self.spec
-            .axles
-            .iter()
-            .any(|a| a.driven && (a.x - x).abs() < 1e-9)
-            || self.spec.tracks.is_some()
-    }
-
     fn patch_mu(&self, x: f64, y: f64) -> f64 {
         match self.world_patches.patch_at(x, y).surface {
             Surface::Rigid { friction } => friction.min(self.tyre_mu),
@@ -796,23 +786,8 @@ impl Simulation {
         }
     }
 
-    fn normal_at(&self, x: f64, y: f64) -> Vector3<f64> {
-        let h = &self.world_patches.heightmap;
-        let e = 0.5 * h.cell;
-        let gx = (h.height_bilinear(x + e, y) - h.height_bilinear(x - e, y)) / (2.0 * e);
-        let gy = (h.height_bilinear(x, y + e) - h.height_bilinear(x, y - e)) / (2.0 * e);
-        Vector3::new(-gx, -gy, 1.0).normalize()
-    }
-
-    /// Tyre friction force in the contact frame `[fx, fy]` on rigid ground, whether it slides, and d fx / d(slip).
-    fn tyre_force(
-        &self,
-        w: &Wheel,
-        c: &WheelContact,
-        vsx: f64,
-        vsy: f64,
-        dt: f64,
-    ) -> ([f64; 2], bool, f64) {
+    /// Tyre friction on rigid ground for slip velocities `(vsx, vsy)`: see [`TyreForce`].
+    fn tyre_force(&self, w: &Wheel, c: &WheelContact, vsx: f64, vsy: f64, dt: f64) -> TyreForce {
         let lim = c.mu * c.load;
         match self.spec.wheels.tyre {
             TyreModel::Rigid => {
@@ -822,14 +797,20 @@ impl Simulation {
                 ];
                 let norm = trial[0].hypot(trial[1]);
                 if norm > lim && norm > 0.0 {
+                    // Sliding: the force sits on the friction circle and the bristle relaxes to carry it.
                     let s = vsx.hypot(vsy).max(0.01);
-                    (
-                        [trial[0] / norm * lim, trial[1] / norm * lim],
-                        true,
-                        lim / s,
-                    )
+                    let force = [trial[0] / norm * lim, trial[1] / norm * lim];
+                    TyreForce {
+                        force,
+                        stiffness: lim / s,
+                        bristle: [-force[0] / self.bristle_k, -force[1] / self.bristle_k],
+                    }
                 } else {
-                    (trial, false, self.bristle_k * dt + self.bristle_c)
+                    TyreForce {
+                        force: trial,
+                        stiffness: self.bristle_k * dt + self.bristle_c,
+                        bristle: [w.bristle[0] + vsx * dt, w.bristle[1] + vsy * dt],
+                    }
                 }
             }
             TyreModel::Handling => {
@@ -840,11 +821,20 @@ impl Simulation {
                 let s = vsx.hypot(vsy) / v_ref;
                 let (b, cc) = (10.0, 1.9);
                 let mag = lim * (cc * (b * s).atan()).sin();
+                let stiffness = lim * b * cc / v_ref;
                 if s < 1e-9 {
-                    return ([0.0, 0.0], false, lim * b * cc / v_ref);
+                    return TyreForce {
+                        force: [0.0, 0.0],
+                        stiffness,
+                        bristle: w.bristle,
+                    };
                 }
                 let d = [-vsx / (s * v_ref), -vsy / (s * v_ref)];
-                ([mag * d[0], mag * d[1]], s > 0.11, lim * b * cc / v_ref)
+                TyreForce {
+                    force: [mag * d[0], mag * d[1]],
+                    stiffness,
+                    bristle: w.bristle,
+                }
             }
         }
     }
@@ -902,7 +892,8 @@ impl Simulation {
                 mu: 0.0,
                 tx,
                 ty,
-                // Torque of the soil about the axle acts on the spin: fold it into an equivalent force at the rim.
+                // The soil acts on the spin through the force's component along tx at the rim radius (the soil's
+                // torque about the axle is approximated that way).
                 soil_force: sc.force,
                 soil_stiffness: sc.traction_stiffness,
                 r_eff: self.radius,
@@ -930,11 +921,7 @@ impl Simulation {
         let mut normal = (centre + axle * (point - centre).dot(&axle) - point).normalize();
         if ang == 0.0 {
             // Flat contact under the centre: the terrain normal is better conditioned than the radial one.
-            let (x, y) = (point.x, point.y);
-            let e = 0.5 * h.cell;
-            let gx = (h.height_bilinear(x + e, y) - h.height_bilinear(x - e, y)) / (2.0 * e);
-            let gy = (h.height_bilinear(x, y + e) - h.height_bilinear(x, y - e)) / (2.0 * e);
-            normal = Vector3::new(-gx, -gy, 1.0).normalize();
+            normal = h.surface_normal(point.x, point.y);
         }
         let rate = (depth - wm.deflection) / self.dt;
         wm.deflection = depth;
