@@ -33,23 +33,20 @@ pub fn sample_surface(semantic: Semantic, rng: &mut ChaCha8Rng) -> Surface {
     }
 }
 
+/// Between 1 and `pool.len()` distinct classes of `pool`, in random order.
+fn distinct_classes(pool: &[Semantic], rng: &mut ChaCha8Rng) -> Vec<Semantic> {
+    let k = rng.gen_range(1..=pool.len());
+    let mut classes = pool.to_vec();
+    classes.shuffle(rng);
+    classes.truncate(k);
+    classes
+}
+
 /// Class labels of the clusters of a world of the given kind.
 fn cluster_labels(kind: SemanticsKind, rng: &mut ChaCha8Rng) -> Vec<Semantic> {
     match kind {
-        SemanticsKind::Rigid => {
-            let k = rng.gen_range(1..=7);
-            let mut pool = Semantic::RIGID.to_vec();
-            pool.shuffle(rng);
-            pool.truncate(k);
-            pool
-        }
-        SemanticsKind::Deformable => {
-            let k = rng.gen_range(1..=3);
-            let mut pool = Semantic::DEFORMABLE.to_vec();
-            pool.shuffle(rng);
-            pool.truncate(k);
-            pool
-        }
+        SemanticsKind::Rigid => distinct_classes(&Semantic::RIGID, rng),
+        SemanticsKind::Deformable => distinct_classes(&Semantic::DEFORMABLE, rng),
         SemanticsKind::Mixed => {
             let k = rng.gen_range(2..=10);
             let mut labels = vec![
