@@ -14,7 +14,7 @@ pub mod report;
 pub mod run;
 pub mod summary;
 
-pub use run::{run, EpisodeRow, EvalConfig};
+pub use run::{run, EpisodeRow, EvalConfig, SIM_VERSION};
 
 /// Errors of the evaluator; each names the file or the parameter.
 #[derive(Debug, thiserror::Error)]

@@ -31,7 +31,20 @@ enum Command {
     /// Compare two evaluation results on the same tasks with paired statistics.
     Compare(cmd::compare::CompareArgs),
     /// Write a static leaderboard page from evaluation directories.
+    #[command(name = "leaderboard-static")]
     Leaderboard(cmd::leaderboard::LeaderboardArgs),
+    /// Run the whole evaluation service in one process (coordinator, leaderboard, workers) on SQLite.
+    Serve(cmd::service::ServeArgs),
+    /// Run the coordinator (submission and worker gRPC APIs; the only writer of the store).
+    Coordinator(cmd::service::CoordinatorArgs),
+    /// Run a worker that leases episodes from a coordinator.
+    Worker(cmd::service::WorkerArgs),
+    /// Serve the HTTP leaderboard from a store (also `vb leaderboard-static` for a page from `vb eval` output).
+    #[command(name = "leaderboard")]
+    LeaderboardServer(cmd::service::LeaderboardArgs),
+    /// Administration of the service (tokens).
+    #[command(subcommand)]
+    Admin(cmd::service::AdminCmd),
     /// Measure performance.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
@@ -47,5 +60,10 @@ fn main() -> anyhow::Result<()> {
         Command::Compare(a) => cmd::compare::run(a),
         Command::Leaderboard(a) => cmd::leaderboard::run(a),
         Command::Bench(c) => cmd::bench::run(c),
+        Command::Serve(a) => cmd::service::serve(a),
+        Command::Coordinator(a) => cmd::service::coordinator(a),
+        Command::Worker(a) => cmd::service::worker(a),
+        Command::LeaderboardServer(a) => cmd::service::leaderboard(a),
+        Command::Admin(c) => cmd::service::admin(c),
     }
 }

@@ -4,6 +4,7 @@ pub mod bench;
 pub mod compare;
 pub mod eval;
 pub mod leaderboard;
+pub mod service;
 pub mod sim;
 pub mod tasks;
 pub mod terrain;

@@ -1,0 +1,10 @@
+//! Generated types of the vertibench gRPC protocol, package `vertibench.v1`.
+//!
+//! These types stay at the service edge: the service crates convert them to and from sim-core's and the store's
+//! own types (`convert` modules there); nothing below the services sees a protobuf type.
+
+#![allow(clippy::all, clippy::pedantic)]
+
+pub mod v1 {
+    tonic::include_proto!("vertibench.v1");
+}

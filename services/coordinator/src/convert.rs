@@ -1,0 +1,159 @@
+//! Conversions between protobuf messages and the store's types (protobuf stays at the service edge).
+
+use std::io::Read;
+use tonic::Status;
+use vb_proto::v1 as pb;
+use vb_store::{EpisodeRecord, EpisodeResultIn, Lease, Progress, Submission};
+
+/// Rebuilds the planner reference a submission was made with.
+pub fn planner_ref_from_parts(kind: &str, spec: &str) -> pb::PlannerRef {
+    use pb::planner_ref::Kind;
+    let kind = match kind {
+        "builtin" => Kind::Builtin(spec.into()),
+        "endpoint" => Kind::Endpoint(spec.into()),
+        "image" => Kind::Image(spec.into()),
+        _ => Kind::Exec(pb::ExecPlanner {
+            argv: serde_json::from_str(spec).unwrap_or_else(|_| vec![spec.to_string()]),
+        }),
+    };
+    pb::PlannerRef { kind: Some(kind) }
+}
+
+pub fn lease(l: &Lease) -> pb::EpisodeLease {
+    let s = &l.submission;
+    pb::EpisodeLease {
+        lease_id: l.lease_id.clone(),
+        submission_id: s.id.clone(),
+        task_id: l.task_id.clone(),
+        planner: Some(planner_ref_from_parts(&s.planner_kind, &s.planner_spec)),
+        vehicle: s.vehicle.clone(),
+        scale: s.scale,
+        seed: s.seed,
+        step_deadline_s: s.step_deadline_s,
+        task_set_version: s.task_set_version.clone(),
+    }
+}
+
+pub fn status(s: &Submission, p: &Progress, throughput_per_s: f64) -> pb::SubmissionStatus {
+    let active = s.state == "queued" || s.state == "running";
+    let eta_known = active && throughput_per_s > 0.0;
+    pb::SubmissionStatus {
+        submission_id: s.id.clone(),
+        state: s.state.clone(),
+        total: p.total,
+        finished: p.finished,
+        running: p.running,
+        not_run: p.not_run,
+        queue_position: p.queue_position,
+        eta_s: if eta_known {
+            p.episodes_ahead as f64 / throughput_per_s
+        } else if active {
+            -1.0
+        } else {
+            0.0
+        },
+        success_rate: if p.finished > 0 {
+            p.successes as f64 / p.finished as f64
+        } else {
+            0.0
+        },
+        name: s.name.clone(),
+        planner: format!("{}:{}", s.planner_kind, s.planner_spec),
+        planner_identity: s.planner_identity.clone(),
+        task_set_version: s.task_set_version.clone(),
+        sim_version: s.sim_version.clone(),
+        vehicle: s.vehicle.clone(),
+        queued: p.queued,
+        eta_known,
+    }
+}
+
+pub fn result_row(e: &EpisodeRecord) -> pb::EpisodeResultRow {
+    pb::EpisodeResultRow {
+        task_id: e.task_id.clone(),
+        world_id: e.world_id,
+        task_index: e.task_index,
+        level: e.level.clone(),
+        semantics: e.semantics.clone(),
+        density: e.density.clone(),
+        state: e.state.clone(),
+        outcome: e.outcome.clone().unwrap_or_default(),
+        reason: e.reason.clone().unwrap_or_default(),
+        detail: e.detail.clone().unwrap_or_default(),
+        metrics_json: e.metrics_json.clone().unwrap_or_default(),
+        wall_time_s: e.wall_time_s.unwrap_or(0.0),
+        attempts: e.attempts.max(0) as u32,
+        planner_identity: e.planner_identity.clone().unwrap_or_default(),
+        sim_version: e.sim_version.clone().unwrap_or_default(),
+    }
+}
+
+fn truncate(s: &str, max: usize) -> String {
+    if s.len() <= max {
+        return s.to_string();
+    }
+    let mut cut = max;
+    while !s.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    format!("{}\n[... log truncated at {max} bytes]", &s[..cut])
+}
+
+/// Validates a worker's report and unpacks its gzip-compressed trajectory.
+pub fn report(
+    r: &pb::EpisodeReport,
+    max_log: usize,
+    max_trajectory: usize,
+) -> Result<EpisodeResultIn, Status> {
+    const OUTCOMES: [&str; 7] = [
+        "success",
+        "rollover",
+        "stuck",
+        "timeout",
+        "off_map",
+        "planner_failure",
+        "error",
+    ];
+    if !OUTCOMES.contains(&r.outcome.as_str()) {
+        return Err(Status::invalid_argument(format!(
+            "unknown outcome `{}`",
+            r.outcome
+        )));
+    }
+    if !r.metrics_json.is_empty() {
+        serde_json::from_slice::<sim_core::episode::EpisodeMetrics>(&r.metrics_json)
+            .map_err(|e| Status::invalid_argument(format!("metrics_json: {e}")))?;
+    }
+    let mut trajectory = String::new();
+    if !r.trajectory.is_empty() {
+        flate2_decode(&r.trajectory, max_trajectory, &mut trajectory)?;
+    }
+    Ok(EpisodeResultIn {
+        lease_id: r.lease_id.clone(),
+        submission_id: r.submission_id.clone(),
+        task_id: r.task_id.clone(),
+        outcome: r.outcome.clone(),
+        reason: r.reason.clone(),
+        detail: truncate(&r.detail, 16 << 10),
+        metrics_json: String::from_utf8_lossy(&r.metrics_json).into_owned(),
+        trajectory_csv: trajectory,
+        planner_log: truncate(&r.planner_log, max_log),
+        sim_version: r.sim_version.clone(),
+        planner_identity: r.planner_identity.clone(),
+        wall_time_s: r.wall_time_s,
+    })
+}
+
+fn flate2_decode(bytes: &[u8], max: usize, out: &mut String) -> Result<(), Status> {
+    let dec = flate2::read::GzDecoder::new(bytes);
+    let mut limited = dec.take(max as u64 + 1);
+    limited.read_to_string(out).map_err(|e| {
+        Status::invalid_argument(format!("trajectory is not gzip-compressed UTF-8 CSV: {e}"))
+    })?;
+    if out.len() > max {
+        return Err(Status::invalid_argument(format!(
+            "trajectory is larger than {max} bytes"
+        )));
+    }
+    Ok(())
+}

@@ -1,0 +1,607 @@
+//! The coordinator: turns submissions into one queued episode per task, leases episodes to workers, takes their
+//! reports, and answers status, progress, cancel and results. It is the only writer of the store.
+//!
+//! Restart safety: every piece of scheduling state (queue, leases with their expiry, results) lives in the store, so
+//! a restarted coordinator continues where it stopped; workers retry their calls until it is back.
+
+// tonic::Status is large (176 bytes) and is the error type of every gRPC handler; boxing it everywhere buys nothing.
+#![allow(clippy::result_large_err)]
+
+mod convert;
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use tasks::TaskSet;
+use tokio::sync::Mutex;
+use tonic::{Request, Response, Status};
+use vb_proto::v1 as pb;
+use vb_store::{NewEpisode, NewSubmission, ReportOutcome, Store, StoreError};
+
+pub use convert::planner_ref_from_parts;
+
+/// Version of the simulator every result must have been produced with.
+pub const SIM_VERSION: &str = eval::SIM_VERSION;
+
+/// Largest gRPC message the coordinator accepts (a report carries a trajectory and a log).
+pub const MAX_MESSAGE_BYTES: usize = 8 << 20;
+
+/// Limits on what a submission may contain.
+const MAX_NAME: usize = 100;
+const MAX_ARGV: usize = 64;
+const MAX_ARG_LEN: usize = 4096;
+const MAX_SPEC_LEN: usize = 2048;
+const MAX_LOG: usize = 256 << 10;
+const MAX_TRAJECTORY: usize = 16 << 20;
+
+#[derive(Clone, Debug)]
+pub struct CoordinatorConfig {
+    pub task_dir: PathBuf,
+    /// How long a lease lasts without a heartbeat, s.
+    pub lease_s: f64,
+    /// How often workers should heartbeat, s.
+    pub heartbeat_s: f64,
+    /// Whether `exec` and `image` planners are accepted (workers then start user code in their own processes).
+    pub allow_exec: bool,
+}
+
+impl CoordinatorConfig {
+    pub fn new(task_dir: PathBuf) -> Self {
+        CoordinatorConfig {
+            task_dir,
+            lease_s: 30.0,
+            heartbeat_s: 5.0,
+            allow_exec: true,
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum CoordinatorError {
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    #[error(transparent)]
+    Tasks(#[from] tasks::TasksError),
+}
+
+/// Seconds since the Unix epoch (the coordinator's clock; only services use wall time).
+pub fn now() -> f64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_secs_f64())
+        .unwrap_or(0.0)
+}
+
+/// Shared state of both gRPC services.
+pub struct Coordinator {
+    store: Store,
+    set: Arc<TaskSet>,
+    cfg: CoordinatorConfig,
+    /// Serialises leasing so two workers never get the same episode (portable across SQLite and PostgreSQL).
+    lease_lock: Mutex<()>,
+}
+
+fn store_status(e: StoreError) -> Status {
+    match e {
+        StoreError::UnknownSubmission(id) => Status::not_found(format!("no submission `{id}`")),
+        StoreError::UnknownEpisode { submission, task } => {
+            Status::not_found(format!("no episode `{task}` in submission `{submission}`"))
+        }
+        other => Status::internal(other.to_string()),
+    }
+}
+
+impl Coordinator {
+    pub fn new(store: Store, cfg: CoordinatorConfig) -> Result<Arc<Coordinator>, CoordinatorError> {
+        let set = TaskSet::load(&cfg.task_dir)?;
+        Ok(Arc::new(Coordinator {
+            store,
+            set: Arc::new(set),
+            cfg,
+            lease_lock: Mutex::new(()),
+        }))
+    }
+
+    pub fn store(&self) -> &Store {
+        &self.store
+    }
+
+    /// The public submission API.
+    pub fn coordinator_service(
+        self: &Arc<Self>,
+    ) -> pb::coordinator_server::CoordinatorServer<CoordinatorApi> {
+        pb::coordinator_server::CoordinatorServer::new(CoordinatorApi(self.clone()))
+            .max_decoding_message_size(MAX_MESSAGE_BYTES)
+    }
+
+    /// The internal worker API.
+    pub fn worker_pool_service(
+        self: &Arc<Self>,
+    ) -> pb::worker_pool_server::WorkerPoolServer<WorkerPoolApi> {
+        pb::worker_pool_server::WorkerPoolServer::new(WorkerPoolApi(self.clone()))
+            .max_decoding_message_size(MAX_MESSAGE_BYTES)
+    }
+
+    /// Returns expired leases to the queue every `lease_s / 2` seconds, forever (spawn it).
+    pub async fn run_lease_sweeper(self: Arc<Self>) {
+        let period = Duration::from_secs_f64((self.cfg.lease_s / 2.0).max(0.2));
+        loop {
+            tokio::time::sleep(period).await;
+            let _guard = self.lease_lock.lock().await;
+            if let Err(e) = self.store.expire_leases(now()).await {
+                eprintln!("coordinator: lease sweep failed: {e}");
+            }
+        }
+    }
+
+    async fn authenticate<T>(&self, req: &Request<T>) -> Result<String, Status> {
+        let header = req
+            .metadata()
+            .get("authorization")
+            .ok_or_else(|| Status::unauthenticated("missing token: send `authorization: Bearer <token>` (vb-submit --token or VB_TOKEN; create one with `vb admin token create`)"))?;
+        let value = header
+            .to_str()
+            .map_err(|_| Status::unauthenticated("authorization header is not text"))?;
+        let token = value
+            .strip_prefix("Bearer ")
+            .ok_or_else(|| {
+                Status::unauthenticated("authorization header must be `Bearer <token>`")
+            })?
+            .trim();
+        match self.store.check_token(token).await.map_err(store_status)? {
+            Some(name) => Ok(name),
+            None => Err(Status::unauthenticated("unknown or revoked token")),
+        }
+    }
+
+    async fn status_of(&self, id: &str) -> Result<pb::SubmissionStatus, Status> {
+        let reader = self.store.reader();
+        let sub = reader.submission(id).await.map_err(store_status)?;
+        let p = reader.progress(id).await.map_err(store_status)?;
+        // Throughput over the last two minutes of the whole service.
+        let t = now();
+        let (recent, first) = reader
+            .finished_since(t - 120.0)
+            .await
+            .map_err(store_status)?;
+        let span = first.map_or(120.0, |f| (t - f).clamp(1.0, 120.0));
+        Ok(convert::status(&sub, &p, recent as f64 / span))
+    }
+
+    fn validate_submit(&self, r: &pb::SubmitRequest) -> Result<ValidSubmit, Status> {
+        let bad = |m: String| Status::invalid_argument(m);
+        let name = r.name.trim();
+        if name.is_empty() || name.chars().count() > MAX_NAME || name.chars().any(char::is_control)
+        {
+            return Err(bad(format!(
+                "name must be 1 to {MAX_NAME} printable characters (got {} characters)",
+                r.name.chars().count()
+            )));
+        }
+        let (kind, spec) = match r.planner.as_ref().and_then(|p| p.kind.as_ref()) {
+            None => {
+                return Err(bad(
+                    "planner is missing: give an endpoint, exec argv, image or builtin".into(),
+                ))
+            }
+            Some(pb::planner_ref::Kind::Builtin(b)) => {
+                if baselines::by_name(b).is_none() {
+                    return Err(bad(format!(
+                        "unknown builtin planner `{b}` (available: {})",
+                        baselines::NAMES.join(", ")
+                    )));
+                }
+                ("builtin", b.clone())
+            }
+            Some(pb::planner_ref::Kind::Endpoint(u)) => {
+                if !(u.starts_with("http://") || u.starts_with("https://"))
+                    || u.len() > MAX_SPEC_LEN
+                {
+                    return Err(bad(format!(
+                        "endpoint `{u}` must be an http:// or https:// URL"
+                    )));
+                }
+                ("endpoint", u.clone())
+            }
+            Some(pb::planner_ref::Kind::Exec(e)) => {
+                if !self.cfg.allow_exec {
+                    return Err(Status::permission_denied(
+                        "this coordinator does not run exec planners",
+                    ));
+                }
+                if e.argv.is_empty()
+                    || e.argv.len() > MAX_ARGV
+                    || e.argv.iter().any(|a| a.len() > MAX_ARG_LEN)
+                {
+                    return Err(bad(format!(
+                        "exec argv must have 1 to {MAX_ARGV} arguments of at most {MAX_ARG_LEN} bytes"
+                    )));
+                }
+                if e.argv[0].trim().is_empty() {
+                    return Err(bad("exec argv[0] (the program) is empty".into()));
+                }
+                (
+                    "exec",
+                    serde_json::to_string(&e.argv).map_err(|e| Status::internal(e.to_string()))?,
+                )
+            }
+            Some(pb::planner_ref::Kind::Image(i)) => {
+                if !self.cfg.allow_exec {
+                    return Err(Status::permission_denied(
+                        "this coordinator does not run container planners",
+                    ));
+                }
+                if i.trim().is_empty()
+                    || i.len() > MAX_SPEC_LEN
+                    || i.chars().any(char::is_whitespace)
+                {
+                    return Err(bad(format!("image reference `{i}` is not valid")));
+                }
+                ("image", i.clone())
+            }
+        };
+        let vehicle_name = if r.vehicle.is_empty() {
+            "hmmwv"
+        } else {
+            r.vehicle.as_str()
+        };
+        let vehicle = sim_core::vehicle::vehicle_by_name(vehicle_name)
+            .map_err(|e| bad(format!("vehicle: {e}")))?;
+        let scale = if r.scale == 0.0 {
+            vehicle.scale
+        } else {
+            r.scale
+        };
+        if !(scale.is_finite() && scale > 0.0 && scale <= 1.0) {
+            return Err(bad(format!(
+                "scale {} must be in (0, 1] (0 = the vehicle's own)",
+                r.scale
+            )));
+        }
+        let deadline = if r.step_deadline_s == 0.0 {
+            1.0
+        } else {
+            r.step_deadline_s
+        };
+        if !(deadline.is_finite() && deadline > 0.0 && deadline <= 60.0) {
+            return Err(bad(format!(
+                "step_deadline_s {} must be in (0, 60] (0 = the default, 1 s)",
+                r.step_deadline_s
+            )));
+        }
+        if r.task_ids.len() > 10_000 || r.task_ids.iter().any(|t| t.len() > 64) {
+            return Err(bad("too many or too long task ids".into()));
+        }
+        let spec_str = if r.task_ids.is_empty() {
+            "all".to_string()
+        } else {
+            r.task_ids.join(",")
+        };
+        let selected = eval::run::select(&self.set, &spec_str).map_err(|e| bad(e.to_string()))?;
+        let mut episodes = Vec::with_capacity(selected.len());
+        for (w, t) in selected {
+            let meta = self
+                .set
+                .world_meta(w)
+                .map_err(|e| Status::internal(e.to_string()))?;
+            episodes.push(NewEpisode {
+                task_id: format!("w{w:03}-t{t}"),
+                world_id: w,
+                task_index: t,
+                level: meta.level.as_str().into(),
+                semantics: meta.semantics.as_str().into(),
+                density: meta.density.as_str().into(),
+            });
+        }
+        Ok(ValidSubmit {
+            sub: NewSubmission {
+                name: name.to_string(),
+                owner: String::new(),
+                planner_kind: kind.into(),
+                planner_identity: match kind {
+                    "builtin" => format!("builtin:{spec} ({SIM_VERSION})"),
+                    _ => format!("{kind}:{spec}"),
+                },
+                planner_spec: spec,
+                vehicle: vehicle.name.clone(),
+                scale,
+                seed: r.seed,
+                step_deadline_s: deadline,
+                task_set_version: self.set.version().to_string(),
+                sim_version: SIM_VERSION.into(),
+            },
+            episodes,
+        })
+    }
+}
+
+struct ValidSubmit {
+    sub: NewSubmission,
+    episodes: Vec<NewEpisode>,
+}
+
+/// gRPC `Coordinator` service.
+pub struct CoordinatorApi(Arc<Coordinator>);
+
+/// gRPC `WorkerPool` service.
+pub struct WorkerPoolApi(Arc<Coordinator>);
+
+type StatusStream = std::pin::Pin<
+    Box<dyn tokio_stream::Stream<Item = Result<pb::SubmissionStatus, Status>> + Send>,
+>;
+
+fn check_id(id: &str) -> Result<(), Status> {
+    if id.is_empty() || id.len() > 64 {
+        return Err(Status::invalid_argument(
+            "submission_id is empty or too long",
+        ));
+    }
+    Ok(())
+}
+
+#[tonic::async_trait]
+impl pb::coordinator_server::Coordinator for CoordinatorApi {
+    async fn submit(
+        &self,
+        req: Request<pb::SubmitRequest>,
+    ) -> Result<Response<pb::SubmitResponse>, Status> {
+        let owner = self.0.authenticate(&req).await?;
+        let mut v = self.0.validate_submit(req.get_ref())?;
+        v.sub.owner = owner;
+        let id = self
+            .0
+            .store
+            .create_submission(&v.sub, &v.episodes, now())
+            .await
+            .map_err(store_status)?;
+        Ok(Response::new(pb::SubmitResponse {
+            submission_id: id,
+            episodes: v.episodes.len() as u32,
+        }))
+    }
+
+    async fn status(
+        &self,
+        req: Request<pb::StatusRequest>,
+    ) -> Result<Response<pb::SubmissionStatus>, Status> {
+        self.0.authenticate(&req).await?;
+        check_id(&req.get_ref().submission_id)?;
+        Ok(Response::new(
+            self.0.status_of(&req.get_ref().submission_id).await?,
+        ))
+    }
+
+    async fn cancel(
+        &self,
+        req: Request<pb::CancelRequest>,
+    ) -> Result<Response<pb::SubmissionStatus>, Status> {
+        self.0.authenticate(&req).await?;
+        let id = &req.get_ref().submission_id;
+        check_id(id)?;
+        {
+            let _g = self.0.lease_lock.lock().await;
+            self.0.store.cancel(id, now()).await.map_err(store_status)?;
+        }
+        Ok(Response::new(self.0.status_of(id).await?))
+    }
+
+    type WatchProgressStream = StatusStream;
+
+    async fn watch_progress(
+        &self,
+        req: Request<pb::StatusRequest>,
+    ) -> Result<Response<Self::WatchProgressStream>, Status> {
+        self.0.authenticate(&req).await?;
+        let id = req.into_inner().submission_id;
+        check_id(&id)?;
+        // Fail now on an unknown id rather than in the stream.
+        self.0.status_of(&id).await?;
+        let (tx, rx) = tokio::sync::mpsc::channel(4);
+        let me = self.0.clone();
+        tokio::spawn(async move {
+            loop {
+                let s = me.status_of(&id).await;
+                let end = matches!(&s, Ok(s) if s.state == "done" || s.state == "cancelled")
+                    || s.is_err();
+                if tx.send(s).await.is_err() || end {
+                    break;
+                }
+                tokio::time::sleep(Duration::from_millis(500)).await;
+            }
+        });
+        Ok(Response::new(Box::pin(
+            tokio_stream::wrappers::ReceiverStream::new(rx),
+        )))
+    }
+
+    async fn list_submissions(
+        &self,
+        req: Request<pb::ListRequest>,
+    ) -> Result<Response<pb::SubmissionList>, Status> {
+        self.0.authenticate(&req).await?;
+        let subs = self
+            .0
+            .store
+            .reader()
+            .submissions()
+            .await
+            .map_err(store_status)?;
+        let mut out = Vec::with_capacity(subs.len());
+        for s in subs {
+            out.push(self.0.status_of(&s.id).await?);
+        }
+        Ok(Response::new(pb::SubmissionList { submissions: out }))
+    }
+
+    async fn results(
+        &self,
+        req: Request<pb::StatusRequest>,
+    ) -> Result<Response<pb::ResultsResponse>, Status> {
+        self.0.authenticate(&req).await?;
+        let id = &req.get_ref().submission_id;
+        check_id(id)?;
+        let status = self.0.status_of(id).await?;
+        let eps = self
+            .0
+            .store
+            .reader()
+            .episodes(id)
+            .await
+            .map_err(store_status)?;
+        Ok(Response::new(pb::ResultsResponse {
+            status: Some(status),
+            episodes: eps.iter().map(convert::result_row).collect(),
+        }))
+    }
+}
+
+#[tonic::async_trait]
+impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
+    async fn register(
+        &self,
+        req: Request<pb::RegisterRequest>,
+    ) -> Result<Response<pb::RegisterResponse>, Status> {
+        let r = req.into_inner();
+        if r.sim_version != SIM_VERSION {
+            return Err(Status::failed_precondition(format!(
+                "worker runs `{}` but this coordinator's results need `{SIM_VERSION}`",
+                r.sim_version
+            )));
+        }
+        if r.worker_name.len() > 200 || r.slots == 0 || r.slots > 1024 {
+            return Err(Status::invalid_argument(
+                "worker_name too long or slots not in 1..=1024",
+            ));
+        }
+        let id = self
+            .0
+            .store
+            .register_worker(&r.worker_name, r.slots, &r.sim_version, now())
+            .await
+            .map_err(store_status)?;
+        Ok(Response::new(pb::RegisterResponse {
+            worker_id: id,
+            lease_s: self.0.cfg.lease_s,
+            heartbeat_s: self.0.cfg.heartbeat_s,
+        }))
+    }
+
+    async fn lease(
+        &self,
+        req: Request<pb::LeaseRequest>,
+    ) -> Result<Response<pb::LeaseResponse>, Status> {
+        let r = req.into_inner();
+        let t = now();
+        if !self
+            .0
+            .store
+            .touch_worker(&r.worker_id, t)
+            .await
+            .map_err(store_status)?
+        {
+            return Err(Status::not_found(format!(
+                "unknown worker `{}`: register first",
+                r.worker_id
+            )));
+        }
+        let leases = {
+            let _g = self.0.lease_lock.lock().await;
+            self.0.store.expire_leases(t).await.map_err(store_status)?;
+            self.0
+                .store
+                .lease(&r.worker_id, r.max.min(64), self.0.cfg.lease_s, t)
+                .await
+                .map_err(store_status)?
+        };
+        Ok(Response::new(pb::LeaseResponse {
+            leases: leases.iter().map(convert::lease).collect(),
+        }))
+    }
+
+    async fn heartbeat(
+        &self,
+        req: Request<pb::HeartbeatRequest>,
+    ) -> Result<Response<pb::HeartbeatResponse>, Status> {
+        let r = req.into_inner();
+        let t = now();
+        if !self
+            .0
+            .store
+            .touch_worker(&r.worker_id, t)
+            .await
+            .map_err(store_status)?
+        {
+            return Err(Status::not_found(format!(
+                "unknown worker `{}`: register first",
+                r.worker_id
+            )));
+        }
+        let gone = {
+            let _g = self.0.lease_lock.lock().await;
+            self.0
+                .store
+                .renew(&r.worker_id, &r.lease_ids, self.0.cfg.lease_s, t)
+                .await
+                .map_err(store_status)?
+        };
+        Ok(Response::new(pb::HeartbeatResponse {
+            expired_lease_ids: gone,
+        }))
+    }
+
+    async fn report_result(
+        &self,
+        req: Request<pb::EpisodeReport>,
+    ) -> Result<Response<pb::ReportAck>, Status> {
+        let r = req.into_inner();
+        let t = now();
+        if !self
+            .0
+            .store
+            .touch_worker(&r.worker_id, t)
+            .await
+            .map_err(store_status)?
+        {
+            return Err(Status::not_found(format!(
+                "unknown worker `{}`: register first",
+                r.worker_id
+            )));
+        }
+        if r.infrastructure_failure {
+            eprintln!(
+                "coordinator: worker {} could not run {} of {}: {}",
+                r.worker_id, r.task_id, r.submission_id, r.detail
+            );
+            let _g = self.0.lease_lock.lock().await;
+            self.0
+                .store
+                .release(&r.lease_id, t)
+                .await
+                .map_err(store_status)?;
+            return Ok(Response::new(pb::ReportAck {
+                accepted: false,
+                duplicate: false,
+            }));
+        }
+        let result = convert::report(&r, MAX_LOG, MAX_TRAJECTORY)?;
+        let outcome = {
+            let _g = self.0.lease_lock.lock().await;
+            self.0
+                .store
+                .report(&result, t)
+                .await
+                .map_err(store_status)?
+        };
+        Ok(Response::new(pb::ReportAck {
+            accepted: outcome == ReportOutcome::Accepted,
+            duplicate: outcome == ReportOutcome::Duplicate,
+        }))
+    }
+}
+
+/// A gRPC server with the coordinator's two services (add more, e.g. the Sim API, before serving).
+pub fn grpc_router(c: &Arc<Coordinator>) -> tonic::transport::server::Router {
+    tonic::transport::Server::builder()
+        .add_service(c.coordinator_service())
+        .add_service(c.worker_pool_service())
+}

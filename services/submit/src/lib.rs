@@ -1,0 +1,314 @@
+//! Client side of the submission API (`vb-submit`, and `vb serve` when it evaluates a planner): submit, follow,
+//! cancel, fetch results, and validate a planner locally before queueing 1000 episodes.
+
+// tonic::Status is large (176 bytes) and is the error type of every gRPC handler; boxing it everywhere buys nothing.
+#![allow(clippy::result_large_err)]
+
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Duration;
+use tonic::metadata::MetadataValue;
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::{Channel, Endpoint};
+use tonic::{Request, Status};
+use vb_proto::v1 as pb;
+use vb_proto::v1::coordinator_client::CoordinatorClient;
+
+pub use vb_proto::v1::{PlannerRef, SubmissionStatus, SubmitRequest};
+
+#[derive(Debug, thiserror::Error)]
+pub enum SubmitError {
+    #[error("cannot reach the coordinator at {url}: {message}")]
+    Connect { url: String, message: String },
+    #[error("{0}")]
+    Rpc(String),
+    #[error("{0}")]
+    Usage(String),
+    #[error(transparent)]
+    Tasks(#[from] tasks::TasksError),
+}
+
+/// A readable message for a refused call.
+pub fn describe(s: &Status) -> String {
+    let what = match s.code() {
+        tonic::Code::Unauthenticated => "authentication failed",
+        tonic::Code::NotFound => "not found",
+        tonic::Code::InvalidArgument => "invalid request",
+        tonic::Code::PermissionDenied => "not allowed",
+        tonic::Code::ResourceExhausted => "request too large",
+        tonic::Code::Unavailable => "coordinator unavailable",
+        tonic::Code::DeadlineExceeded => "timed out",
+        _ => "coordinator error",
+    };
+    format!("{what}: {}", s.message())
+}
+
+fn rpc(s: Status) -> SubmitError {
+    SubmitError::Rpc(describe(&s))
+}
+
+#[derive(Clone)]
+pub struct Auth(MetadataValue<tonic::metadata::Ascii>);
+
+impl tonic::service::Interceptor for Auth {
+    fn call(&mut self, mut req: Request<()>) -> Result<Request<()>, Status> {
+        req.metadata_mut().insert("authorization", self.0.clone());
+        Ok(req)
+    }
+}
+
+pub type Client = CoordinatorClient<InterceptedService<Channel, Auth>>;
+
+/// Connects to the coordinator's public API with a token.
+pub async fn connect(url: &str, token: &str) -> Result<Client, SubmitError> {
+    let header: MetadataValue<_> = format!("Bearer {}", token.trim()).parse().map_err(|_| {
+        SubmitError::Usage("the token contains characters that cannot be sent in a header".into())
+    })?;
+    let channel = Endpoint::from_shared(url.to_string())
+        .map_err(|e| SubmitError::Connect {
+            url: url.into(),
+            message: e.to_string(),
+        })?
+        .connect_timeout(Duration::from_secs(5))
+        .connect()
+        .await
+        .map_err(|e| SubmitError::Connect {
+            url: url.into(),
+            message: format!("{e} (is `vb serve` or `vb coordinator` running there?)"),
+        })?;
+    Ok(CoordinatorClient::with_interceptor(channel, Auth(header)))
+}
+
+pub async fn submit(
+    client: &mut Client,
+    req: SubmitRequest,
+) -> Result<pb::SubmitResponse, SubmitError> {
+    Ok(client.submit(req).await.map_err(rpc)?.into_inner())
+}
+
+pub async fn status(client: &mut Client, id: &str) -> Result<SubmissionStatus, SubmitError> {
+    Ok(client
+        .status(pb::StatusRequest {
+            submission_id: id.into(),
+        })
+        .await
+        .map_err(rpc)?
+        .into_inner())
+}
+
+pub async fn list(client: &mut Client) -> Result<Vec<SubmissionStatus>, SubmitError> {
+    Ok(client
+        .list_submissions(pb::ListRequest {})
+        .await
+        .map_err(rpc)?
+        .into_inner()
+        .submissions)
+}
+
+pub async fn cancel(client: &mut Client, id: &str) -> Result<SubmissionStatus, SubmitError> {
+    Ok(client
+        .cancel(pb::CancelRequest {
+            submission_id: id.into(),
+        })
+        .await
+        .map_err(rpc)?
+        .into_inner())
+}
+
+pub async fn results(client: &mut Client, id: &str) -> Result<pb::ResultsResponse, SubmitError> {
+    Ok(client
+        .results(pb::StatusRequest {
+            submission_id: id.into(),
+        })
+        .await
+        .map_err(rpc)?
+        .into_inner())
+}
+
+/// Follows a submission's progress stream until it ends, calling `on` with every update; returns the last status.
+pub async fn watch(
+    client: &mut Client,
+    id: &str,
+    mut on: impl FnMut(&SubmissionStatus),
+) -> Result<SubmissionStatus, SubmitError> {
+    let mut stream = client
+        .watch_progress(pb::StatusRequest {
+            submission_id: id.into(),
+        })
+        .await
+        .map_err(rpc)?
+        .into_inner();
+    let mut last = None;
+    while let Some(s) = stream.message().await.map_err(rpc)? {
+        on(&s);
+        last = Some(s);
+    }
+    last.ok_or_else(|| SubmitError::Rpc("the progress stream ended without a status".into()))
+}
+
+fn fmt_duration(s: f64) -> String {
+    let s = s.max(0.0).round() as u64;
+    if s >= 3600 {
+        format!("{}h{:02}m", s / 3600, (s % 3600) / 60)
+    } else if s >= 60 {
+        format!("{}m{:02}s", s / 60, s % 60)
+    } else {
+        format!("{s}s")
+    }
+}
+
+/// One line: state, a progress bar, counts, queue position and ETA.
+pub fn status_line(s: &SubmissionStatus) -> String {
+    let width = 30;
+    let filled = if s.total == 0 {
+        0
+    } else {
+        (width as u64 * s.finished as u64 / s.total as u64) as usize
+    };
+    let bar = format!("[{}{}]", "#".repeat(filled), ".".repeat(width - filled));
+    let mut line = format!(
+        "{} {:<9} {bar} {}/{} done, {} running, success {:.1}%",
+        s.submission_id,
+        s.state,
+        s.finished,
+        s.total,
+        s.running,
+        100.0 * s.success_rate
+    );
+    if s.state == "queued" || s.state == "running" {
+        if s.queue_position > 0 {
+            line += &format!(", {} submissions ahead", s.queue_position);
+        }
+        line += &if s.eta_known {
+            format!(", ETA {}", fmt_duration(s.eta_s))
+        } else {
+            ", ETA unknown (no episode finished recently)".to_string()
+        };
+    }
+    if s.not_run > 0 {
+        line += &format!(", {} not run", s.not_run);
+    }
+    line
+}
+
+/// Results as CSV, one row per episode (unfinished ones included, with their state).
+pub fn results_csv(r: &pb::ResultsResponse) -> String {
+    let mut out = String::from(
+        "task_id,world_id,task_index,level,semantics,density,state,outcome,reason,time_s,roll_abs_mean_deg,pitch_abs_mean_deg,path_length_m,attempts,wall_time_s,planner_identity,sim_version,detail\n",
+    );
+    let q = |s: &str| format!("\"{}\"", s.replace('"', "\"\""));
+    for e in &r.episodes {
+        let m: Option<sim_core::episode::EpisodeMetrics> =
+            serde_json::from_str(&e.metrics_json).ok();
+        let f = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.4}"));
+        out += &format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{},{},{}\n",
+            e.task_id,
+            e.world_id,
+            e.task_index,
+            e.level,
+            e.semantics,
+            e.density,
+            e.state,
+            e.outcome,
+            e.reason,
+            f(m.as_ref().map(|m| m.time)),
+            f(m.as_ref().map(|m| m.roll_abs.mean)),
+            f(m.as_ref().map(|m| m.pitch_abs.mean)),
+            f(m.as_ref().map(|m| m.path_length)),
+            e.attempts,
+            e.wall_time_s,
+            q(&e.planner_identity),
+            q(&e.sim_version),
+            q(&e.detail),
+        );
+    }
+    out
+}
+
+/// Results as JSON: the status and every episode with its metrics.
+pub fn results_json(r: &pb::ResultsResponse) -> String {
+    let eps: Vec<serde_json::Value> = r
+        .episodes
+        .iter()
+        .map(|e| {
+            serde_json::json!({
+                "task_id": e.task_id, "world_id": e.world_id, "task_index": e.task_index,
+                "level": e.level, "semantics": e.semantics, "density": e.density,
+                "state": e.state, "outcome": e.outcome, "reason": e.reason, "detail": e.detail,
+                "metrics": serde_json::from_str::<serde_json::Value>(&e.metrics_json).unwrap_or(serde_json::Value::Null),
+                "attempts": e.attempts, "wall_time_s": e.wall_time_s,
+                "planner_identity": e.planner_identity, "sim_version": e.sim_version,
+            })
+        })
+        .collect();
+    let s = r.status.clone().unwrap_or_default();
+    let v = serde_json::json!({
+        "submission_id": s.submission_id, "name": s.name, "state": s.state, "planner": s.planner,
+        "planner_identity": s.planner_identity, "vehicle": s.vehicle, "task_set_version": s.task_set_version,
+        "sim_version": s.sim_version, "total": s.total, "finished": s.finished, "not_run": s.not_run,
+        "success_rate": s.success_rate, "episodes": eps,
+    });
+    serde_json::to_string_pretty(&v).unwrap_or_default() + "\n"
+}
+
+/// What `validate` found.
+#[derive(Clone, Debug)]
+pub struct Validation {
+    pub ok: bool,
+    pub outcome: String,
+    pub reason: String,
+    pub detail: String,
+    pub control_steps: usize,
+    pub round_trip_p50_ms: f64,
+    pub round_trip_max_ms: f64,
+    pub planner_log: String,
+}
+
+/// Runs `planner` on one short task locally, through the same code the workers use, and says whether it follows
+/// the protocol (connects, answers every step in time with valid actions). Driving well is not required.
+pub async fn validate(
+    planner: PlannerRef,
+    task_dir: &Path,
+    task_id: &str,
+    max_time: f64,
+    step_deadline_s: f64,
+) -> Result<Validation, SubmitError> {
+    let set = Arc::new(tasks::TaskSet::load(task_dir)?);
+    if vb_worker::parse_task_id(task_id).is_none() {
+        return Err(SubmitError::Usage(format!(
+            "bad task id `{task_id}` (like w000-t0)"
+        )));
+    }
+    let spec = vb_worker::EpisodeSpec {
+        task_id: task_id.into(),
+        planner,
+        vehicle: "hmmwv".into(),
+        scale: 1.0,
+        seed: 0,
+        step_deadline_s,
+        max_time: Some(max_time),
+    };
+    let run = vb_worker::run_episode(
+        set,
+        spec,
+        Arc::new(AtomicBool::new(false)),
+        Duration::from_secs(30),
+    )
+    .await
+    .map_err(SubmitError::Usage)?;
+    let mut rt = run.round_trips.clone();
+    rt.sort_by(f64::total_cmp);
+    let r = &run.result;
+    Ok(Validation {
+        ok: r.outcome != sim_core::episode::Outcome::PlannerFailure,
+        outcome: r.outcome.as_str().into(),
+        reason: r.reason.clone(),
+        detail: r.detail.clone(),
+        control_steps: rt.len(),
+        round_trip_p50_ms: rt.get(rt.len() / 2).copied().unwrap_or(0.0) * 1e3,
+        round_trip_max_ms: rt.last().copied().unwrap_or(0.0) * 1e3,
+        planner_log: run.planner_log,
+    })
+}

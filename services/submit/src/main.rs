@@ -1,0 +1,312 @@
+//! `vb-submit`: submit a planner to a vertibench coordinator, follow it, fetch its results. Thin: parses arguments
+//! and calls the `vb_submit` library.
+
+use anyhow::{bail, Context};
+use clap::{Args, Parser, Subcommand};
+use std::path::PathBuf;
+use vb_proto::v1 as pb;
+
+#[derive(Parser)]
+#[command(
+    name = "vb-submit",
+    version,
+    about = "Submit off-road planners to a vertibench evaluation service"
+)]
+struct Cli {
+    /// Coordinator URL.
+    #[arg(
+        long,
+        env = "VB_COORDINATOR",
+        default_value = "http://127.0.0.1:50051",
+        global = true
+    )]
+    coordinator: String,
+    /// Submission token (from `vb admin token create`); else $VB_TOKEN, else ~/.config/vertibench/token.
+    #[arg(long, env = "VB_TOKEN", hide_env_values = true, global = true)]
+    token: Option<String>,
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Args, Clone)]
+struct SubmitOpts {
+    /// Name shown on the leaderboard.
+    #[arg(long)]
+    name: Option<String>,
+    /// Vehicle (see `vb sim vehicles`).
+    #[arg(long, default_value = "hmmwv")]
+    vehicle: String,
+    /// World scale (0 = the vehicle's own).
+    #[arg(long, default_value_t = 0.0)]
+    scale: f64,
+    /// `all`, or a comma-separated list of world ids and task ids (w017-t3).
+    #[arg(long, default_value = "all")]
+    tasks: String,
+    /// Per-control-step deadline of the planner, s.
+    #[arg(long, default_value_t = 1.0)]
+    step_deadline: f64,
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Follow the progress until the submission ends.
+    #[arg(long)]
+    wait: bool,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Submit a planner server you run (gRPC `vertibench.v1.Planner` at URL).
+    Endpoint {
+        url: String,
+        #[command(flatten)]
+        opts: SubmitOpts,
+    },
+    /// Submit a command that workers start; it must serve the Planner API on $VB_PLANNER_ADDR.
+    Exec {
+        #[command(flatten)]
+        opts: SubmitOpts,
+        #[arg(last = true, required = true)]
+        command: Vec<String>,
+    },
+    /// Submit a container image that serves the Planner API on $VB_PLANNER_ADDR (host network).
+    Image {
+        image: String,
+        #[command(flatten)]
+        opts: SubmitOpts,
+    },
+    /// Submit one of the built-in baselines (pid, eh, mppi, ...).
+    Builtin {
+        planner: String,
+        #[command(flatten)]
+        opts: SubmitOpts,
+    },
+    /// Progress of one submission (progress bar, queue position, ETA), or of all of them.
+    Status {
+        id: Option<String>,
+        /// Follow until the submission ends.
+        #[arg(long)]
+        watch: bool,
+    },
+    /// Results of a submission, one row per episode.
+    Results {
+        id: String,
+        #[arg(long, default_value = "csv", value_parser = ["csv", "json"])]
+        format: String,
+        /// Write to a file instead of stdout.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Cancel a submission: finished episodes are kept, the rest are marked not run.
+    Cancel { id: String },
+    /// Check a planner on one short task locally before queueing the whole benchmark.
+    Validate {
+        #[command(subcommand)]
+        what: ValidateCmd,
+    },
+}
+
+#[derive(Subcommand)]
+enum ValidateCmd {
+    /// A planner server at URL.
+    Endpoint {
+        url: String,
+        #[command(flatten)]
+        v: ValidateOpts,
+    },
+    /// A command serving on $VB_PLANNER_ADDR.
+    Exec {
+        #[command(flatten)]
+        v: ValidateOpts,
+        #[arg(last = true, required = true)]
+        command: Vec<String>,
+    },
+}
+
+#[derive(Args, Clone)]
+struct ValidateOpts {
+    #[arg(long, default_value = "w000-t0")]
+    task: String,
+    /// Simulated seconds to run.
+    #[arg(long, default_value_t = 15.0)]
+    max_time: f64,
+    #[arg(long, default_value_t = 1.0)]
+    step_deadline: f64,
+    /// Task set directory.
+    #[arg(long, default_value_os_t = tasks::TaskSet::default_dir())]
+    task_dir: PathBuf,
+}
+
+fn token(cli: &Cli) -> anyhow::Result<String> {
+    if let Some(t) = &cli.token {
+        return Ok(t.clone());
+    }
+    let path = std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".config/vertibench/token"));
+    if let Some(p) = &path {
+        if let Ok(t) = std::fs::read_to_string(p) {
+            return Ok(t.trim().to_string());
+        }
+    }
+    bail!("no token: pass --token, set VB_TOKEN, or put one in ~/.config/vertibench/token (an operator creates it with `vb admin token create --name YOU`)")
+}
+
+async fn do_submit(
+    cli: &Cli,
+    planner: pb::planner_ref::Kind,
+    default_name: String,
+    o: &SubmitOpts,
+) -> anyhow::Result<()> {
+    let mut client = vb_submit::connect(&cli.coordinator, &token(cli)?).await?;
+    let task_ids = if o.tasks.trim() == "all" {
+        Vec::new()
+    } else {
+        o.tasks
+            .split(',')
+            .map(|s| s.trim().to_string())
+            .filter(|s| !s.is_empty())
+            .collect()
+    };
+    let r = vb_submit::submit(
+        &mut client,
+        pb::SubmitRequest {
+            name: o.name.clone().unwrap_or(default_name),
+            planner: Some(pb::PlannerRef {
+                kind: Some(planner),
+            }),
+            vehicle: o.vehicle.clone(),
+            scale: o.scale,
+            task_ids,
+            step_deadline_s: o.step_deadline,
+            seed: o.seed,
+        },
+    )
+    .await?;
+    println!("submitted {} ({} episodes)", r.submission_id, r.episodes);
+    if o.wait {
+        let last = vb_submit::watch(&mut client, &r.submission_id, |s| {
+            eprint!("\r{}   ", vb_submit::status_line(s))
+        })
+        .await?;
+        eprintln!();
+        println!("{}", vb_submit::status_line(&last));
+    } else {
+        println!(
+            "follow it with: vb-submit status {} --watch",
+            r.submission_id
+        );
+    }
+    Ok(())
+}
+
+#[tokio::main]
+async fn main() -> anyhow::Result<()> {
+    let cli = Cli::parse();
+    use pb::planner_ref::Kind;
+    match &cli.command {
+        Cmd::Endpoint { url, opts } => {
+            do_submit(&cli, Kind::Endpoint(url.clone()), url.clone(), opts).await
+        }
+        Cmd::Exec { opts, command } => {
+            let name = command.join(" ");
+            do_submit(
+                &cli,
+                Kind::Exec(pb::ExecPlanner {
+                    argv: command.clone(),
+                }),
+                name,
+                opts,
+            )
+            .await
+        }
+        Cmd::Image { image, opts } => {
+            do_submit(&cli, Kind::Image(image.clone()), image.clone(), opts).await
+        }
+        Cmd::Builtin { planner, opts } => {
+            do_submit(&cli, Kind::Builtin(planner.clone()), planner.clone(), opts).await
+        }
+        Cmd::Status { id, watch } => {
+            let mut client = vb_submit::connect(&cli.coordinator, &token(&cli)?).await?;
+            match id {
+                None => {
+                    let all = vb_submit::list(&mut client).await?;
+                    if all.is_empty() {
+                        println!("no submissions");
+                    }
+                    for s in all {
+                        println!("{}  {}", vb_submit::status_line(&s), s.name);
+                    }
+                }
+                Some(id) if *watch => {
+                    let last = vb_submit::watch(&mut client, id, |s| {
+                        eprint!("\r{}   ", vb_submit::status_line(s))
+                    })
+                    .await?;
+                    eprintln!();
+                    println!("{}", vb_submit::status_line(&last));
+                }
+                Some(id) => println!(
+                    "{}",
+                    vb_submit::status_line(&vb_submit::status(&mut client, id).await?)
+                ),
+            }
+            Ok(())
+        }
+        Cmd::Results { id, format, out } => {
+            let mut client = vb_submit::connect(&cli.coordinator, &token(&cli)?).await?;
+            let r = vb_submit::results(&mut client, id).await?;
+            let text = if format == "json" {
+                vb_submit::results_json(&r)
+            } else {
+                vb_submit::results_csv(&r)
+            };
+            match out {
+                Some(p) => {
+                    std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))?
+                }
+                None => print!("{text}"),
+            }
+            Ok(())
+        }
+        Cmd::Cancel { id } => {
+            let mut client = vb_submit::connect(&cli.coordinator, &token(&cli)?).await?;
+            let s = vb_submit::cancel(&mut client, id).await?;
+            println!("{}", vb_submit::status_line(&s));
+            Ok(())
+        }
+        Cmd::Validate { what } => {
+            let (planner, v) = match what {
+                ValidateCmd::Endpoint { url, v } => (Kind::Endpoint(url.clone()), v),
+                ValidateCmd::Exec { v, command } => (
+                    Kind::Exec(pb::ExecPlanner {
+                        argv: command.clone(),
+                    }),
+                    v,
+                ),
+            };
+            let r = vb_submit::validate(
+                pb::PlannerRef {
+                    kind: Some(planner),
+                },
+                &v.task_dir,
+                &v.task,
+                v.max_time,
+                v.step_deadline,
+            )
+            .await?;
+            println!(
+                "task {}: outcome {} ({}) after {} control steps; round trip p50 {:.2} ms, max {:.2} ms",
+                v.task, r.outcome, r.reason, r.control_steps, r.round_trip_p50_ms, r.round_trip_max_ms
+            );
+            if !r.detail.is_empty() {
+                println!("detail: {}", r.detail);
+            }
+            if !r.planner_log.is_empty() {
+                println!("planner log:\n{}", r.planner_log.trim_end());
+            }
+            if r.ok {
+                println!("OK: the planner follows the protocol");
+                Ok(())
+            } else {
+                bail!("the planner failed validation: {} ({})", r.reason, r.detail)
+            }
+        }
+    }
+}

@@ -1,0 +1,312 @@
+//! `vb serve`, `vb coordinator`, `vb worker`, `vb leaderboard`, `vb admin`: the evaluation service.
+
+use anyhow::{bail, Context};
+use clap::{Args, Subcommand};
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+use tokio::net::TcpListener;
+use vb_coordinator::{Coordinator, CoordinatorConfig};
+use vb_leaderboard::Leaderboard;
+use vb_store::Store;
+
+fn default_slots() -> usize {
+    std::thread::available_parallelism().map_or(2, |n| n.get())
+}
+
+#[derive(Args)]
+pub struct ServeArgs {
+    /// Results store (SQLite file or postgres:// URL).
+    #[arg(long, default_value = "sqlite://out/vb.db")]
+    db: String,
+    /// gRPC address of the coordinator (submission and worker APIs, and the Sim API).
+    #[arg(long, default_value = "127.0.0.1:50051")]
+    grpc: SocketAddr,
+    /// HTTP address of the leaderboard.
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    http: SocketAddr,
+    /// Episodes run at once by the in-process worker pool.
+    #[arg(long, default_value_t = default_slots())]
+    slots: usize,
+    /// Task set directory.
+    #[arg(long, default_value_os_t = tasks::TaskSet::default_dir())]
+    task_dir: PathBuf,
+    /// Submit this built-in planner through the gRPC API and follow it to the end.
+    #[arg(long)]
+    evaluate: Option<String>,
+    /// Tasks of that evaluation: `all`, or world ids and task ids.
+    #[arg(long, default_value = "all")]
+    tasks: String,
+    /// Stop once the evaluation has finished instead of serving on.
+    #[arg(long)]
+    exit_when_done: bool,
+}
+
+#[derive(Args)]
+pub struct CoordinatorArgs {
+    #[arg(long, default_value = "sqlite://out/vb.db")]
+    db: String,
+    #[arg(long, default_value = "127.0.0.1:50051")]
+    listen: SocketAddr,
+    #[arg(long, default_value_os_t = tasks::TaskSet::default_dir())]
+    task_dir: PathBuf,
+    /// Lease length without a heartbeat, s: a dead worker's episodes are re-queued after this.
+    #[arg(long, default_value_t = 30.0)]
+    lease_s: f64,
+    /// Heartbeat period asked of workers, s.
+    #[arg(long, default_value_t = 5.0)]
+    heartbeat_s: f64,
+    /// Refuse exec and image planners (only endpoints and built-ins).
+    #[arg(long)]
+    no_exec: bool,
+}
+
+#[derive(Args)]
+pub struct WorkerArgs {
+    #[arg(long, default_value = "http://127.0.0.1:50051")]
+    coordinator: String,
+    #[arg(long, default_value_t = default_slots())]
+    slots: usize,
+    /// Name shown in the coordinator's logs.
+    #[arg(long)]
+    name: Option<String>,
+    #[arg(long, default_value_os_t = tasks::TaskSet::default_dir())]
+    task_dir: PathBuf,
+    /// How long a planner process may take to start serving, s.
+    #[arg(long, default_value_t = 30.0)]
+    planner_startup_s: f64,
+}
+
+#[derive(Args)]
+pub struct LeaderboardArgs {
+    #[arg(long, default_value = "sqlite://out/vb.db")]
+    db: String,
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    listen: SocketAddr,
+    #[arg(long, default_value_os_t = tasks::TaskSet::default_dir())]
+    task_dir: PathBuf,
+}
+
+#[derive(Subcommand)]
+pub enum AdminCmd {
+    /// Submission tokens.
+    #[command(subcommand)]
+    Token(TokenCmd),
+}
+
+#[derive(Subcommand)]
+pub enum TokenCmd {
+    /// Create a token (printed once; the store keeps only its hash).
+    Create {
+        #[arg(long)]
+        name: String,
+        #[arg(long, default_value = "sqlite://out/vb.db")]
+        db: String,
+    },
+    /// Revoke every token with this name.
+    Revoke {
+        #[arg(long)]
+        name: String,
+        #[arg(long, default_value = "sqlite://out/vb.db")]
+        db: String,
+    },
+}
+
+fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")
+}
+
+/// Creates the directory of a SQLite database file.
+fn prepare_db(url: &str) -> anyhow::Result<()> {
+    if let Some(path) = url.strip_prefix("sqlite://") {
+        let path = path.split('?').next().unwrap_or(path);
+        if let Some(dir) = std::path::Path::new(path).parent() {
+            if !dir.as_os_str().is_empty() {
+                std::fs::create_dir_all(dir)
+                    .with_context(|| format!("creating {}", dir.display()))?;
+            }
+        }
+    }
+    Ok(())
+}
+
+async fn open_store(url: &str) -> anyhow::Result<Store> {
+    prepare_db(url)?;
+    Store::open(url)
+        .await
+        .with_context(|| format!("opening the store at {url}"))
+}
+
+async fn bind(addr: SocketAddr, what: &str) -> anyhow::Result<TcpListener> {
+    TcpListener::bind(addr)
+        .await
+        .with_context(|| format!("cannot listen on {addr} for the {what} (is another vb running? pick another with a flag)"))
+}
+
+async fn start_coordinator(
+    store: Store,
+    cfg: CoordinatorConfig,
+    listener: TcpListener,
+) -> anyhow::Result<Arc<Coordinator>> {
+    let coord = Coordinator::new(store, cfg)?;
+    tokio::spawn(coord.clone().run_lease_sweeper());
+    let grpc = vb_coordinator::grpc_router(&coord);
+    tokio::spawn(async move {
+        if let Err(e) = grpc
+            .serve_with_incoming(tokio_stream::wrappers::TcpListenerStream::new(listener))
+            .await
+        {
+            eprintln!("coordinator gRPC server stopped: {e}");
+        }
+    });
+    Ok(coord)
+}
+
+pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
+    runtime()?.block_on(async move {
+        let store = open_store(&a.db).await?;
+        let grpc = bind(a.grpc, "coordinator gRPC API").await?;
+        let http = bind(a.http, "leaderboard").await?;
+        let grpc_addr = grpc.local_addr()?;
+        let http_addr = http.local_addr()?;
+        let coord = start_coordinator(store.clone(), CoordinatorConfig::new(a.task_dir.clone()), grpc).await?;
+        let lb = Leaderboard::new(store.reader(), Some(tasks::TaskSet::load(&a.task_dir)?));
+        tokio::spawn(async move {
+            if let Err(e) = vb_leaderboard::serve(lb, http).await {
+                eprintln!("leaderboard stopped: {e}");
+            }
+        });
+        let (_stop, shutdown) = tokio::sync::watch::channel(false);
+        let wcfg = vb_worker::WorkerConfig {
+            coordinator: format!("http://{grpc_addr}"),
+            name: "serve-local".into(),
+            slots: a.slots.max(1),
+            task_dir: a.task_dir.clone(),
+            planner_startup_s: 30.0,
+        };
+        tokio::spawn(async move {
+            if let Err(e) = vb_worker::run_worker(wcfg, shutdown).await {
+                eprintln!("worker stopped: {e}");
+            }
+        });
+        let token = coord.store().create_token("vb-serve", vb_coordinator::now()).await?;
+        eprintln!("coordinator gRPC on {grpc_addr}, leaderboard on http://{http_addr}/, {} local worker slots", a.slots);
+        eprintln!("submit your own planner with: VB_COORDINATOR=http://{grpc_addr} VB_TOKEN={token} vb-submit endpoint URL --name NAME");
+        if let Some(planner) = &a.evaluate {
+            let mut client = vb_submit::connect(&format!("http://{grpc_addr}"), &token).await?;
+            let task_ids = if a.tasks.trim() == "all" {
+                Vec::new()
+            } else {
+                a.tasks.split(',').map(|s| s.trim().to_string()).collect()
+            };
+            let t0 = std::time::Instant::now();
+            let r = vb_submit::submit(
+                &mut client,
+                vb_submit::SubmitRequest {
+                    name: format!("{planner} (builtin)"),
+                    planner: Some(vb_submit::PlannerRef {
+                        kind: Some(vb_proto::v1::planner_ref::Kind::Builtin(planner.clone())),
+                    }),
+                    task_ids,
+                    ..Default::default()
+                },
+            )
+            .await?;
+            eprintln!("submitted {} ({} episodes) through the gRPC API", r.submission_id, r.episodes);
+            let last = vb_submit::watch(&mut client, &r.submission_id, |s| eprint!("\r{}   ", vb_submit::status_line(s))).await?;
+            eprintln!();
+            println!("{}", vb_submit::status_line(&last));
+            println!("wall time {:.1} s", t0.elapsed().as_secs_f64());
+            println!("leaderboard: http://{http_addr}/submissions/{}", r.submission_id);
+            if a.exit_when_done {
+                return Ok(());
+            }
+        }
+        println!("leaderboard: http://{http_addr}/  (Ctrl-C to stop)");
+        tokio::signal::ctrl_c().await?;
+        Ok(())
+    })
+}
+
+pub fn coordinator(a: CoordinatorArgs) -> anyhow::Result<()> {
+    if !(a.lease_s > 0.0 && a.heartbeat_s > 0.0 && a.heartbeat_s < a.lease_s) {
+        bail!(
+            "need 0 < --heartbeat-s < --lease-s (got {} and {})",
+            a.heartbeat_s,
+            a.lease_s
+        );
+    }
+    runtime()?.block_on(async move {
+        let store = open_store(&a.db).await?;
+        let listener = bind(a.listen, "coordinator gRPC API").await?;
+        let mut cfg = CoordinatorConfig::new(a.task_dir.clone());
+        cfg.lease_s = a.lease_s;
+        cfg.heartbeat_s = a.heartbeat_s;
+        cfg.allow_exec = !a.no_exec;
+        eprintln!(
+            "coordinator on {} (store {}, task set {})",
+            listener.local_addr()?,
+            a.db,
+            a.task_dir.display()
+        );
+        start_coordinator(store, cfg, listener).await?;
+        tokio::signal::ctrl_c().await?;
+        Ok(())
+    })
+}
+
+pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
+    runtime()?.block_on(async move {
+        let (_stop, shutdown) = tokio::sync::watch::channel(false);
+        let cfg = vb_worker::WorkerConfig {
+            coordinator: a.coordinator.clone(),
+            name: a
+                .name
+                .clone()
+                .unwrap_or_else(|| format!("worker-{}", std::process::id())),
+            slots: a.slots,
+            task_dir: a.task_dir.clone(),
+            planner_startup_s: a.planner_startup_s,
+        };
+        vb_worker::run_worker(cfg, shutdown).await?;
+        Ok(())
+    })
+}
+
+pub fn leaderboard(a: LeaderboardArgs) -> anyhow::Result<()> {
+    runtime()?.block_on(async move {
+        let reader = vb_store::Reader::open(&a.db)
+            .await
+            .with_context(|| format!("opening the store at {}", a.db))?;
+        let set = tasks::TaskSet::load(&a.task_dir).ok();
+        let listener = bind(a.listen, "leaderboard").await?;
+        eprintln!("leaderboard on http://{}/", listener.local_addr()?);
+        vb_leaderboard::serve(Leaderboard::new(reader, set), listener).await?;
+        Ok(())
+    })
+}
+
+pub fn admin(c: AdminCmd) -> anyhow::Result<()> {
+    runtime()?.block_on(async move {
+        match c {
+            AdminCmd::Token(TokenCmd::Create { name, db }) => {
+                if name.trim().is_empty() {
+                    bail!("--name must not be empty");
+                }
+                let store = open_store(&db).await?;
+                let token = store.create_token(&name, vb_coordinator::now()).await?;
+                eprintln!("token for `{name}` (shown once; the store keeps only its SHA-256):");
+                println!("{token}");
+            }
+            AdminCmd::Token(TokenCmd::Revoke { name, db }) => {
+                let store = open_store(&db).await?;
+                let n = store.revoke_tokens(&name).await?;
+                println!("revoked {n} token(s) named `{name}`");
+            }
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,554 @@
+//! The worker of the evaluation service: registers with the coordinator, leases episodes, runs each one with
+//! sim-core on a blocking thread against its planner (built-in, a remote gRPC endpoint, a process or a container it
+//! starts), heartbeats its leases, and reports every finished episode with its metrics, a compact trajectory and the
+//! planner's log. It never touches the database.
+//!
+//! Failure model: a worker can die at any moment (its leases expire and the coordinator re-queues the episodes);
+//! a planner's own failure (crash, hang, NaN, protocol error) is the episode's result, reported and not retried;
+//! a report that cannot be delivered is retried until the coordinator is back.
+
+// tonic::Status is large (176 bytes) and is the error type of every gRPC handler; boxing it everywhere buys nothing.
+#![allow(clippy::result_large_err)]
+
+pub mod convert;
+pub mod exec;
+pub mod remote;
+pub mod sim_service;
+
+use remote::{PlannerLog, RemotePlanner, SharedLog};
+use sim_core::episode::{EpisodeConfig, EpisodeResult, Outcome};
+use sim_core::planner::{Action, Planner, PlannerError, VehicleState};
+use sim_core::runner::EpisodeObserver;
+use std::collections::HashMap;
+use std::io::Write;
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use tasks::TaskSet;
+use tonic::transport::{Channel, Endpoint};
+use vb_proto::v1 as pb;
+use vb_proto::v1::worker_pool_client::WorkerPoolClient;
+
+/// Version of the simulator this worker runs (must match the coordinator's).
+pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"));
+
+/// Trajectory recording rate of service episodes, Hz.
+pub const RECORD_HZ: f64 = 5.0;
+
+#[derive(Debug, thiserror::Error)]
+pub enum WorkerError {
+    #[error(transparent)]
+    Tasks(#[from] tasks::TasksError),
+    #[error("bad coordinator address `{0}`: {1}")]
+    Address(String, String),
+    #[error("coordinator refused this worker: {0}")]
+    Refused(String),
+}
+
+#[derive(Clone, Debug)]
+pub struct WorkerConfig {
+    /// Coordinator URL, e.g. `http://127.0.0.1:50051`.
+    pub coordinator: String,
+    pub name: String,
+    /// Episodes run at once.
+    pub slots: usize,
+    pub task_dir: PathBuf,
+    /// How long a started planner process may take to serve, s.
+    pub planner_startup_s: f64,
+}
+
+/// Seconds since the Unix epoch (only for log lines; the simulation never sees the wall clock).
+fn stamp() -> String {
+    let t = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs_f64())
+        .unwrap_or(0.0);
+    format!("{t:.3}")
+}
+
+/// Parses `wNNN-tK`.
+pub fn parse_task_id(id: &str) -> Option<(u32, u32)> {
+    let rest = id.strip_prefix('w')?;
+    let (w, t) = rest.split_once("-t")?;
+    Some((w.parse().ok()?, t.parse().ok()?))
+}
+
+enum AnyPlanner {
+    Builtin(Box<dyn Planner>),
+    Remote(Box<RemotePlanner>),
+}
+
+impl AnyPlanner {
+    fn as_dyn(&mut self) -> &mut dyn Planner {
+        match self {
+            AnyPlanner::Builtin(p) => p.as_mut(),
+            AnyPlanner::Remote(p) => p.as_mut(),
+        }
+    }
+}
+
+fn kind_ref(p: &pb::PlannerRef) -> Option<&pb::planner_ref::Kind> {
+    p.kind.as_ref()
+}
+
+struct CancelObserver(Arc<AtomicBool>);
+
+impl EpisodeObserver for CancelObserver {
+    fn on_control_step(&mut self, _: &VehicleState, _: &Action) -> ControlFlow<()> {
+        if self.0.load(Ordering::Relaxed) {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    }
+}
+
+/// Trajectory as CSV (angles in radians), gzip-compressed.
+pub fn trajectory_gzip(r: &EpisodeResult) -> Vec<u8> {
+    let mut csv = String::from("time,x,y,z,roll,pitch,yaw,speed,throttle,steering,brake\n");
+    for s in &r.trajectory {
+        csv.push_str(&format!(
+            "{:.2},{:.3},{:.3},{:.3},{:.4},{:.4},{:.4},{:.3},{:.3},{:.3},{:.3}\n",
+            s.time, s.x, s.y, s.z, s.roll, s.pitch, s.yaw, s.speed, s.throttle, s.steering, s.brake
+        ));
+    }
+    let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    // Writing to a Vec cannot fail.
+    let _ = enc.write_all(csv.as_bytes());
+    enc.finish().unwrap_or_default()
+}
+
+/// Everything needed to run one episode, independent of where it came from (a lease, `vb-submit validate`).
+#[derive(Clone, Debug)]
+pub struct EpisodeSpec {
+    pub task_id: String,
+    pub planner: pb::PlannerRef,
+    pub vehicle: String,
+    pub scale: f64,
+    pub seed: u64,
+    pub step_deadline_s: f64,
+    /// Overrides the default 60 s time limit (validation runs are short).
+    pub max_time: Option<f64>,
+}
+
+/// A finished episode, ready to report.
+#[derive(Clone, Debug)]
+pub struct EpisodeRun {
+    pub result: EpisodeResult,
+    pub planner_log: String,
+    pub planner_identity: String,
+    pub wall_time_s: f64,
+    /// Round-trip times of the remote planner's control steps, s (empty for built-in planners).
+    pub round_trips: Vec<f64>,
+}
+
+fn failed(
+    reason: &str,
+    e: &PlannerError,
+    log: String,
+    identity: String,
+    t0: Instant,
+) -> EpisodeRun {
+    EpisodeRun {
+        result: EpisodeResult {
+            outcome: Outcome::PlannerFailure,
+            reason: reason.into(),
+            detail: e.to_string(),
+            metrics: Default::default(),
+            trajectory: Vec::new(),
+        },
+        planner_log: log,
+        planner_identity: identity,
+        wall_time_s: t0.elapsed().as_secs_f64(),
+        round_trips: Vec::new(),
+    }
+}
+
+/// Runs one episode. `Err` means the worker could not run it (not the planner's fault): the coordinator re-queues
+/// it. Planner failures are an `Ok` run with outcome `planner_failure`.
+pub async fn run_episode(
+    set: Arc<TaskSet>,
+    spec: EpisodeSpec,
+    cancel: Arc<AtomicBool>,
+    planner_startup: Duration,
+) -> Result<EpisodeRun, String> {
+    let t0 = Instant::now();
+    let (w, t) =
+        parse_task_id(&spec.task_id).ok_or_else(|| format!("bad task id `{}`", spec.task_id))?;
+    let vehicle = sim_core::vehicle::vehicle_by_name(&spec.vehicle).map_err(|e| e.to_string())?;
+    let world = set.world(w, spec.scale).map_err(|e| e.to_string())?;
+    let task = set
+        .tasks(w, spec.scale)
+        .map_err(|e| e.to_string())?
+        .into_iter()
+        .nth(t as usize)
+        .ok_or_else(|| format!("no task {} in world {w}", t))?;
+    let mut cfg = EpisodeConfig {
+        seed: spec.seed,
+        record_hz: Some(RECORD_HZ),
+        ..EpisodeConfig::default()
+    };
+    if let Some(m) = spec.max_time {
+        cfg.max_time = m;
+    }
+    let deadline = Duration::from_secs_f64(spec.step_deadline_s.clamp(0.001, 60.0));
+    use pb::planner_ref::Kind;
+    let kind = spec
+        .planner
+        .kind
+        .clone()
+        .ok_or_else(|| "lease without a planner".to_string())?;
+    let log: SharedLog = Arc::new(Mutex::new(PlannerLog::default()));
+    let mut process = None;
+    let (planner, identity) = match kind {
+        Kind::Builtin(name) => match baselines::by_name(&name) {
+            Some(p) => (
+                AnyPlanner::Builtin(p),
+                format!("builtin:{name} ({SIM_VERSION})"),
+            ),
+            None => return Err(format!("this worker has no builtin planner `{name}`")),
+        },
+        Kind::Endpoint(url) => {
+            let identity = format!("endpoint:{url}");
+            match RemotePlanner::connect(&url, deadline, Duration::from_secs(5)).await {
+                Ok(mut p) => {
+                    p.set_log(log.clone());
+                    p.set_episode_context(set.version(), spec.seed);
+                    (AnyPlanner::Remote(Box::new(p)), identity)
+                }
+                Err(e) => {
+                    let reason = if matches!(e, PlannerError::Timeout(_)) {
+                        "planner_timeout"
+                    } else {
+                        "planner_unreachable"
+                    };
+                    return Ok(failed(reason, &e, String::new(), identity, t0));
+                }
+            }
+        }
+        Kind::Exec(_) | Kind::Image(_) => {
+            let (argv, identity) = match kind_ref(&spec.planner) {
+                Some(Kind::Image(image)) => exec::image_command(image).await?,
+                Some(Kind::Exec(e)) => (e.argv.clone(), exec::exec_identity(&e.argv)),
+                _ => return Err("unsupported planner kind".into()),
+            };
+            match exec::start(&argv, identity.clone(), deadline, planner_startup).await {
+                Ok((proc_, mut p)) => {
+                    p.set_log(proc_.output.clone());
+                    p.set_episode_context(set.version(), spec.seed);
+                    process = Some(proc_);
+                    (AnyPlanner::Remote(Box::new(p)), identity)
+                }
+                Err((e, text)) => return Ok(failed(e.reason(), &e, text, identity, t0)),
+            }
+        }
+    };
+    let joined = tokio::task::spawn_blocking(move || {
+        let mut planner = planner;
+        let mut observer = CancelObserver(cancel);
+        let r = sim_core::runner::run_episode_observed(
+            &world,
+            &task,
+            &vehicle,
+            planner.as_dyn(),
+            &cfg,
+            &mut observer,
+        );
+        let mut round_trips = Vec::new();
+        if let AnyPlanner::Remote(p) = &mut planner {
+            p.finish(r.outcome.as_str(), &r.reason);
+            round_trips = std::mem::take(&mut p.round_trips);
+        }
+        (r, round_trips)
+    })
+    .await;
+    let (result, round_trips) = joined.map_err(|e| format!("episode thread failed: {e}"))?;
+    if let Some(p) = &process {
+        // Give the process a moment to flush what it printed about the episode's end.
+        let _ = &p.addr;
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let planner_log = match &process {
+        Some(p) => p.output.lock().map(|l| l.text()).unwrap_or_default(),
+        None => log.lock().map(|l| l.text()).unwrap_or_default(),
+    };
+    if let Some(p) = process {
+        p.stop().await;
+    }
+    Ok(EpisodeRun {
+        result,
+        planner_log,
+        planner_identity: identity,
+        wall_time_s: t0.elapsed().as_secs_f64(),
+        round_trips,
+    })
+}
+
+fn report(worker_id: &str, lease: &pb::EpisodeLease, run: &EpisodeRun) -> pb::EpisodeReport {
+    pb::EpisodeReport {
+        worker_id: worker_id.into(),
+        lease_id: lease.lease_id.clone(),
+        submission_id: lease.submission_id.clone(),
+        task_id: lease.task_id.clone(),
+        outcome: run.result.outcome.as_str().into(),
+        reason: run.result.reason.clone(),
+        detail: run.result.detail.clone(),
+        metrics_json: serde_json::to_vec(&run.result.metrics).unwrap_or_default(),
+        trajectory: trajectory_gzip(&run.result),
+        planner_log: run.planner_log.clone(),
+        sim_version: SIM_VERSION.into(),
+        planner_identity: run.planner_identity.clone(),
+        wall_time_s: run.wall_time_s,
+        infrastructure_failure: false,
+    }
+}
+
+/// Delivers a report, retrying (with backoff) while the coordinator is unreachable, so a coordinator restart loses
+/// nothing. Gives up only on a definite refusal, or after `give_up`.
+async fn deliver(client: &mut WorkerPoolClient<Channel>, r: pb::EpisodeReport, give_up: Duration) {
+    let t0 = Instant::now();
+    let mut backoff = Duration::from_millis(100);
+    loop {
+        match client.report_result(r.clone()).await {
+            Ok(_) => return,
+            Err(s)
+                if s.code() == tonic::Code::InvalidArgument
+                    || s.code() == tonic::Code::ResourceExhausted =>
+            {
+                eprintln!(
+                    "[{}] worker: coordinator refused the report of {} / {}: {}",
+                    stamp(),
+                    r.submission_id,
+                    r.task_id,
+                    s.message()
+                );
+                return;
+            }
+            Err(s) => {
+                if t0.elapsed() > give_up {
+                    eprintln!(
+                        "[{}] worker: giving up on the report of {} / {} after {:.0} s: {}",
+                        stamp(),
+                        r.submission_id,
+                        r.task_id,
+                        give_up.as_secs_f64(),
+                        s.message()
+                    );
+                    return;
+                }
+                tokio::time::sleep(backoff).await;
+                backoff = (backoff * 2).min(Duration::from_secs(2));
+            }
+        }
+    }
+}
+
+type Active = Arc<Mutex<HashMap<String, Arc<AtomicBool>>>>;
+
+/// Runs a worker until `shutdown` turns true.
+pub async fn run_worker(
+    cfg: WorkerConfig,
+    mut shutdown: tokio::sync::watch::Receiver<bool>,
+) -> Result<(), WorkerError> {
+    let set = Arc::new(TaskSet::load(&cfg.task_dir)?);
+    let channel = Endpoint::from_shared(cfg.coordinator.clone())
+        .map_err(|e| WorkerError::Address(cfg.coordinator.clone(), e.to_string()))?
+        .connect_timeout(Duration::from_secs(2))
+        .tcp_nodelay(true)
+        .connect_lazy();
+    let mut client =
+        WorkerPoolClient::new(channel).max_encoding_message_size(crate::remote::MAX_WORKER_MESSAGE);
+    let slots = cfg.slots.max(1);
+    // Register, waiting for the coordinator if it is not up yet.
+    let reg = loop {
+        if *shutdown.borrow() {
+            return Ok(());
+        }
+        match client
+            .register(pb::RegisterRequest {
+                worker_name: cfg.name.clone(),
+                slots: slots as u32,
+                sim_version: SIM_VERSION.into(),
+            })
+            .await
+        {
+            Ok(r) => break r.into_inner(),
+            Err(s)
+                if s.code() == tonic::Code::FailedPrecondition
+                    || s.code() == tonic::Code::InvalidArgument =>
+            {
+                return Err(WorkerError::Refused(s.message().into()))
+            }
+            Err(_) => tokio::time::sleep(Duration::from_millis(300)).await,
+        }
+    };
+    let worker_id = reg.worker_id.clone();
+    eprintln!(
+        "[{}] worker {} ({}) registered: {slots} slots, lease {:.0} s",
+        stamp(),
+        cfg.name,
+        worker_id,
+        reg.lease_s
+    );
+    let active: Active = Arc::new(Mutex::new(HashMap::new()));
+    // Heartbeats: renew the leases of running episodes; abandon those the coordinator no longer gives us.
+    {
+        let mut client = client.clone();
+        let active = active.clone();
+        let worker_id = worker_id.clone();
+        let period = Duration::from_secs_f64(reg.heartbeat_s.clamp(0.1, 60.0));
+        let mut shutdown = shutdown.clone();
+        tokio::spawn(async move {
+            loop {
+                tokio::select! {
+                    _ = tokio::time::sleep(period) => {}
+                    _ = shutdown.changed() => return,
+                }
+                let ids: Vec<String> = active
+                    .lock()
+                    .map(|a| a.keys().cloned().collect())
+                    .unwrap_or_default();
+                if ids.is_empty() {
+                    continue;
+                }
+                if let Ok(r) = client
+                    .heartbeat(pb::HeartbeatRequest {
+                        worker_id: worker_id.clone(),
+                        lease_ids: ids,
+                    })
+                    .await
+                {
+                    if let Ok(a) = active.lock() {
+                        for id in r.into_inner().expired_lease_ids {
+                            if let Some(flag) = a.get(&id) {
+                                flag.store(true, Ordering::Relaxed);
+                            }
+                        }
+                    }
+                }
+            }
+        });
+    }
+    let startup = Duration::from_secs_f64(cfg.planner_startup_s.max(1.0));
+    let mut backoff = Duration::from_millis(100);
+    loop {
+        if *shutdown.borrow() {
+            return Ok(());
+        }
+        let running = active.lock().map(|a| a.len()).unwrap_or(slots);
+        let free = slots.saturating_sub(running);
+        let mut got = 0;
+        if free > 0 {
+            match client
+                .lease(pb::LeaseRequest {
+                    worker_id: worker_id.clone(),
+                    max: free as u32,
+                })
+                .await
+            {
+                Ok(r) => {
+                    backoff = Duration::from_millis(100);
+                    for lease in r.into_inner().leases {
+                        got += 1;
+                        let flag = Arc::new(AtomicBool::new(false));
+                        if let Ok(mut a) = active.lock() {
+                            a.insert(lease.lease_id.clone(), flag.clone());
+                        }
+                        let set = set.clone();
+                        let mut client = client.clone();
+                        let active = active.clone();
+                        let worker_id = worker_id.clone();
+                        tokio::spawn(async move {
+                            run_lease(
+                                set,
+                                &mut client,
+                                &worker_id,
+                                lease.clone(),
+                                flag.clone(),
+                                startup,
+                            )
+                            .await;
+                            if let Ok(mut a) = active.lock() {
+                                a.remove(&lease.lease_id);
+                            }
+                        });
+                    }
+                }
+                Err(s) => {
+                    if s.code() == tonic::Code::NotFound {
+                        eprintln!(
+                            "[{}] worker: coordinator does not know this worker: {}",
+                            stamp(),
+                            s.message()
+                        );
+                    }
+                    tokio::time::sleep(backoff).await;
+                    backoff = (backoff * 2).min(Duration::from_secs(2));
+                    continue;
+                }
+            }
+        }
+        if got == 0 {
+            tokio::select! {
+                _ = tokio::time::sleep(Duration::from_millis(if free == 0 { 20 } else { 200 })) => {}
+                _ = shutdown.changed() => {}
+            }
+        }
+    }
+}
+
+async fn run_lease(
+    set: Arc<TaskSet>,
+    client: &mut WorkerPoolClient<Channel>,
+    worker_id: &str,
+    lease: pb::EpisodeLease,
+    cancel: Arc<AtomicBool>,
+    startup: Duration,
+) {
+    let infra = |detail: String| pb::EpisodeReport {
+        worker_id: worker_id.into(),
+        lease_id: lease.lease_id.clone(),
+        submission_id: lease.submission_id.clone(),
+        task_id: lease.task_id.clone(),
+        outcome: "error".into(),
+        reason: "infrastructure".into(),
+        detail,
+        sim_version: SIM_VERSION.into(),
+        infrastructure_failure: true,
+        ..Default::default()
+    };
+    if lease.task_set_version != set.version() {
+        let msg = format!(
+            "worker has task set {} but the submission needs {}",
+            set.version(),
+            lease.task_set_version
+        );
+        deliver(client, infra(msg), Duration::from_secs(600)).await;
+        return;
+    }
+    let spec = EpisodeSpec {
+        task_id: lease.task_id.clone(),
+        planner: lease.planner.clone().unwrap_or_default(),
+        vehicle: lease.vehicle.clone(),
+        scale: lease.scale,
+        seed: lease.seed,
+        step_deadline_s: lease.step_deadline_s,
+        max_time: None,
+    };
+    match run_episode(set, spec, cancel.clone(), startup).await {
+        Err(msg) => deliver(client, infra(msg), Duration::from_secs(600)).await,
+        Ok(_) if cancel.load(Ordering::Relaxed) => {
+            // The lease was taken back (expired, finished elsewhere, or the submission was cancelled).
+        }
+        Ok(run) => {
+            deliver(
+                client,
+                report(worker_id, &lease, &run),
+                Duration::from_secs(600),
+            )
+            .await
+        }
+    }
+}

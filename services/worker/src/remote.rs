@@ -1,0 +1,364 @@
+//! A planner reached over gRPC: one bidirectional `PlanEpisode` stream per episode, driven in lock-step.
+//!
+//! [`RemotePlanner`] implements sim-core's synchronous [`Planner`] trait so the same episode runner drives built-in
+//! and remote planners. It is used on a blocking thread and waits on the tokio runtime for each answer, with a
+//! deadline per control step: a slow planner fails its episode with `planner_timeout`, a dead one with
+//! `planner_crash`, and simulated time is frozen meanwhile, so results do not depend on the planner's hardware.
+
+use crate::convert;
+use sim_core::observe::CropSpec;
+use sim_core::planner::{Action, Observation, Planner, PlannerContext, PlannerError};
+use sim_core::world::World;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use tokio::runtime::Handle;
+use tokio::sync::mpsc;
+use tonic::transport::{Channel, Endpoint};
+use vb_proto::v1 as pb;
+use vb_proto::v1::planner_client::PlannerClient;
+
+/// Largest message a planner may send (its answers are small; this bounds a misbehaving one).
+pub const MAX_PLANNER_MESSAGE: usize = 1 << 20;
+/// Largest message the worker sends (the episode start carries the world maps).
+pub const MAX_WORKER_MESSAGE: usize = 16 << 20;
+
+/// The planner's log (its `log` fields and, for processes the worker started, stdout and stderr), capped.
+#[derive(Debug, Default)]
+pub struct PlannerLog {
+    text: String,
+    dropped: usize,
+}
+
+impl PlannerLog {
+    pub const CAP: usize = 64 << 10;
+
+    pub fn push_line(&mut self, line: &str) {
+        if self.text.len() + line.len() + 1 > Self::CAP {
+            self.dropped += 1;
+            return;
+        }
+        self.text.push_str(line);
+        self.text.push('\n');
+    }
+
+    pub fn text(&self) -> String {
+        if self.dropped > 0 {
+            format!(
+                "{}[{} more lines dropped: log cap {} bytes]\n",
+                self.text,
+                self.dropped,
+                Self::CAP
+            )
+        } else {
+            self.text.clone()
+        }
+    }
+
+    /// The last `n` bytes, for error messages.
+    pub fn tail(&self, n: usize) -> String {
+        let t = &self.text;
+        let mut cut = t.len().saturating_sub(n);
+        while !t.is_char_boundary(cut) {
+            cut += 1;
+        }
+        t[cut..].trim_end().to_string()
+    }
+}
+
+pub type SharedLog = Arc<Mutex<PlannerLog>>;
+
+fn push_log(log: &SharedLog, line: &str) {
+    if let Ok(mut l) = log.lock() {
+        l.push_line(line);
+    }
+}
+
+struct Session {
+    tx: mpsc::Sender<pb::WorkerMessage>,
+    rx: tonic::Streaming<pb::PlannerMessage>,
+}
+
+/// A planner server reached over gRPC.
+pub struct RemotePlanner {
+    rt: Handle,
+    endpoint: String,
+    client: PlannerClient<Channel>,
+    info: pb::PlannerInfo,
+    crop: Option<CropSpec>,
+    step_deadline: Duration,
+    start_deadline: Duration,
+    session: Option<Session>,
+    world: Option<World>,
+    task_set_version: String,
+    seed: u64,
+    log: SharedLog,
+    /// Extra context for crash messages (e.g. the tail of a planner process's stderr).
+    crash_context: Option<SharedLog>,
+    /// Round-trip time of every control step, s (observation sent to action received).
+    pub round_trips: Vec<f64>,
+}
+
+fn status_error(what: &str, s: &tonic::Status) -> PlannerError {
+    match s.code() {
+        tonic::Code::DeadlineExceeded => PlannerError::Timeout(format!("{what}: {}", s.message())),
+        tonic::Code::Unimplemented | tonic::Code::InvalidArgument | tonic::Code::OutOfRange => {
+            PlannerError::Protocol(format!("{what}: {} ({:?})", s.message(), s.code()))
+        }
+        _ => PlannerError::Crashed(format!("{what}: {} ({:?})", s.message(), s.code())),
+    }
+}
+
+impl RemotePlanner {
+    /// Connects to a planner server and asks for its [`pb::PlannerInfo`]. Call from async code; use the planner
+    /// from a blocking thread.
+    pub async fn connect(
+        endpoint: &str,
+        step_deadline: Duration,
+        connect_timeout: Duration,
+    ) -> Result<RemotePlanner, PlannerError> {
+        let ep = Endpoint::from_shared(endpoint.to_string())
+            .map_err(|e| PlannerError::Other(format!("bad planner endpoint `{endpoint}`: {e}")))?
+            .connect_timeout(connect_timeout)
+            .tcp_nodelay(true);
+        let channel = ep.connect().await.map_err(|e| {
+            PlannerError::Crashed(format!("cannot connect to planner at {endpoint}: {e}"))
+        })?;
+        let mut client = PlannerClient::new(channel)
+            .max_decoding_message_size(MAX_PLANNER_MESSAGE)
+            .max_encoding_message_size(MAX_WORKER_MESSAGE);
+        let start_deadline = step_deadline.max(Duration::from_secs(10));
+        let info = match tokio::time::timeout(start_deadline, client.info(pb::InfoRequest {})).await
+        {
+            Err(_) => {
+                return Err(PlannerError::Timeout(format!(
+                    "planner at {endpoint} did not answer Info within {:.1} s",
+                    start_deadline.as_secs_f64()
+                )))
+            }
+            Ok(Err(s)) => return Err(status_error("Info", &s)),
+            Ok(Ok(r)) => r.into_inner(),
+        };
+        let rate = info.control_rate_hz;
+        if !(rate.is_finite() && rate > 0.0 && rate <= 1000.0) {
+            return Err(PlannerError::Protocol(format!(
+                "control_rate_hz {rate} is not in (0, 1000]"
+            )));
+        }
+        let crop = match info.local_map_size {
+            0 => None,
+            n if n > 512 => {
+                return Err(PlannerError::Protocol(format!(
+                    "local_map_size {n} is over 512"
+                )));
+            }
+            n => {
+                let r = info.local_map_resolution;
+                if !(r.is_finite() && r > 0.0) {
+                    return Err(PlannerError::Protocol(format!(
+                        "local_map_resolution {r} must be positive when local_map_size is set"
+                    )));
+                }
+                Some(CropSpec {
+                    size: n as usize,
+                    resolution: r,
+                })
+            }
+        };
+        Ok(RemotePlanner {
+            rt: Handle::current(),
+            endpoint: endpoint.to_string(),
+            client,
+            info,
+            crop,
+            step_deadline,
+            start_deadline,
+            session: None,
+            world: None,
+            task_set_version: String::new(),
+            seed: 0,
+            log: Arc::new(Mutex::new(PlannerLog::default())),
+            crash_context: None,
+            round_trips: Vec::new(),
+        })
+    }
+
+    /// Sets what goes into `EpisodeStart` besides the task and the maps.
+    pub fn set_episode_context(&mut self, task_set_version: &str, seed: u64) {
+        self.task_set_version = task_set_version.into();
+        self.seed = seed;
+    }
+
+    /// Shares a log: the planner's `log` lines are appended to it.
+    pub fn set_log(&mut self, log: SharedLog) {
+        self.log = log;
+    }
+
+    /// A log whose tail is quoted when the planner crashes (a process's stderr).
+    pub fn set_crash_context(&mut self, log: SharedLog) {
+        self.crash_context = Some(log);
+    }
+
+    pub fn info(&self) -> &pb::PlannerInfo {
+        &self.info
+    }
+
+    pub fn log(&self) -> SharedLog {
+        self.log.clone()
+    }
+
+    fn crashed(&self, msg: String) -> PlannerError {
+        let tail = self
+            .crash_context
+            .as_ref()
+            .and_then(|l| l.lock().ok().map(|l| l.tail(600)))
+            .unwrap_or_default();
+        if tail.is_empty() {
+            PlannerError::Crashed(msg)
+        } else {
+            PlannerError::Crashed(format!("{msg}; last planner output:\n{tail}"))
+        }
+    }
+
+    /// Sends one message and waits for the answer within `deadline`.
+    fn exchange(
+        &mut self,
+        msg: pb::WorkerMessage,
+        deadline: Duration,
+        what: &str,
+    ) -> Result<pb::PlannerMessage, PlannerError> {
+        let session = self.session.as_mut().ok_or_else(|| {
+            PlannerError::Protocol("no episode session (reset was not called)".into())
+        })?;
+        let res = self.rt.block_on(tokio::time::timeout(deadline, async {
+            if session.tx.send(msg).await.is_err() {
+                return Err(None);
+            }
+            session.rx.message().await.map_err(Some)
+        }));
+        match res {
+            Err(_) => Err(PlannerError::Timeout(format!(
+                "no answer to {what} within {:.3} s",
+                deadline.as_secs_f64()
+            ))),
+            Ok(Err(None)) => Err(self.crashed(format!(
+                "planner at {} closed the episode stream",
+                self.endpoint
+            ))),
+            Ok(Err(Some(s))) => Err(match status_error(what, &s) {
+                PlannerError::Crashed(m) => self.crashed(m),
+                other => other,
+            }),
+            Ok(Ok(None)) => Err(self.crashed(format!(
+                "planner at {} ended the episode stream before answering {what}",
+                self.endpoint
+            ))),
+            Ok(Ok(Some(m))) => {
+                if !m.log.is_empty() {
+                    for line in m.log.lines() {
+                        push_log(&self.log, line);
+                    }
+                }
+                Ok(m)
+            }
+        }
+    }
+
+    /// Tells the planner how the episode ended and closes the stream.
+    pub fn finish(&mut self, outcome: &str, reason: &str) {
+        if let Some(s) = self.session.take() {
+            let end = pb::WorkerMessage {
+                msg: Some(pb::worker_message::Msg::End(pb::EpisodeEnd {
+                    outcome: outcome.into(),
+                    reason: reason.into(),
+                })),
+            };
+            // Best effort: the planner may already be gone.
+            let _ = s.tx.try_send(end);
+        }
+    }
+}
+
+impl Planner for RemotePlanner {
+    fn name(&self) -> &str {
+        if self.info.name.is_empty() {
+            "remote"
+        } else {
+            &self.info.name
+        }
+    }
+
+    fn control_rate_hz(&self) -> f64 {
+        self.info.control_rate_hz
+    }
+
+    fn reset(&mut self, ctx: &PlannerContext<'_>) -> Result<(), PlannerError> {
+        self.finish("aborted", "reset");
+        let (tx, rx) = mpsc::channel::<pb::WorkerMessage>(2);
+        let mut client = self.client.clone();
+        let opened = self.rt.block_on(tokio::time::timeout(
+            self.start_deadline,
+            client.plan_episode(tokio_stream::wrappers::ReceiverStream::new(rx)),
+        ));
+        let stream = match opened {
+            Err(_) => {
+                return Err(PlannerError::Timeout(format!(
+                    "planner did not open the episode stream within {:.1} s",
+                    self.start_deadline.as_secs_f64()
+                )))
+            }
+            Ok(Err(s)) => return Err(status_error("PlanEpisode", &s)),
+            Ok(Ok(r)) => r.into_inner(),
+        };
+        self.session = Some(Session { tx, rx: stream });
+        self.world = Some(ctx.world.clone());
+        let start = pb::EpisodeStart {
+            task: Some(convert::task_info(
+                ctx.task,
+                ctx.world,
+                &self.task_set_version,
+            )),
+            vehicle: Some(convert::vehicle_info(ctx.vehicle)),
+            maps: Some(convert::world_maps(ctx.world)),
+            sim_dt: ctx.sim_dt,
+            seed: self.seed,
+        };
+        let msg = pb::WorkerMessage {
+            msg: Some(pb::worker_message::Msg::Start(start)),
+        };
+        let deadline = self.start_deadline;
+        match self.exchange(msg, deadline, "EpisodeStart")?.msg {
+            Some(pb::planner_message::Msg::Ready(_)) => Ok(()),
+            other => Err(PlannerError::Protocol(format!(
+                "expected `ready` in answer to EpisodeStart, got {other:?}"
+            ))),
+        }
+    }
+
+    fn act(&mut self, obs: &Observation) -> Result<Action, PlannerError> {
+        let world = self
+            .world
+            .as_ref()
+            .ok_or_else(|| PlannerError::Protocol("act before reset".into()))?;
+        let msg = pb::WorkerMessage {
+            msg: Some(pb::worker_message::Msg::Observation(convert::observation(
+                obs,
+                world,
+                self.crop.as_ref(),
+            ))),
+        };
+        let t0 = Instant::now();
+        let deadline = self.step_deadline;
+        let answer = self.exchange(
+            msg,
+            deadline,
+            &format!("the observation at t = {:.2} s", obs.state.time),
+        );
+        self.round_trips.push(t0.elapsed().as_secs_f64());
+        match answer?.msg {
+            Some(pb::planner_message::Msg::Action(a)) => Ok(convert::action(&a)),
+            other => Err(PlannerError::Protocol(format!(
+                "expected an action in answer to an observation, got {other:?}"
+            ))),
+        }
+    }
+}

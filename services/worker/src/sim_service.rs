@@ -1,0 +1,1 @@
+//! The client-driven simulator API (`Sim` service).
