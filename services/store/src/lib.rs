@@ -248,6 +248,10 @@ pub struct Reader {
 pub struct Store {
     pool: AnyPool,
     backend: Backend,
+    /// Serialises this process's writes. SQLite allows one writer at a time and answers a transaction that read
+    /// before writing with an immediate "database is locked" when another write slipped in; one writer at a time
+    /// avoids that (and costs nothing on PostgreSQL: the coordinator is the only writer anyway).
+    write: std::sync::Arc<tokio::sync::Mutex<()>>,
 }
 
 async fn open_pool(url: &str, max_connections: u32) -> Result<(AnyPool, Backend)> {
@@ -295,7 +299,11 @@ impl Store {
     pub async fn open(url: &str) -> Result<Store> {
         let (pool, backend) = open_pool(url, 8).await?;
         MIGRATOR.run(&pool).await?;
-        Ok(Store { pool, backend })
+        Ok(Store {
+            pool,
+            backend,
+            write: Default::default(),
+        })
     }
 
     pub fn backend(&self) -> Backend {
@@ -313,6 +321,7 @@ impl Store {
 
     /// Creates a token named `name`; returns the token, which is shown once and stored only as a hash.
     pub async fn create_token(&self, name: &str, now: f64) -> Result<String> {
+        let _w = self.write.lock().await;
         let token = format!("vbt_{}", random_hex(24)?);
         sqlx::query(
             "INSERT INTO tokens (id, name, hash, created_at, revoked) VALUES ($1, $2, $3, $4, 0)",
@@ -340,6 +349,7 @@ impl Store {
 
     /// Revokes every token named `name`; returns how many.
     pub async fn revoke_tokens(&self, name: &str) -> Result<u64> {
+        let _w = self.write.lock().await;
         let r = sqlx::query("UPDATE tokens SET revoked = 1 WHERE name = $1")
             .bind(name)
             .execute(&self.pool)
@@ -356,6 +366,7 @@ impl Store {
         sim_version: &str,
         now: f64,
     ) -> Result<String> {
+        let _w = self.write.lock().await;
         let id = format!("wk-{}", random_hex(6)?);
         sqlx::query(
             "INSERT INTO workers (id, name, slots, sim_version, registered_at, last_seen) VALUES ($1, $2, $3, $4, $5, $5)",
@@ -372,6 +383,7 @@ impl Store {
 
     /// Whether `id` is a registered worker (and marks it seen).
     pub async fn touch_worker(&self, id: &str, now: f64) -> Result<bool> {
+        let _w = self.write.lock().await;
         let r = sqlx::query("UPDATE workers SET last_seen = $1 WHERE id = $2")
             .bind(now)
             .bind(id)
@@ -389,6 +401,7 @@ impl Store {
         episodes: &[NewEpisode],
         now: f64,
     ) -> Result<String> {
+        let _w = self.write.lock().await;
         let id = format!("sub-{}", random_hex(6)?);
         let mut tx = self.pool.begin().await?;
         let seq: i64 = sqlx::query(
@@ -441,6 +454,7 @@ impl Store {
     /// Cancels a submission: queued episodes become `not_run`; leased ones may still report (their results are
     /// kept), and become `not_run` when their lease expires. Returns false when it had already ended.
     pub async fn cancel(&self, id: &str, now: f64) -> Result<bool> {
+        let _w = self.write.lock().await;
         let sub = self.reader().submission(id).await?;
         if sub.state == "done" || sub.state == "cancelled" {
             return Ok(false);
@@ -464,6 +478,11 @@ impl Store {
     /// Returns expired leases to the queue (or marks them `not_run` for cancelled submissions, or records an
     /// infrastructure failure after [`MAX_ATTEMPTS`]). Returns how many leases expired.
     pub async fn expire_leases(&self, now: f64) -> Result<u64> {
+        let _w = self.write.lock().await;
+        self.expire_leases_locked(now).await
+    }
+
+    async fn expire_leases_locked(&self, now: f64) -> Result<u64> {
         let mut tx = self.pool.begin().await?;
         let a = sqlx::query(
             "UPDATE episodes SET state = 'not_run', lease_id = NULL, worker_id = NULL, lease_expires = NULL \
@@ -509,6 +528,7 @@ impl Store {
         lease_s: f64,
         now: f64,
     ) -> Result<Vec<Lease>> {
+        let _w = self.write.lock().await;
         if max == 0 {
             return Ok(Vec::new());
         }
@@ -571,6 +591,7 @@ impl Store {
         lease_s: f64,
         now: f64,
     ) -> Result<Vec<String>> {
+        let _w = self.write.lock().await;
         let mut gone = Vec::new();
         for id in lease_ids {
             let n = sqlx::query(
@@ -592,6 +613,7 @@ impl Store {
 
     /// A worker could not run a leased episode (not the planner's fault): it goes back to the queue.
     pub async fn release(&self, lease_id: &str, now: f64) -> Result<()> {
+        let _w = self.write.lock().await;
         sqlx::query(
             "UPDATE episodes SET lease_expires = $1 WHERE lease_id = $2 AND state = 'leased'",
         )
@@ -599,13 +621,14 @@ impl Store {
         .bind(lease_id)
         .execute(&self.pool)
         .await?;
-        self.expire_leases(now).await?;
+        self.expire_leases_locked(now).await?;
         Ok(())
     }
 
     /// Records a finished episode. Keyed by (submission, task): the first result wins; a late duplicate (for
     /// instance from a worker whose lease expired while it kept running) is ignored.
     pub async fn report(&self, r: &EpisodeResultIn, now: f64) -> Result<ReportOutcome> {
+        let _w = self.write.lock().await;
         let row =
             sqlx::query("SELECT state FROM episodes WHERE submission_id = $1 AND task_id = $2")
                 .bind(&r.submission_id)

@@ -15,8 +15,12 @@ async fn backends(test: &str) -> anyhow::Result<Vec<String>> {
             sqlx::any::install_default_drivers();
             let pool = sqlx::AnyPool::connect(&admin).await?;
             let db = format!("vbtest_{}_{test}", std::process::id());
-            sqlx::query(&format!("DROP DATABASE IF EXISTS {db}")).execute(&pool).await?;
-            sqlx::query(&format!("CREATE DATABASE {db}")).execute(&pool).await?;
+            sqlx::query(&format!("DROP DATABASE IF EXISTS {db}"))
+                .execute(&pool)
+                .await?;
+            sqlx::query(&format!("CREATE DATABASE {db}"))
+                .execute(&pool)
+                .await?;
             pool.close().await;
             let base = admin.rsplit_once('/').map_or(admin.as_str(), |(b, _)| b);
             urls.push(format!("{base}/{db}"));
@@ -78,16 +82,26 @@ async fn tokens_are_stored_hashed_and_can_be_revoked() -> anyhow::Result<()> {
         let store = Store::open(&url).await?;
         let token = store.create_token("alice", 1.0).await?;
         assert!(token.starts_with("vbt_") && token.len() > 40, "{token}");
-        assert_eq!(store.check_token(&token).await?.as_deref(), Some("alice"), "{url}");
+        assert_eq!(
+            store.check_token(&token).await?.as_deref(),
+            Some("alice"),
+            "{url}"
+        );
         assert_eq!(store.check_token("vbt_wrong").await?, None);
         // Only the hash is in the database.
         let pool = sqlx::AnyPool::connect(&url).await?;
-        let rows = sqlx::query("SELECT hash FROM tokens").fetch_all(&pool).await?;
+        let rows = sqlx::query("SELECT hash FROM tokens")
+            .fetch_all(&pool)
+            .await?;
         let hashes: Vec<String> = rows.iter().map(|r| r.get("hash")).collect();
         assert_eq!(hashes, vec![hash_token(&token)]);
         assert!(!hashes[0].contains(&token[4..]));
         assert_eq!(store.revoke_tokens("alice").await?, 1);
-        assert_eq!(store.check_token(&token).await?, None, "{url}: revoked token still accepted");
+        assert_eq!(
+            store.check_token(&token).await?,
+            None,
+            "{url}: revoked token still accepted"
+        );
     }
     Ok(())
 }
@@ -97,24 +111,49 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
     for url in backends("leases").await? {
         let store = Store::open(&url).await?;
         let r = store.reader();
-        let a = store.create_submission(&new_submission("a"), &episodes(3), 10.0).await?;
-        let b = store.create_submission(&new_submission("b"), &episodes(2), 11.0).await?;
-        let w1 = store.register_worker("w1", 2, "sim-core test", 12.0).await?;
-        let w2 = store.register_worker("w2", 2, "sim-core test", 12.0).await?;
+        let a = store
+            .create_submission(&new_submission("a"), &episodes(3), 10.0)
+            .await?;
+        let b = store
+            .create_submission(&new_submission("b"), &episodes(2), 11.0)
+            .await?;
+        let w1 = store
+            .register_worker("w1", 2, "sim-core test", 12.0)
+            .await?;
+        let w2 = store
+            .register_worker("w2", 2, "sim-core test", 12.0)
+            .await?;
         // Oldest submission first, in task order.
         let l1 = store.lease(&w1, 2, 30.0, 20.0).await?;
-        assert_eq!(l1.iter().map(|l| l.task_id.as_str()).collect::<Vec<_>>(), ["w001-t0", "w001-t1"]);
+        assert_eq!(
+            l1.iter().map(|l| l.task_id.as_str()).collect::<Vec<_>>(),
+            ["w001-t0", "w001-t1"]
+        );
         assert!(l1.iter().all(|l| l.submission.id == a && l.attempt == 1));
         assert_eq!(r.submission(&a).await?.state, "running");
         let p = r.progress(&a).await?;
-        assert_eq!((p.total, p.running, p.queued, p.finished), (3, 2, 1, 0), "{url}");
+        assert_eq!(
+            (p.total, p.running, p.queued, p.finished),
+            (3, 2, 1, 0),
+            "{url}"
+        );
         let pb = r.progress(&b).await?;
         assert_eq!((pb.queue_position, pb.episodes_ahead), (1, 3 + 2), "{url}");
         // First result accepted, the same again is a duplicate.
-        assert_eq!(store.report(&result(&l1[0], "success"), 21.0).await?, ReportOutcome::Accepted);
-        assert_eq!(store.report(&result(&l1[0], "rollover"), 22.0).await?, ReportOutcome::Duplicate);
+        assert_eq!(
+            store.report(&result(&l1[0], "success"), 21.0).await?,
+            ReportOutcome::Accepted
+        );
+        assert_eq!(
+            store.report(&result(&l1[0], "rollover"), 22.0).await?,
+            ReportOutcome::Duplicate
+        );
         let eps = r.episodes(&a).await?;
-        assert_eq!(eps[0].outcome.as_deref(), Some("success"), "the duplicate must not overwrite");
+        assert_eq!(
+            eps[0].outcome.as_deref(),
+            Some("success"),
+            "the duplicate must not overwrite"
+        );
         // Worker 1 dies holding w001-t1: after the lease expires it goes to worker 2.
         assert_eq!(store.expire_leases(40.0).await?, 0, "not expired yet");
         assert_eq!(store.expire_leases(51.0).await?, 1);
@@ -122,34 +161,61 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
         assert_eq!((l2[0].task_id.as_str(), l2[0].attempt), ("w001-t1", 2));
         // Worker 1 was only slow: its late report is the first result, so it counts; worker 2 learns its lease
         // is gone at its next heartbeat, and its own report is then a duplicate.
-        assert_eq!(store.report(&result(&l1[1], "stuck"), 53.0).await?, ReportOutcome::Accepted);
-        assert_eq!(store.renew(&w2, &[l2[0].lease_id.clone()], 30.0, 54.0).await?, vec![l2[0].lease_id.clone()]);
-        assert_eq!(store.report(&result(&l2[0], "success"), 55.0).await?, ReportOutcome::Duplicate);
+        assert_eq!(
+            store.report(&result(&l1[1], "stuck"), 53.0).await?,
+            ReportOutcome::Accepted
+        );
+        assert_eq!(
+            store
+                .renew(&w2, &[l2[0].lease_id.clone()], 30.0, 54.0)
+                .await?,
+            vec![l2[0].lease_id.clone()]
+        );
+        assert_eq!(
+            store.report(&result(&l2[0], "success"), 55.0).await?,
+            ReportOutcome::Duplicate
+        );
         // Exactly one result per task.
         let eps = r.episodes(&a).await?;
         assert_eq!(eps.iter().filter(|e| e.state == "done").count(), 2);
         assert_eq!(eps[1].outcome.as_deref(), Some("stuck"));
         let d = r.episode_detail(&a, "w001-t1").await?;
-        assert_eq!((d.planner_log.as_str(), d.trajectory_csv.as_str()), ("hello", "time,x\n0,0\n"));
+        assert_eq!(
+            (d.planner_log.as_str(), d.trajectory_csv.as_str()),
+            ("hello", "time,x\n0,0\n")
+        );
         // Finishing the last episode finishes the submission.
         let l3 = store.lease(&w2, 1, 30.0, 56.0).await?;
         assert_eq!(l3[0].task_id, "w001-t2");
         store.report(&result(&l3[0], "success"), 57.0).await?;
         let s = r.submission(&a).await?;
-        assert_eq!((s.state.as_str(), s.finished_at), ("done", Some(57.0)), "{url}");
+        assert_eq!(
+            (s.state.as_str(), s.finished_at),
+            ("done", Some(57.0)),
+            "{url}"
+        );
         let p = r.progress(&a).await?;
         assert_eq!((p.finished, p.successes, p.queue_position), (3, 2, 0));
-        assert!(matches!(r.submission("sub-nope").await, Err(StoreError::UnknownSubmission(_))));
-        assert!(matches!(r.episode_detail(&a, "w009-t9").await, Err(StoreError::UnknownEpisode { .. })));
+        assert!(matches!(
+            r.submission("sub-nope").await,
+            Err(StoreError::UnknownSubmission(_))
+        ));
+        assert!(matches!(
+            r.episode_detail(&a, "w009-t9").await,
+            Err(StoreError::UnknownEpisode { .. })
+        ));
     }
     Ok(())
 }
 
 #[tokio::test]
-async fn lost_episodes_are_retried_then_recorded_as_infrastructure_failures() -> anyhow::Result<()> {
+async fn lost_episodes_are_retried_then_recorded_as_infrastructure_failures() -> anyhow::Result<()>
+{
     for url in backends("retries").await? {
         let store = Store::open(&url).await?;
-        let id = store.create_submission(&new_submission("a"), &episodes(1), 0.0).await?;
+        let id = store
+            .create_submission(&new_submission("a"), &episodes(1), 0.0)
+            .await?;
         let w = store.register_worker("w", 1, "sim-core test", 0.0).await?;
         let mut t = 1.0;
         for attempt in 1..=MAX_ATTEMPTS {
@@ -161,15 +227,30 @@ async fn lost_episodes_are_retried_then_recorded_as_infrastructure_failures() ->
         }
         assert!(store.lease(&w, 1, 5.0, t).await?.is_empty());
         let e = &store.reader().episodes(&id).await?[0];
-        assert_eq!((e.state.as_str(), e.outcome.as_deref(), e.reason.as_deref()), ("done", Some("error"), Some("infrastructure")));
-        assert!(e.detail.as_deref().unwrap_or("").contains(&MAX_ATTEMPTS.to_string()), "{:?}", e.detail);
+        assert_eq!(
+            (e.state.as_str(), e.outcome.as_deref(), e.reason.as_deref()),
+            ("done", Some("error"), Some("infrastructure"))
+        );
+        assert!(
+            e.detail
+                .as_deref()
+                .unwrap_or("")
+                .contains(&MAX_ATTEMPTS.to_string()),
+            "{:?}",
+            e.detail
+        );
         assert_eq!(store.reader().submission(&id).await?.state, "done");
         // A worker that could not run an episode (e.g. missing task set) releases it at once.
-        let id2 = store.create_submission(&new_submission("b"), &episodes(1), t).await?;
+        let id2 = store
+            .create_submission(&new_submission("b"), &episodes(1), t)
+            .await?;
         let l = store.lease(&w, 1, 60.0, t).await?;
         store.release(&l[0].lease_id, t + 1.0).await?;
         let again = store.lease(&w, 1, 60.0, t + 2.0).await?;
-        assert_eq!((again[0].submission.id.as_str(), again[0].attempt), (id2.as_str(), 2));
+        assert_eq!(
+            (again[0].submission.id.as_str(), again[0].attempt),
+            (id2.as_str(), 2)
+        );
     }
     Ok(())
 }
@@ -178,23 +259,41 @@ async fn lost_episodes_are_retried_then_recorded_as_infrastructure_failures() ->
 async fn cancel_keeps_finished_episodes_and_marks_the_rest_not_run() -> anyhow::Result<()> {
     for url in backends("cancel").await? {
         let store = Store::open(&url).await?;
-        let id = store.create_submission(&new_submission("a"), &episodes(4), 0.0).await?;
+        let id = store
+            .create_submission(&new_submission("a"), &episodes(4), 0.0)
+            .await?;
         let w = store.register_worker("w", 2, "sim-core test", 0.0).await?;
         let l = store.lease(&w, 2, 30.0, 1.0).await?;
         store.report(&result(&l[0], "success"), 2.0).await?;
         assert!(store.cancel(&id, 3.0).await?);
         assert!(!store.cancel(&id, 3.5).await?, "cancelling twice");
         // The running episode's lease is no longer renewed; a result that arrives anyway is kept (it did run).
-        assert_eq!(store.renew(&w, &[l[1].lease_id.clone()], 30.0, 4.0).await?.len(), 1);
-        assert!(store.lease(&w, 2, 30.0, 4.0).await?.is_empty(), "cancelled work must not be leased");
+        assert_eq!(
+            store
+                .renew(&w, &[l[1].lease_id.clone()], 30.0, 4.0)
+                .await?
+                .len(),
+            1
+        );
+        assert!(
+            store.lease(&w, 2, 30.0, 4.0).await?.is_empty(),
+            "cancelled work must not be leased"
+        );
         let p = store.reader().progress(&id).await?;
-        assert_eq!((p.finished, p.running, p.not_run, p.queued), (1, 1, 2, 0), "{url}");
+        assert_eq!(
+            (p.finished, p.running, p.not_run, p.queued),
+            (1, 1, 2, 0),
+            "{url}"
+        );
         store.expire_leases(100.0).await?;
         let p = store.reader().progress(&id).await?;
         assert_eq!((p.finished, p.running, p.not_run), (1, 0, 3), "{url}");
         let s = store.reader().submission(&id).await?;
         assert_eq!(s.state, "cancelled");
-        assert_eq!(store.report(&result(&l[1], "success"), 101.0).await?, ReportOutcome::Rejected);
+        assert_eq!(
+            store.report(&result(&l[1], "success"), 101.0).await?,
+            ReportOutcome::Rejected
+        );
     }
     Ok(())
 }
@@ -204,7 +303,9 @@ async fn reopening_keeps_everything() -> anyhow::Result<()> {
     for url in backends("reopen").await? {
         let id = {
             let store = Store::open(&url).await?;
-            let id = store.create_submission(&new_submission("a"), &episodes(2), 0.0).await?;
+            let id = store
+                .create_submission(&new_submission("a"), &episodes(2), 0.0)
+                .await?;
             let w = store.register_worker("w", 1, "sim-core test", 0.0).await?;
             let l = store.lease(&w, 1, 30.0, 1.0).await?;
             store.report(&result(&l[0], "success"), 2.0).await?;
@@ -224,6 +325,8 @@ async fn reopening_keeps_everything() -> anyhow::Result<()> {
 async fn bad_urls_are_refused_with_a_clear_error() {
     let e = Store::open("mysql://nope").await.unwrap_err();
     assert!(e.to_string().contains("unsupported database URL"), "{e}");
-    let e = Store::open("sqlite:///nonexistent-dir/deeper/vb.db").await.unwrap_err();
+    let e = Store::open("sqlite:///nonexistent-dir/deeper/vb.db")
+        .await
+        .unwrap_err();
     assert!(e.to_string().contains("database"), "{e}");
 }

@@ -81,7 +81,12 @@ impl SimEpisode {
     fn start(&mut self) -> Running {
         let (to_client, from_sim) = sync_channel(1);
         let (to_sim, from_client) = sync_channel(1);
-        let (world, task, vehicle, cfg) = (self.world.clone(), self.task.clone(), self.vehicle.clone(), self.cfg.clone());
+        let (world, task, vehicle, cfg) = (
+            self.world.clone(),
+            self.task.clone(),
+            self.vehicle.clone(),
+            self.cfg.clone(),
+        );
         let rate = 1.0 / self.control_dt;
         std::thread::spawn(move || {
             let mut planner = ClientPlanner {
@@ -125,19 +130,23 @@ impl SimService {
     }
 
     async fn get(&self, id: &str) -> Result<Arc<Mutex<SimEpisode>>, Status> {
-        self.episodes
-            .lock()
-            .await
-            .get(id)
-            .cloned()
-            .ok_or_else(|| Status::not_found(format!("no episode `{id}` (closed, or never created)")))
+        self.episodes.lock().await.get(id).cloned().ok_or_else(|| {
+            Status::not_found(format!("no episode `{id}` (closed, or never created)"))
+        })
     }
 
-    fn response(ep: &SimEpisode, run: &mut Running, msg: FromSim, prev: Option<&Observation>) -> pb::StepResponse {
+    fn response(
+        ep: &SimEpisode,
+        run: &mut Running,
+        msg: FromSim,
+        prev: Option<&Observation>,
+    ) -> pb::StepResponse {
         let limit = ep.cfg.rollover_deg.to_radians();
         match msg {
             FromSim::Observation(obs) => {
-                let progress = prev.map_or(0.0, |p| goal_distance(p, &ep.task) - goal_distance(&obs, &ep.task));
+                let progress = prev.map_or(0.0, |p| {
+                    goal_distance(p, &ep.task) - goal_distance(&obs, &ep.task)
+                });
                 let reward = pb::RewardTerms {
                     progress,
                     roll_penalty: -(obs.state.roll / limit).powi(2),
@@ -171,7 +180,10 @@ impl SimService {
                     format!("{}:{}", r.outcome.as_str(), r.reason)
                 };
                 pb::StepResponse {
-                    observation: run.last.as_ref().map(|o| convert::observation(o, &ep.world, ep.crop.as_ref())),
+                    observation: run
+                        .last
+                        .as_ref()
+                        .map(|o| convert::observation(o, &ep.world, ep.crop.as_ref())),
                     reward: Some(pb::RewardTerms {
                         progress,
                         roll_penalty: 0.0,
@@ -203,25 +215,50 @@ impl pb::sim_server::Sim for SimService {
         let bad = Status::invalid_argument;
         let (w, t) = crate::parse_task_id(&r.task_id)
             .ok_or_else(|| bad(format!("task_id `{}` is not like w017-t3", r.task_id)))?;
-        let vname = if r.vehicle.is_empty() { "hmmwv" } else { &r.vehicle };
-        let vehicle = sim_core::vehicle::vehicle_by_name(vname).map_err(|e| bad(format!("vehicle: {e}")))?;
-        let scale = if r.scale == 0.0 { vehicle.scale } else { r.scale };
+        let vname = if r.vehicle.is_empty() {
+            "hmmwv"
+        } else {
+            &r.vehicle
+        };
+        let vehicle =
+            sim_core::vehicle::vehicle_by_name(vname).map_err(|e| bad(format!("vehicle: {e}")))?;
+        let scale = if r.scale == 0.0 {
+            vehicle.scale
+        } else {
+            r.scale
+        };
         if !(scale.is_finite() && scale > 0.0 && scale <= 1.0) {
             return Err(bad(format!("scale {} must be in (0, 1]", r.scale)));
         }
-        let control_dt = if r.control_dt == 0.0 { 0.05 } else { r.control_dt };
+        let control_dt = if r.control_dt == 0.0 {
+            0.05
+        } else {
+            r.control_dt
+        };
         if !(control_dt.is_finite() && (0.001..=1.0).contains(&control_dt)) {
-            return Err(bad(format!("control_dt {} must be in [0.001, 1] s", r.control_dt)));
+            return Err(bad(format!(
+                "control_dt {} must be in [0.001, 1] s",
+                r.control_dt
+            )));
         }
         let crop = match r.local_map_size {
             0 => None,
-            n if n <= 512 && r.local_map_resolution.is_finite() && r.local_map_resolution > 0.0 => Some(CropSpec {
-                size: n as usize,
-                resolution: r.local_map_resolution,
-            }),
-            _ => return Err(bad("local_map_size must be <= 512 with a positive local_map_resolution".into())),
+            n if n <= 512 && r.local_map_resolution.is_finite() && r.local_map_resolution > 0.0 => {
+                Some(CropSpec {
+                    size: n as usize,
+                    resolution: r.local_map_resolution,
+                })
+            }
+            _ => {
+                return Err(bad(
+                    "local_map_size must be <= 512 with a positive local_map_resolution".into(),
+                ))
+            }
         };
-        let world = self.set.world(w, scale).map_err(|e| Status::not_found(e.to_string()))?;
+        let world = self
+            .set
+            .world(w, scale)
+            .map_err(|e| Status::not_found(e.to_string()))?;
         let task = self
             .set
             .tasks(w, scale)
@@ -233,7 +270,13 @@ impl pb::sim_server::Sim for SimService {
         let info = convert::vehicle_info(&vehicle.info());
         let mut id_bytes = [0u8; 8];
         getrandom::getrandom(&mut id_bytes).map_err(|e| Status::internal(e.to_string()))?;
-        let id = format!("ep-{}", id_bytes.iter().map(|b| format!("{b:02x}")).collect::<String>());
+        let id = format!(
+            "ep-{}",
+            id_bytes
+                .iter()
+                .map(|b| format!("{b:02x}"))
+                .collect::<String>()
+        );
         let ep = SimEpisode {
             world: Arc::new(world),
             task: Arc::new(task),
@@ -260,7 +303,10 @@ impl pb::sim_server::Sim for SimService {
         }))
     }
 
-    async fn reset(&self, req: Request<pb::ResetRequest>) -> Result<Response<pb::StepResponse>, Status> {
+    async fn reset(
+        &self,
+        req: Request<pb::ResetRequest>,
+    ) -> Result<Response<pb::StepResponse>, Status> {
         let ep = self.get(&req.get_ref().episode_id).await?;
         let mut ep = ep.lock_owned().await;
         let resp = tokio::task::spawn_blocking(move || {
@@ -277,9 +323,14 @@ impl pb::sim_server::Sim for SimService {
         Ok(Response::new(resp))
     }
 
-    async fn step(&self, req: Request<pb::StepRequest>) -> Result<Response<pb::StepResponse>, Status> {
+    async fn step(
+        &self,
+        req: Request<pb::StepRequest>,
+    ) -> Result<Response<pb::StepResponse>, Status> {
         let r = req.into_inner();
-        let action = r.action.ok_or_else(|| Status::invalid_argument("step without an action"))?;
+        let action = r
+            .action
+            .ok_or_else(|| Status::invalid_argument("step without an action"))?;
         let ep = self.get(&r.episode_id).await?;
         let mut ep = ep.lock_owned().await;
         let resp = tokio::task::spawn_blocking(move || {
@@ -289,7 +340,9 @@ impl pb::sim_server::Sim for SimService {
                 .ok_or_else(|| Status::failed_precondition("call Reset before Step"))?;
             if run.done {
                 ep.running = Some(run);
-                return Err(Status::failed_precondition("the episode has ended: call Reset to start again"));
+                return Err(Status::failed_precondition(
+                    "the episode has ended: call Reset to start again",
+                ));
             }
             let prev = run.last.clone();
             run.to_sim
@@ -305,7 +358,10 @@ impl pb::sim_server::Sim for SimService {
         Ok(Response::new(resp))
     }
 
-    async fn get_maps(&self, req: Request<pb::GetMapsRequest>) -> Result<Response<pb::WorldMaps>, Status> {
+    async fn get_maps(
+        &self,
+        req: Request<pb::GetMapsRequest>,
+    ) -> Result<Response<pb::WorldMaps>, Status> {
         let ep = self.get(&req.get_ref().episode_id).await?;
         let ep = ep.lock().await;
         Ok(Response::new(convert::world_maps(&ep.world)))

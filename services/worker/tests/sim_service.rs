@@ -43,7 +43,9 @@ async fn run(
     goal: &pb::Vec2,
 ) -> anyhow::Result<(Vec<(f64, f64, f64)>, f64, pb::StepResponse)> {
     let mut r = client
-        .reset(pb::ResetRequest { episode_id: id.into() })
+        .reset(pb::ResetRequest {
+            episode_id: id.into(),
+        })
         .await?
         .into_inner();
     let mut states = Vec::new();
@@ -85,7 +87,9 @@ async fn client_driven_episode_runs_to_the_end_deterministically() -> anyhow::Re
     assert_eq!(created.vehicle.unwrap().name, "hmmwv");
     let id = created.episode_id.clone();
     let maps = client
-        .get_maps(pb::GetMapsRequest { episode_id: id.clone() })
+        .get_maps(pb::GetMapsRequest {
+            episode_id: id.clone(),
+        })
         .await?
         .into_inner();
     let elev = maps.elevation.unwrap();
@@ -95,7 +99,11 @@ async fn client_driven_episode_runs_to_the_end_deterministically() -> anyhow::Re
     // Observations come every control_dt of simulated time, starting at rest at the start.
     assert_eq!(states[0].0, 0.0);
     assert!(((states[0].1 - start.x).powi(2) + (states[0].2 - start.y).powi(2)).sqrt() < 1.0);
-    assert!((states[1].0 - 0.1).abs() < 0.01, "second observation at t = {}", states[1].0);
+    assert!(
+        (states[1].0 - 0.1).abs() < 0.01,
+        "second observation at t = {}",
+        states[1].0
+    );
     assert!(!last.outcome.is_empty());
     assert!(last.terminated || last.truncated);
     // The progress terms add up to the decrease of the distance to the goal.
@@ -107,7 +115,10 @@ async fn client_driven_episode_runs_to_the_end_deterministically() -> anyhow::Re
         "sum of progress {progress} vs distance decrease {}",
         d0 - d_end
     );
-    assert!(progress > 5.0, "the vehicle should make progress toward the goal: {progress}");
+    assert!(
+        progress > 5.0,
+        "the vehicle should make progress toward the goal: {progress}"
+    );
     // Heading-aligned local maps came with every observation.
     let local = last.observation.unwrap().local.unwrap();
     assert_eq!(local.elevation.unwrap().data.len(), 16 * 16);
@@ -123,8 +134,15 @@ async fn client_driven_episode_runs_to_the_end_deterministically() -> anyhow::Re
         .await
         .unwrap_err();
     assert_eq!(err.code(), tonic::Code::FailedPrecondition, "{err}");
-    client.close_episode(pb::CloseEpisodeRequest { episode_id: id.clone() }).await?;
-    let err = client.reset(pb::ResetRequest { episode_id: id }).await.unwrap_err();
+    client
+        .close_episode(pb::CloseEpisodeRequest {
+            episode_id: id.clone(),
+        })
+        .await?;
+    let err = client
+        .reset(pb::ResetRequest { episode_id: id })
+        .await
+        .unwrap_err();
     assert_eq!(err.code(), tonic::Code::NotFound);
     Ok(())
 }
@@ -147,8 +165,16 @@ async fn invalid_actions_and_requests_get_clear_answers() -> anyhow::Result<()> 
         })
         .await
         .unwrap_err();
-    assert_eq!(err.code(), tonic::Code::FailedPrecondition, "step before reset: {err}");
-    client.reset(pb::ResetRequest { episode_id: id.clone() }).await?;
+    assert_eq!(
+        err.code(),
+        tonic::Code::FailedPrecondition,
+        "step before reset: {err}"
+    );
+    client
+        .reset(pb::ResetRequest {
+            episode_id: id.clone(),
+        })
+        .await?;
     let r = client
         .step(pb::StepRequest {
             episode_id: id.clone(),

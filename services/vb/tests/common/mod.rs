@@ -1,0 +1,265 @@
+//! Helpers of the service tests: real processes (`vb coordinator`, `vb worker`, `vb leaderboard`, the example
+//! planner), real gRPC, a real database.
+
+#![allow(dead_code)]
+
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+pub fn vb() -> PathBuf {
+    PathBuf::from(env!("CARGO_BIN_EXE_vb"))
+}
+
+/// The example planner's binary (built on demand: it belongs to another package of the workspace).
+pub fn example_planner() -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    let dir = exe
+        .parent()
+        .and_then(Path::parent)
+        .expect("target dir")
+        .to_path_buf();
+    let bin = dir.join("example-planner");
+    if !bin.exists() {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let profile_release = dir.ends_with("release");
+        let mut cmd = Command::new(cargo);
+        cmd.args(["build", "-p", "example-planner"]);
+        if profile_release {
+            cmd.arg("--release");
+        }
+        let st = cmd
+            .status()
+            .expect("running cargo build -p example-planner");
+        assert!(st.success(), "building the example planner failed");
+    }
+    bin
+}
+
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+/// A child process killed when dropped; its output goes to a log file.
+pub struct Proc {
+    pub child: Child,
+    pub name: String,
+    pub log: PathBuf,
+}
+
+impl Proc {
+    pub fn start(name: &str, dir: &Path, program: &Path, args: &[&str]) -> Proc {
+        let log = dir.join(format!("{name}.log"));
+        let out = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&log)
+            .expect("log file");
+        let child = Command::new(program)
+            .args(args)
+            .stdout(out.try_clone().expect("log file"))
+            .stderr(out)
+            .stdin(Stdio::null())
+            .spawn()
+            .unwrap_or_else(|e| panic!("starting {name}: {e}"));
+        Proc {
+            child,
+            name: name.into(),
+            log,
+        }
+    }
+
+    /// SIGKILL: the process gets no chance to clean up.
+    pub fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+
+    pub fn output(&self) -> String {
+        std::fs::read_to_string(&self.log).unwrap_or_default()
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+pub fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("vb-e2e-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+/// Runs `vb args...` to completion and returns stdout.
+pub fn vb_run(args: &[&str]) -> String {
+    let out = Command::new(vb()).args(args).output().expect("running vb");
+    assert!(
+        out.status.success(),
+        "vb {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+pub fn create_token(db: &str) -> String {
+    vb_run(&["admin", "token", "create", "--name", "tester", "--db", db])
+        .trim()
+        .to_string()
+}
+
+pub fn start_coordinator(dir: &Path, name: &str, db: &str, port: u16) -> Proc {
+    let listen = format!("127.0.0.1:{port}");
+    let p = Proc::start(
+        name,
+        dir,
+        &vb(),
+        &[
+            "coordinator",
+            "--db",
+            db,
+            "--listen",
+            &listen,
+            "--lease-s",
+            "3",
+            "--heartbeat-s",
+            "0.5",
+        ],
+    );
+    wait_port(port, Duration::from_secs(30));
+    p
+}
+
+pub fn start_worker(dir: &Path, name: &str, port: u16, slots: usize) -> Proc {
+    let url = format!("http://127.0.0.1:{port}");
+    let slots = slots.to_string();
+    Proc::start(
+        name,
+        dir,
+        &vb(),
+        &[
+            "worker",
+            "--coordinator",
+            &url,
+            "--slots",
+            &slots,
+            "--name",
+            name,
+        ],
+    )
+}
+
+pub fn wait_port(port: u16, limit: Duration) {
+    let t0 = Instant::now();
+    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(
+            t0.elapsed() < limit,
+            "nothing listens on port {port} after {limit:?}"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// A minimal HTTP/1.1 GET: (status code, body bytes).
+pub fn http_get(port: u16, path: &str) -> (u16, Vec<u8>) {
+    let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).expect("connect to leaderboard");
+    s.set_read_timeout(Some(Duration::from_secs(30))).ok();
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n"
+    )
+    .expect("send request");
+    let mut buf = Vec::new();
+    s.read_to_end(&mut buf).expect("read response");
+    let split = buf
+        .windows(4)
+        .position(|w| w == b"\r\n\r\n")
+        .expect("header end");
+    let head = String::from_utf8_lossy(&buf[..split]).to_string();
+    let code = head
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .expect("status code");
+    let mut body = buf[split + 4..].to_vec();
+    if head
+        .to_ascii_lowercase()
+        .contains("transfer-encoding: chunked")
+    {
+        body = dechunk(&body);
+    }
+    (code, body)
+}
+
+fn dechunk(mut b: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    loop {
+        let Some(eol) = b.windows(2).position(|w| w == b"\r\n") else {
+            break;
+        };
+        let n = usize::from_str_radix(String::from_utf8_lossy(&b[..eol]).trim(), 16).unwrap_or(0);
+        if n == 0 {
+            break;
+        }
+        out.extend_from_slice(&b[eol + 2..eol + 2 + n]);
+        b = &b[eol + 2 + n + 2..];
+    }
+    out
+}
+
+pub fn http_text(port: u16, path: &str) -> String {
+    let (code, body) = http_get(port, path);
+    assert_eq!(code, 200, "GET {path}: {}", String::from_utf8_lossy(&body));
+    String::from_utf8_lossy(&body).into_owned()
+}
+
+/// Connects to the coordinator's public API, retrying while it starts.
+pub async fn client(port: u16, token: &str) -> vb_submit::Client {
+    let url = format!("http://127.0.0.1:{port}");
+    let t0 = Instant::now();
+    loop {
+        match vb_submit::connect(&url, token).await {
+            Ok(c) => return c,
+            Err(e) if t0.elapsed() > Duration::from_secs(30) => {
+                panic!("coordinator not reachable: {e}")
+            }
+            Err(_) => tokio::time::sleep(Duration::from_millis(100)).await,
+        }
+    }
+}
+
+/// Polls a submission until `pred` holds (tolerating a coordinator that is down for a while).
+pub async fn wait_for(
+    port: u16,
+    token: &str,
+    id: &str,
+    limit: Duration,
+    pred: impl Fn(&vb_submit::SubmissionStatus) -> bool,
+) -> vb_submit::SubmissionStatus {
+    let t0 = Instant::now();
+    loop {
+        if let Ok(mut c) = vb_submit::connect(&format!("http://127.0.0.1:{port}"), token).await {
+            if let Ok(s) = vb_submit::status(&mut c, id).await {
+                if pred(&s) {
+                    return s;
+                }
+                assert!(
+                    t0.elapsed() < limit,
+                    "timed out waiting on {id}: {}",
+                    vb_submit::status_line(&s)
+                );
+            }
+        }
+        assert!(
+            t0.elapsed() < limit,
+            "timed out waiting on {id} (coordinator unreachable)"
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}

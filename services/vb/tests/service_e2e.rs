@@ -1,0 +1,562 @@
+//! End-to-end tests of the evaluation service over real gRPC and a real database, with every part a separate
+//! process: `vb coordinator`, two `vb worker`s, `vb leaderboard`, and the example planner (started by the workers for
+//! `exec` submissions, or by the test as an endpoint).
+
+mod common;
+
+use common::*;
+use std::collections::BTreeMap;
+use std::time::Duration;
+use vb_proto::v1 as pb;
+
+fn exec_request(name: &str, tasks: &[&str], args: &[&str], deadline: f64) -> pb::SubmitRequest {
+    let mut argv = vec![example_planner().display().to_string()];
+    argv.extend(args.iter().map(|s| s.to_string()));
+    pb::SubmitRequest {
+        name: name.into(),
+        planner: Some(pb::PlannerRef {
+            kind: Some(pb::planner_ref::Kind::Exec(pb::ExecPlanner { argv })),
+        }),
+        task_ids: tasks.iter().map(|s| s.to_string()).collect(),
+        step_deadline_s: deadline,
+        ..Default::default()
+    }
+}
+
+fn done(s: &pb::SubmissionStatus) -> bool {
+    s.state == "done" || s.state == "cancelled"
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn workers_die_and_the_coordinator_restarts_yet_every_task_has_exactly_one_result(
+) -> anyhow::Result<()> {
+    let dir = temp_dir("kill");
+    let db = format!("sqlite://{}", dir.join("vb.db").display());
+    let port = free_port();
+    let token = create_token(&db);
+    let mut coordinator = start_coordinator(&dir, "coordinator", &db, port);
+    let mut worker_a = start_worker(&dir, "worker-a", port, 2);
+    let _worker_b = start_worker(&dir, "worker-b", port, 2);
+    let mut c = client(port, &token).await;
+    // A slow but correct planner (5 ms per step), so episodes last long enough to be interrupted.
+    let req = exec_request("example", &["1", "2"], &["--delay-ms", "5"], 2.0);
+    let sub = vb_submit::submit(&mut c, req).await?;
+    assert_eq!(sub.episodes, 20);
+    let id = sub.submission_id.clone();
+
+    // Kill worker A (SIGKILL) while it runs episodes.
+    wait_for(port, &token, &id, Duration::from_secs(120), |s| {
+        s.finished >= 3
+    })
+    .await;
+    worker_a.kill();
+    // Kill the coordinator mid-run, then start it again on the same database and port.
+    wait_for(port, &token, &id, Duration::from_secs(120), |s| {
+        s.finished >= 8
+    })
+    .await;
+    coordinator.kill();
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    let _coordinator2 = start_coordinator(&dir, "coordinator-restarted", &db, port);
+    let last = wait_for(port, &token, &id, Duration::from_secs(300), done).await;
+    assert_eq!(
+        (last.state.as_str(), last.finished, last.total, last.not_run),
+        ("done", 20, 20, 0)
+    );
+
+    let mut c = client(port, &token).await;
+    let r = vb_submit::results(&mut c, &id).await?;
+    let mut per_task: BTreeMap<String, usize> = BTreeMap::new();
+    for e in &r.episodes {
+        *per_task.entry(e.task_id.clone()).or_default() += 1;
+        assert_eq!(e.state, "done");
+        assert_ne!(
+            e.outcome, "error",
+            "{}: lost to infrastructure: {}",
+            e.task_id, e.detail
+        );
+        assert_ne!(
+            e.outcome, "planner_failure",
+            "{}: {} {}",
+            e.task_id, e.reason, e.detail
+        );
+        assert!(e.planner_identity.starts_with("exec:") && e.planner_identity.contains("sha256:"));
+        assert!(!e.metrics_json.is_empty());
+    }
+    assert_eq!(per_task.len(), 20);
+    assert!(per_task.values().all(|&n| n == 1), "{per_task:?}");
+    // The killed worker's episodes were retried on the other one.
+    assert!(
+        r.episodes.iter().any(|e| e.attempts >= 2),
+        "no episode was retried although worker A was killed mid-run"
+    );
+
+    // The leaderboard (a separate process reading the same store) shows the submission with its breakdowns.
+    let http = free_port();
+    let listen = format!("127.0.0.1:{http}");
+    let _lb = Proc::start(
+        "leaderboard",
+        &dir,
+        &vb(),
+        &["leaderboard", "--db", &db, "--listen", &listen],
+    );
+    wait_port(http, Duration::from_secs(30));
+    let index = http_text(http, "/");
+    assert!(index.contains(&id) && index.contains("example"), "{index}");
+    let page = http_text(http, &format!("/submissions/{id}"));
+    for needle in [
+        "id='by-level'",
+        "id='by-semantics'",
+        "id='by-density'",
+        "<svg",
+        "id='repro'",
+        "sha256:",
+        "w001-t0",
+    ] {
+        assert!(page.contains(needle), "submission page lacks {needle}");
+    }
+    let api: serde_json::Value =
+        serde_json::from_str(&http_text(http, &format!("/api/submissions/{id}")))?;
+    assert_eq!(api["progress"]["finished"], 20);
+    assert_eq!(api["summary"]["overall"]["episodes"], 20);
+    assert!(api["summary"]["by_level"]
+        .as_object()
+        .is_some_and(|m| !m.is_empty()));
+    let ep = http_text(http, &format!("/submissions/{id}/episodes/w002-t3"));
+    for needle in [
+        "id='trajectory'",
+        "id='roll-chart'",
+        "id='pitch-chart'",
+        "id='speed-chart'",
+        "/worlds/2.png",
+    ] {
+        assert!(ep.contains(needle), "episode page lacks {needle}");
+    }
+    let (code, png) = http_get(http, "/worlds/2.png");
+    assert_eq!((code, &png[..4]), (200, &b"\x89PNG"[..]));
+    let (code, body) = http_get(http, "/api/submissions/sub-nope");
+    assert_eq!(code, 404, "{}", String::from_utf8_lossy(&body));
+    assert!(String::from_utf8_lossy(&body).contains("no submission"));
+    Ok(())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn misbehaving_planners_fail_their_own_episodes_and_nothing_else() -> anyhow::Result<()> {
+    let dir = temp_dir("faults");
+    let db = format!("sqlite://{}", dir.join("vb.db").display());
+    let port = free_port();
+    let token = create_token(&db);
+    let _coordinator = start_coordinator(&dir, "coordinator", &db, port);
+    let _w1 = start_worker(&dir, "worker-1", port, 3);
+    let _w2 = start_worker(&dir, "worker-2", port, 3);
+    let mut c = client(port, &token).await;
+    let good_tasks = ["w003-t0", "w003-t1", "w004-t2", "w005-t5"];
+    // The well-behaved planner alone first, as the reference.
+    let alone =
+        vb_submit::submit(&mut c, exec_request("good alone", &good_tasks, &[], 1.0)).await?;
+    wait_for(
+        port,
+        &token,
+        &alone.submission_id,
+        Duration::from_secs(120),
+        done,
+    )
+    .await;
+    // Then again, side by side with four broken planners.
+    let few = ["w006-t0", "w006-t1"];
+    let good = vb_submit::submit(&mut c, exec_request("good", &good_tasks, &[], 1.0)).await?;
+    let crash = vb_submit::submit(
+        &mut c,
+        exec_request(
+            "crash",
+            &few,
+            &["--fault", "crash", "--fault-after", "3"],
+            1.0,
+        ),
+    )
+    .await?;
+    let hang = vb_submit::submit(
+        &mut c,
+        exec_request(
+            "hang",
+            &few,
+            &["--fault", "hang", "--fault-after", "3"],
+            0.3,
+        ),
+    )
+    .await?;
+    let nan = vb_submit::submit(
+        &mut c,
+        exec_request("nan", &few, &["--fault", "nan", "--fault-after", "2"], 1.0),
+    )
+    .await?;
+    let range = vb_submit::submit(
+        &mut c,
+        exec_request("range", &few, &["--fault", "range"], 1.0),
+    )
+    .await?;
+    for s in [&good, &crash, &hang, &nan, &range] {
+        wait_for(
+            port,
+            &token,
+            &s.submission_id,
+            Duration::from_secs(180),
+            done,
+        )
+        .await;
+    }
+    let results = |id: String| {
+        let port = port;
+        let token = token.clone();
+        async move {
+            let mut c = client(port, &token).await;
+            vb_submit::results(&mut c, &id).await
+        }
+    };
+    let expect = [
+        (&crash, "planner_crash", "crashing on purpose"),
+        (&hang, "planner_timeout", "within 0.300 s"),
+        (&nan, "invalid_action", "steering is not finite"),
+        (&range, "invalid_action", "throttle = 5 is outside"),
+    ];
+    for (s, reason, detail) in expect {
+        let r = results(s.submission_id.clone()).await?;
+        assert_eq!(r.episodes.len(), 2);
+        for e in &r.episodes {
+            assert_eq!(
+                (e.state.as_str(), e.outcome.as_str(), e.reason.as_str()),
+                ("done", "planner_failure", reason),
+                "{}",
+                e.detail
+            );
+            assert!(
+                e.detail.contains(detail),
+                "{reason}: detail `{}` lacks `{detail}`",
+                e.detail
+            );
+            assert_eq!(e.attempts, 1, "a planner's own failure must not be retried");
+        }
+    }
+    // The good planner got exactly the results it gets alone: same outcomes, same metrics, bit for bit.
+    let a = results(alone.submission_id.clone()).await?;
+    let g = results(good.submission_id.clone()).await?;
+    assert_eq!(g.episodes.len(), good_tasks.len());
+    for (x, y) in a.episodes.iter().zip(&g.episodes) {
+        assert_eq!(
+            (&x.task_id, &x.outcome, &x.metrics_json),
+            (&y.task_id, &y.outcome, &y.metrics_json)
+        );
+        assert_ne!(y.outcome, "planner_failure");
+    }
+    // The crash's stderr is kept with the episode and shown on its page.
+    let http = free_port();
+    let listen = format!("127.0.0.1:{http}");
+    let _lb = Proc::start(
+        "leaderboard",
+        &dir,
+        &vb(),
+        &["leaderboard", "--db", &db, "--listen", &listen],
+    );
+    wait_port(http, Duration::from_secs(30));
+    let page = http_text(
+        http,
+        &format!("/submissions/{}/episodes/w006-t0", crash.submission_id),
+    );
+    assert!(
+        page.contains("id='log'") && page.contains("crashing on purpose"),
+        "{page}"
+    );
+    Ok(())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Result<()> {
+    let dir = temp_dir("errors");
+    let db = format!("sqlite://{}", dir.join("vb.db").display());
+    let port = free_port();
+    let token = create_token(&db);
+    let _coordinator = start_coordinator(&dir, "coordinator", &db, port);
+    let url = format!("http://127.0.0.1:{port}");
+    // Tokens.
+    for bad in ["", "vbt_not-a-real-token"] {
+        let mut c = vb_submit::connect(&url, if bad.is_empty() { " " } else { bad }).await?;
+        let e = vb_submit::list(&mut c).await.unwrap_err().to_string();
+        assert!(e.contains("authentication failed"), "{e}");
+    }
+    let mut c = client(port, &token).await;
+    // Unknown ids.
+    for e in [
+        vb_submit::status(&mut c, "sub-nope")
+            .await
+            .unwrap_err()
+            .to_string(),
+        vb_submit::cancel(&mut c, "sub-nope")
+            .await
+            .unwrap_err()
+            .to_string(),
+        vb_submit::results(&mut c, "sub-nope")
+            .await
+            .unwrap_err()
+            .to_string(),
+    ] {
+        assert!(e.contains("not found") && e.contains("sub-nope"), "{e}");
+    }
+    // Malformed submissions.
+    let builtin = |b: &str| {
+        Some(pb::PlannerRef {
+            kind: Some(pb::planner_ref::Kind::Builtin(b.into())),
+        })
+    };
+    let cases: Vec<(pb::SubmitRequest, &str)> = vec![
+        (
+            pb::SubmitRequest {
+                name: "x".into(),
+                ..Default::default()
+            },
+            "planner is missing",
+        ),
+        (
+            pb::SubmitRequest {
+                name: "".into(),
+                planner: builtin("pid"),
+                ..Default::default()
+            },
+            "name must be",
+        ),
+        (
+            pb::SubmitRequest {
+                name: "x".into(),
+                planner: builtin("teleport"),
+                ..Default::default()
+            },
+            "unknown builtin planner `teleport`",
+        ),
+        (
+            pb::SubmitRequest {
+                name: "x".into(),
+                planner: builtin("pid"),
+                vehicle: "tank-9000".into(),
+                ..Default::default()
+            },
+            "vehicle",
+        ),
+        (
+            pb::SubmitRequest {
+                name: "x".into(),
+                planner: builtin("pid"),
+                scale: -1.0,
+                ..Default::default()
+            },
+            "scale",
+        ),
+        (
+            pb::SubmitRequest {
+                name: "x".into(),
+                planner: builtin("pid"),
+                step_deadline_s: f64::NAN,
+                ..Default::default()
+            },
+            "step_deadline_s",
+        ),
+        (
+            pb::SubmitRequest {
+                name: "x".into(),
+                planner: builtin("pid"),
+                task_ids: vec!["w999-t0".into()],
+                ..Default::default()
+            },
+            "not in the task set",
+        ),
+        (
+            pb::SubmitRequest {
+                name: "x".into(),
+                planner: builtin("pid"),
+                task_ids: vec!["banana".into()],
+                ..Default::default()
+            },
+            "is not `all`",
+        ),
+        (
+            pb::SubmitRequest {
+                name: "x".into(),
+                planner: Some(pb::PlannerRef {
+                    kind: Some(pb::planner_ref::Kind::Endpoint("ftp://x".into())),
+                }),
+                ..Default::default()
+            },
+            "http://",
+        ),
+        (
+            pb::SubmitRequest {
+                name: "x".into(),
+                planner: Some(pb::PlannerRef {
+                    kind: Some(pb::planner_ref::Kind::Exec(pb::ExecPlanner {
+                        argv: vec![],
+                    })),
+                }),
+                ..Default::default()
+            },
+            "argv",
+        ),
+    ];
+    for (req, needle) in cases {
+        let e = vb_submit::submit(&mut c, req.clone())
+            .await
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("invalid request") && e.contains(needle),
+            "{req:?}: `{e}` lacks `{needle}`"
+        );
+    }
+    // An oversized payload is refused, and the coordinator keeps serving.
+    let huge = pb::SubmitRequest {
+        name: "x".repeat(9 << 20),
+        planner: builtin("pid"),
+        ..Default::default()
+    };
+    let e = vb_submit::submit(&mut c, huge)
+        .await
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("too large") || e.contains("message length"),
+        "{e}"
+    );
+    assert!(
+        vb_submit::list(&mut c).await?.is_empty(),
+        "nothing was stored"
+    );
+    // The worker API refuses a worker with another simulator version and reports from unknown workers.
+    let mut w = pb::worker_pool_client::WorkerPoolClient::connect(url.clone()).await?;
+    let e = w
+        .register(pb::RegisterRequest {
+            worker_name: "old".into(),
+            slots: 1,
+            sim_version: "sim-core 0.0.1".into(),
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::FailedPrecondition, "{e}");
+    let e = w
+        .report_result(pb::EpisodeReport {
+            worker_id: "wk-nope".into(),
+            outcome: "success".into(),
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::NotFound, "{e}");
+    let reg = w
+        .register(pb::RegisterRequest {
+            worker_name: "w".into(),
+            slots: 1,
+            sim_version: vb_worker::SIM_VERSION.into(),
+        })
+        .await?
+        .into_inner();
+    let e = w
+        .report_result(pb::EpisodeReport {
+            worker_id: reg.worker_id.clone(),
+            outcome: "victory".into(),
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
+    assert!(
+        e.code() == tonic::Code::InvalidArgument && e.message().contains("unknown outcome"),
+        "{e}"
+    );
+
+    // Cancel: finished episodes are kept, the rest is shown as not run. A slow planner and one worker slot.
+    let _worker = start_worker(&dir, "worker", port, 1);
+    let sub = vb_submit::submit(
+        &mut c,
+        exec_request("slow", &["7"], &["--delay-ms", "3"], 1.0),
+    )
+    .await?;
+    let id = sub.submission_id;
+    wait_for(port, &token, &id, Duration::from_secs(120), |s| {
+        s.finished >= 2
+    })
+    .await;
+    let s = vb_submit::cancel(&mut c, &id).await?;
+    assert_eq!(s.state, "cancelled");
+    let s = wait_for(port, &token, &id, Duration::from_secs(60), |s| {
+        s.running == 0
+    })
+    .await;
+    assert!(
+        s.finished >= 2 && s.not_run >= 1,
+        "{}",
+        vb_submit::status_line(&s)
+    );
+    assert_eq!(
+        s.finished + s.not_run,
+        10,
+        "every episode is either finished or not run"
+    );
+    let r = vb_submit::results(&mut c, &id).await?;
+    assert_eq!(
+        r.episodes.iter().filter(|e| e.state == "not_run").count() as u32,
+        s.not_run
+    );
+    let csv = vb_submit::results_csv(&r);
+    assert_eq!(csv.lines().count(), 11);
+    assert!(csv.contains(",not_run,"));
+    Ok(())
+}
+
+/// The same service path on PostgreSQL (skipped, and said so, when no server is configured).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_submission_completes_on_postgres() -> anyhow::Result<()> {
+    let Ok(admin) = std::env::var("VB_TEST_POSTGRES_URL") else {
+        eprintln!("SKIPPED: VB_TEST_POSTGRES_URL is unset (.ci/run starts a PostgreSQL server and sets it)");
+        return Ok(());
+    };
+    sqlx_free_create_db(&admin, "vbtest_e2e")?;
+    let base = admin.rsplit_once('/').map_or(admin.as_str(), |(b, _)| b);
+    let db = format!("{base}/vbtest_e2e");
+    let dir = temp_dir("postgres");
+    let port = free_port();
+    let token = create_token(&db);
+    let _coordinator = start_coordinator(&dir, "coordinator", &db, port);
+    let _worker = start_worker(&dir, "worker", port, 2);
+    let mut c = client(port, &token).await;
+    let req = pb::SubmitRequest {
+        name: "pid on postgres".into(),
+        planner: Some(pb::PlannerRef {
+            kind: Some(pb::planner_ref::Kind::Builtin("pid".into())),
+        }),
+        task_ids: vec!["8".into()],
+        ..Default::default()
+    };
+    let id = vb_submit::submit(&mut c, req).await?.submission_id;
+    let s = wait_for(port, &token, &id, Duration::from_secs(120), done).await;
+    assert_eq!((s.state.as_str(), s.finished), ("done", 10));
+    let http = free_port();
+    let listen = format!("127.0.0.1:{http}");
+    let _lb = Proc::start(
+        "leaderboard",
+        &dir,
+        &vb(),
+        &["leaderboard", "--db", &db, "--listen", &listen],
+    );
+    wait_port(http, Duration::from_secs(30));
+    assert!(http_text(http, &format!("/submissions/{id}")).contains("id='by-density'"));
+    Ok(())
+}
+
+/// Creates (or recreates) a database with `psql`, so this test needs no database driver of its own.
+fn sqlx_free_create_db(admin: &str, name: &str) -> anyhow::Result<()> {
+    for sql in [
+        format!("DROP DATABASE IF EXISTS {name}"),
+        format!("CREATE DATABASE {name}"),
+    ] {
+        let st = std::process::Command::new("psql")
+            .args([admin, "-q", "-c", &sql])
+            .status()?;
+        anyhow::ensure!(st.success(), "psql {sql} failed");
+    }
+    Ok(())
+}
