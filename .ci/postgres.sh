@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs PostgreSQL from Debian's packages if needed, starts a throw-away server on a private port and prints the
-# admin URL for the store tests (VB_TEST_POSTGRES_URL). Source-free: `export VB_TEST_POSTGRES_URL=$(.ci/postgres.sh)`.
+# admin URL for the store tests (VB_TEST_POSTGRES_URL): `export VB_TEST_POSTGRES_URL=$(.ci/postgres.sh)`;
+# `.ci/postgres.sh stop` stops it.
 set -euo pipefail
 PORT="${VB_PG_PORT:-55432}"
 if ! ls /usr/lib/postgresql/*/bin/initdb >/dev/null 2>&1; then
@@ -12,6 +13,10 @@ PGBIN="$(ls -d /usr/lib/postgresql/*/bin | sort -V | tail -1)"
 DATA="${VB_PG_DATA:-/tmp/vb-ci-postgres}"
 RUNAS=""
 if [ "$(id -u)" -eq 0 ]; then RUNAS="runuser -u postgres --"; fi
+if [ "${1:-}" = "stop" ]; then
+    $RUNAS "$PGBIN/pg_ctl" -D "$DATA" stop -m fast >/dev/null 2>&1 || true
+    exit 0
+fi
 if [ -f "$DATA/postmaster.pid" ]; then
     $RUNAS "$PGBIN/pg_ctl" -D "$DATA" stop -m immediate >&2 || true
 fi

@@ -35,7 +35,9 @@ fn normal_dependencies(manifest: &str) -> Vec<String> {
         }
         if in_deps && !line.is_empty() && !line.starts_with('#') {
             if let Some((name, _)) = line.split_once('=') {
-                deps.push(name.trim().to_string());
+                // `name.workspace = true` names the crate `name`.
+                let name = name.trim();
+                deps.push(name.strip_suffix(".workspace").unwrap_or(name).to_string());
             }
         }
     }
@@ -113,4 +115,81 @@ fn sim_core_sources_do_no_io_and_use_no_clock_or_global_rng() {
         "sim-core invariant violations:\n{}",
         violations.join("\n")
     );
+}
+
+fn deps_of(crate_dir: &str) -> Vec<String> {
+    let manifest = std::fs::read_to_string(repo_root().join(crate_dir).join("Cargo.toml"))
+        .unwrap_or_else(|e| panic!("{crate_dir}/Cargo.toml: {e}"));
+    normal_dependencies(&manifest)
+}
+
+/// Workers never touch the database; only the coordinator writes it; the leaderboard reads it.
+#[test]
+fn only_the_coordinator_writes_the_store_and_workers_never_touch_it() {
+    for dir in [
+        "services/worker",
+        "services/submit",
+        "examples/planner-rust",
+    ] {
+        let deps = deps_of(dir);
+        for forbidden in ["sqlx", "vb-store", "vb-coordinator"] {
+            assert!(
+                !deps.iter().any(|d| d == forbidden),
+                "{dir} must not depend on {forbidden}"
+            );
+        }
+    }
+    // The leaderboard holds only a `Reader` (it has no way to write).
+    let mut files = Vec::new();
+    rust_files(&repo_root().join("services/leaderboard/src"), &mut files);
+    for f in files {
+        let text = std::fs::read_to_string(&f).unwrap();
+        for needle in [
+            "Store::open",
+            "vb_store::Store",
+            "use vb_store::{Store",
+            ", Store,",
+            ", Store}",
+        ] {
+            assert!(
+                !text.contains(needle),
+                "{} uses the writing store (`{needle}`)",
+                f.display()
+            );
+        }
+    }
+}
+
+/// Generated protobuf types stay at the service edge: no library below the services depends on them.
+#[test]
+fn protobuf_types_stay_at_the_service_edge() {
+    for dir in [
+        "sim-core",
+        "tasks",
+        "services/baselines",
+        "services/eval",
+        "services/viz",
+        "services/store",
+        "services/leaderboard",
+    ] {
+        let deps = deps_of(dir);
+        for forbidden in ["vb-proto", "tonic", "prost"] {
+            assert!(
+                !deps.iter().any(|d| d == forbidden),
+                "{dir} must not depend on {forbidden}"
+            );
+        }
+    }
+    // The example planner is the shape a user copies: it depends on the protocol only, not on our service code.
+    let deps = deps_of("examples/planner-rust");
+    for d in &deps {
+        assert!(
+            !d.starts_with("vb-") || d == "vb-proto",
+            "the example planner depends on {d}"
+        );
+        assert!(
+            !["sim-core", "tasks", "baselines", "eval"].contains(&d.as_str()),
+            "the example planner depends on {d}"
+        );
+    }
 }

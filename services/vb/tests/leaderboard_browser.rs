@@ -10,15 +10,27 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 fn chromium() -> Option<PathBuf> {
-    ["chromium", "chromium-browser", "google-chrome"].iter().find_map(|c| {
-        let ok = Command::new(c).arg("--version").output().map(|o| o.status.success()).unwrap_or(false);
-        ok.then(|| PathBuf::from(c))
-    })
+    ["chromium", "chromium-browser", "google-chrome"]
+        .iter()
+        .find_map(|c| {
+            let ok = Command::new(c)
+                .arg("--version")
+                .output()
+                .map(|o| o.status.success())
+                .unwrap_or(false);
+            ok.then(|| PathBuf::from(c))
+        })
 }
 
 fn headless(browser: &Path, dir: &Path, extra: &[String], url: &str) -> std::process::Output {
     Command::new(browser)
-        .args(["--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--disable-dev-shm-usage"])
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--hide-scrollbars",
+            "--disable-dev-shm-usage",
+        ])
         .arg(format!("--user-data-dir={}", dir.join("profile").display()))
         .args(extra)
         .arg(url)
@@ -37,7 +49,9 @@ fn count_colour(png: &Path, rgb: [u8; 3], tol: i32) -> usize {
 #[test]
 fn leaderboard_pages_render_in_headless_chromium() {
     let Some(browser) = chromium() else {
-        eprintln!("SKIPPED: chromium is not installed (.ci/run installs Debian's chromium package)");
+        eprintln!(
+            "SKIPPED: chromium is not installed (.ci/run installs Debian's chromium package)"
+        );
         return;
     };
     let dir = temp_dir("browser");
@@ -67,10 +81,16 @@ fn leaderboard_pages_render_in_headless_chromium() {
     let t0 = Instant::now();
     let url = loop {
         let out = serve.output();
-        if let Some(line) = out.lines().find(|l| l.starts_with("leaderboard: http") && l.contains("/submissions/")) {
+        if let Some(line) = out
+            .lines()
+            .find(|l| l.starts_with("leaderboard: http") && l.contains("/submissions/"))
+        {
             break line.trim_start_matches("leaderboard: ").trim().to_string();
         }
-        assert!(t0.elapsed() < Duration::from_secs(180), "vb serve did not finish its evaluation:\n{out}");
+        assert!(
+            t0.elapsed() < Duration::from_secs(180),
+            "vb serve did not finish its evaluation:\n{out}"
+        );
         std::thread::sleep(Duration::from_millis(200));
     };
     let id = url.rsplit('/').next().unwrap().to_string();
@@ -78,8 +98,17 @@ fn leaderboard_pages_render_in_headless_chromium() {
     // The DOM as the browser built it.
     let dom = headless(&browser, &dir, &["--dump-dom".into()], &url);
     let dom = String::from_utf8_lossy(&dom.stdout);
-    for needle in ["id=\"by-level\"", "id=\"by-semantics\"", "id=\"by-density\"", "id=\"episodes\"", "pid (builtin)"] {
-        assert!(dom.contains(needle), "rendered submission page lacks {needle}");
+    for needle in [
+        "id=\"by-level\"",
+        "id=\"by-semantics\"",
+        "id=\"by-density\"",
+        "id=\"episodes\"",
+        "pid (builtin)",
+    ] {
+        assert!(
+            dom.contains(needle),
+            "rendered submission page lacks {needle}"
+        );
     }
 
     // Screenshots: the bar charts of the breakdowns are drawn (their blue), and the episode page draws the
@@ -88,16 +117,27 @@ fn leaderboard_pages_render_in_headless_chromium() {
     let out = headless(
         &browser,
         &dir,
-        &[format!("--screenshot={}", shot.display()), "--window-size=1400,1600".into()],
+        &[
+            format!("--screenshot={}", shot.display()),
+            "--window-size=1400,1600".into(),
+        ],
         &url,
     );
-    assert!(shot.exists(), "no screenshot: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        shot.exists(),
+        "no screenshot: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let bars = count_colour(&shot, [0x4a, 0x7f, 0xb5], 6);
-    assert!(bars > 2000, "breakdown bars not visible in the screenshot ({bars} px)");
+    assert!(
+        bars > 2000,
+        "breakdown bars not visible in the screenshot ({bars} px)"
+    );
 
     // A successful episode: its trajectory crosses the map.
     let eps: serde_json::Value =
-        serde_json::from_str(&http_text(http, &format!("/api/submissions/{id}/episodes"))).expect("episodes JSON");
+        serde_json::from_str(&http_text(http, &format!("/api/submissions/{id}/episodes")))
+            .expect("episodes JSON");
     let task = eps
         .as_array()
         .and_then(|a| a.iter().find(|e| e["outcome"] == "success"))
@@ -109,15 +149,28 @@ fn leaderboard_pages_render_in_headless_chromium() {
     headless(
         &browser,
         &dir,
-        &[format!("--screenshot={}", shot.display()), "--window-size=1200,1400".into()],
+        &[
+            format!("--screenshot={}", shot.display()),
+            "--window-size=1200,1400".into(),
+        ],
         &ep_url,
     );
     let yellow = count_colour(&shot, [0xff, 0xd4, 0x00], 10);
-    assert!(yellow > 500, "the driven trajectory is not visible on the episode page ({yellow} px)");
+    assert!(
+        yellow > 500,
+        "the driven trajectory is not visible on the episode page ({yellow} px)"
+    );
     // The map picture loaded under it: the page has many distinct colours, not just text on white.
     let img = image::open(&shot).unwrap().to_rgb8();
-    let mut colours: Vec<[u8; 3]> = img.pixels().map(|p| [p.0[0] & 0xf0, p.0[1] & 0xf0, p.0[2] & 0xf0]).collect();
+    let mut colours: Vec<[u8; 3]> = img
+        .pixels()
+        .map(|p| [p.0[0] & 0xf0, p.0[1] & 0xf0, p.0[2] & 0xf0])
+        .collect();
     colours.sort_unstable();
     colours.dedup();
-    assert!(colours.len() > 100, "the map picture did not render ({} colours)", colours.len());
+    assert!(
+        colours.len() > 100,
+        "the map picture did not render ({} colours)",
+        colours.len()
+    );
 }

@@ -13,10 +13,105 @@ pub enum BenchCmd {
         #[arg(long)]
         task_dir: Option<PathBuf>,
     },
+    /// Round-trip overhead of a remote planner per control step (observation out, action back), through the worker's
+    /// own code path: `vb bench planner -- PLANNER_COMMAND...` (it must serve on $VB_PLANNER_ADDR).
+    Planner {
+        /// Tasks to run (world ids and task ids).
+        #[arg(long, default_value = "1,2,3")]
+        tasks: String,
+        #[arg(long)]
+        task_dir: Option<PathBuf>,
+        #[arg(last = true, required = true)]
+        command: Vec<String>,
+    },
+}
+
+fn percentile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    sorted[((sorted.len() - 1) as f64 * q).round() as usize]
+}
+
+fn bench_planner(tasks_spec: &str, task_dir: PathBuf, command: Vec<String>) -> anyhow::Result<()> {
+    let set = std::sync::Arc::new(tasks::TaskSet::load(&task_dir)?);
+    let selected = eval::run::select(&set, tasks_spec)?;
+    let rt = tokio::runtime::Runtime::new()?;
+    let mut trips = Vec::new();
+    let (mut steps, mut remote_wall, mut local_wall) = (0usize, 0.0, 0.0);
+    for (w, t) in &selected {
+        let task_id = format!("w{w:03}-t{t}");
+        let spec = vb_worker::EpisodeSpec {
+            task_id: task_id.clone(),
+            planner: vb_proto::v1::PlannerRef {
+                kind: Some(vb_proto::v1::planner_ref::Kind::Exec(
+                    vb_proto::v1::ExecPlanner {
+                        argv: command.clone(),
+                    },
+                )),
+            },
+            vehicle: "hmmwv".into(),
+            scale: 1.0,
+            seed: 0,
+            step_deadline_s: 1.0,
+            max_time: None,
+        };
+        let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let run = rt
+            .block_on(vb_worker::run_episode(
+                set.clone(),
+                spec,
+                cancel,
+                std::time::Duration::from_secs(30),
+            ))
+            .map_err(|e| anyhow::anyhow!(e))?;
+        anyhow::ensure!(
+            run.result.outcome != sim_core::episode::Outcome::PlannerFailure,
+            "{task_id}: the planner failed: {}",
+            run.result.detail
+        );
+        steps += run.round_trips.len();
+        remote_wall += run.wall_time_s;
+        trips.extend(run.round_trips);
+        // The same episode with the built-in PID, in-process, for the cost of the simulation alone.
+        let world = set.world(*w, 1.0)?;
+        let task = set.tasks(*w, 1.0)?.remove(*t as usize);
+        let vehicle = sim_core::vehicle::vehicle_by_name("hmmwv")?;
+        let mut pid = baselines::by_name("pid").expect("pid");
+        let t0 = std::time::Instant::now();
+        sim_core::run_episode(&world, &task, &vehicle, pid.as_mut(), &Default::default());
+        local_wall += t0.elapsed().as_secs_f64();
+    }
+    trips.sort_by(f64::total_cmp);
+    let ms = |v: f64| v * 1e3;
+    println!("episodes {}, control steps {steps}", selected.len());
+    println!(
+        "round trip per control step: p50 {:.3} ms, p90 {:.3} ms, p99 {:.3} ms, max {:.3} ms, mean {:.3} ms",
+        ms(percentile(&trips, 0.5)),
+        ms(percentile(&trips, 0.9)),
+        ms(percentile(&trips, 0.99)),
+        ms(trips.last().copied().unwrap_or(f64::NAN)),
+        ms(trips.iter().sum::<f64>() / trips.len().max(1) as f64)
+    );
+    println!(
+        "wall per episode: remote planner {:.3} s (incl. process start), in-process pid {:.3} s",
+        remote_wall / selected.len() as f64,
+        local_wall / selected.len() as f64
+    );
+    Ok(())
 }
 
 pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
     match cmd {
+        BenchCmd::Planner {
+            tasks,
+            task_dir,
+            command,
+        } => bench_planner(
+            &tasks,
+            task_dir.unwrap_or_else(tasks::TaskSet::default_dir),
+            command,
+        ),
         BenchCmd::Sim { seconds, task_dir } => {
             anyhow::ensure!(
                 seconds.is_finite() && seconds > 0.0,
@@ -67,7 +162,7 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
                     );
                 }
             }
+            Ok(())
         }
     }
-    Ok(())
 }
