@@ -29,7 +29,7 @@ pub struct ServeArgs {
     #[arg(long, default_value_t = default_slots())]
     slots: usize,
     /// Task set directory.
-    #[arg(long, default_value_os_t = tasks::TaskSet::default_dir())]
+    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir())]
     task_dir: PathBuf,
     /// Submit this built-in planner through the gRPC API and follow it to the end.
     #[arg(long)]
@@ -48,7 +48,7 @@ pub struct CoordinatorArgs {
     db: String,
     #[arg(long, default_value = "127.0.0.1:50051")]
     listen: SocketAddr,
-    #[arg(long, default_value_os_t = tasks::TaskSet::default_dir())]
+    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir())]
     task_dir: PathBuf,
     /// Lease length without a heartbeat, s: a dead worker's episodes are re-queued after this.
     #[arg(long, default_value_t = 30.0)]
@@ -70,7 +70,7 @@ pub struct WorkerArgs {
     /// Name shown in the coordinator's logs.
     #[arg(long)]
     name: Option<String>,
-    #[arg(long, default_value_os_t = tasks::TaskSet::default_dir())]
+    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir())]
     task_dir: PathBuf,
     /// How long a planner process may take to start serving, s.
     #[arg(long, default_value_t = 30.0)]
@@ -83,7 +83,7 @@ pub struct LeaderboardArgs {
     db: String,
     #[arg(long, default_value = "127.0.0.1:8080")]
     listen: SocketAddr,
-    #[arg(long, default_value_os_t = tasks::TaskSet::default_dir())]
+    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir())]
     task_dir: PathBuf,
 }
 
@@ -263,10 +263,10 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
         let (_stop, shutdown) = tokio::sync::watch::channel(false);
         let cfg = vb_worker::WorkerConfig {
             coordinator: a.coordinator.clone(),
-            name: a
-                .name
-                .clone()
-                .unwrap_or_else(|| format!("worker-{}", std::process::id())),
+            name: a.name.clone().unwrap_or_else(|| {
+                let host = std::env::var("HOSTNAME").unwrap_or_else(|_| "worker".into());
+                format!("{host}-{}", std::process::id())
+            }),
             slots: a.slots,
             task_dir: a.task_dir.clone(),
             planner_startup_s: a.planner_startup_s,
