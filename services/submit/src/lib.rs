@@ -278,7 +278,7 @@ pub async fn validate(
     let set = Arc::new(tasks::TaskSet::load(task_dir)?);
     if vb_worker::parse_task_id(task_id).is_none() {
         return Err(SubmitError::Usage(format!(
-            "bad task id `{task_id}` (like w000-t0)"
+            "bad task id `{task_id}` (like w001-t0)"
         )));
     }
     let spec = vb_worker::EpisodeSpec {

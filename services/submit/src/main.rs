@@ -123,7 +123,7 @@ enum ValidateCmd {
 
 #[derive(Args, Clone)]
 struct ValidateOpts {
-    #[arg(long, default_value = "w000-t0")]
+    #[arg(long, default_value = "w001-t0")]
     task: String,
     /// Simulated seconds to run.
     #[arg(long, default_value_t = 15.0)]

@@ -132,6 +132,16 @@ async fn workers_die_and_the_coordinator_restarts_yet_every_task_has_exactly_one
     ] {
         assert!(ep.contains(needle), "episode page lacks {needle}");
     }
+    // Every path of the OpenAPI document is served.
+    let spec: serde_json::Value = serde_json::from_str(&http_text(http, "/api/openapi.json"))?;
+    let paths = spec["paths"].as_object().expect("paths");
+    assert!(paths.len() >= 5);
+    for path in paths.keys() {
+        let concrete = path.replace("{id}", &id).replace("{task}", "w001-t0");
+        let body = http_text(http, &concrete);
+        serde_json::from_str::<serde_json::Value>(&body)
+            .unwrap_or_else(|e| panic!("{concrete}: not JSON: {e}"));
+    }
     let (code, png) = http_get(http, "/worlds/2.png");
     assert_eq!((code, &png[..4]), (200, &b"\x89PNG"[..]));
     let (code, body) = http_get(http, "/api/submissions/sub-nope");
@@ -504,6 +514,61 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
     let csv = vb_submit::results_csv(&r);
     assert_eq!(csv.lines().count(), 11);
     assert!(csv.contains(",not_run,"));
+
+    // An endpoint the user runs, and one that is not there.
+    let pport = free_port();
+    let paddr = format!("127.0.0.1:{pport}");
+    let _planner = Proc::start(
+        "endpoint-planner",
+        &dir,
+        &example_planner(),
+        &["--addr", &paddr],
+    );
+    wait_port(pport, Duration::from_secs(30));
+    let endpoint = |url: String, tasks: &[&str]| pb::SubmitRequest {
+        name: url.clone(),
+        planner: Some(pb::PlannerRef {
+            kind: Some(pb::planner_ref::Kind::Endpoint(url)),
+        }),
+        task_ids: tasks.iter().map(|s| s.to_string()).collect(),
+        ..Default::default()
+    };
+    let up = vb_submit::submit(
+        &mut c,
+        endpoint(format!("http://{paddr}"), &["w008-t0", "w008-t1"]),
+    )
+    .await?;
+    let down =
+        vb_submit::submit(&mut c, endpoint("http://127.0.0.1:9".into(), &["w008-t2"])).await?;
+    for s in [&up, &down] {
+        wait_for(
+            port,
+            &token,
+            &s.submission_id,
+            Duration::from_secs(120),
+            done,
+        )
+        .await;
+    }
+    let r = vb_submit::results(&mut c, &up.submission_id).await?;
+    for e in &r.episodes {
+        assert_ne!(e.outcome, "planner_failure", "{}: {}", e.task_id, e.detail);
+        assert_eq!(e.planner_identity, format!("endpoint:http://{paddr}"));
+    }
+    let r = vb_submit::results(&mut c, &down.submission_id).await?;
+    let e = &r.episodes[0];
+    assert_eq!(
+        (e.outcome.as_str(), e.reason.as_str()),
+        ("planner_failure", "planner_unreachable"),
+        "{}",
+        e.detail
+    );
+    assert!(
+        e.detail
+            .contains("cannot connect to planner at http://127.0.0.1:9"),
+        "{}",
+        e.detail
+    );
     Ok(())
 }
 
