@@ -216,7 +216,6 @@ async fn misbehaving_planners_fail_their_own_episodes_and_nothing_else() -> anyh
         .await;
     }
     let results = |id: String| {
-        let port = port;
         let token = token.clone();
         async move {
             let mut c = client(port, &token).await;

@@ -20,7 +20,7 @@ async fn server() -> anyhow::Result<SimClient<tonic::transport::Channel>> {
 
 /// Steers toward the goal at a moderate throttle.
 fn drive(obs: &pb::Observation, goal: &pb::Vec2) -> pb::Action {
-    let s = obs.state.clone().unwrap_or_default();
+    let s = obs.state.unwrap_or_default();
     let heading = (goal.y - s.y).atan2(goal.x - s.x);
     let mut err = heading - s.yaw;
     while err > std::f64::consts::PI {
@@ -52,7 +52,7 @@ async fn run(
     let mut progress = 0.0;
     for _ in 0..5000 {
         let obs = r.observation.clone().unwrap_or_default();
-        let s = obs.state.clone().unwrap_or_default();
+        let s = obs.state.unwrap_or_default();
         states.push((s.time, s.x, s.y));
         if r.terminated || r.truncated {
             return Ok((states, progress, r));
@@ -64,7 +64,7 @@ async fn run(
             })
             .await?
             .into_inner();
-        progress += r.reward.clone().unwrap_or_default().progress;
+        progress += r.reward.unwrap_or_default().progress;
     }
     anyhow::bail!("episode did not end")
 }
