@@ -5,6 +5,7 @@
 //! not depend on the planner's hardware. A planner that fails returns a [`PlannerError`]; the episode then ends with
 //! that failure reason and nothing else is affected.
 
+use crate::vehicle::VehicleSpec;
 use crate::world::{Task, World};
 use serde::{Deserialize, Serialize};
 
@@ -92,6 +93,9 @@ pub struct PlannerContext<'a> {
     pub world: &'a World,
     pub task: &'a Task,
     pub vehicle: &'a VehicleInfo,
+    /// The vehicle's full model parameters (mass, suspension, tyres, powertrain), as a team knows its own
+    /// vehicle: model-based planners may build a model from it (MPPI-6 simulates it).
+    pub spec: &'a VehicleSpec,
     /// Physics step of the simulator, s (informative).
     pub sim_dt: f64,
 }

@@ -82,6 +82,17 @@ fn finish(
     }
 }
 
+/// Where and how an episode starts: the task's start, facing the goal: `(x, y, yaw)`.
+pub fn start_pose(task: &Task) -> (f64, f64, f64) {
+    let yaw = (task.goal[1] - task.start[1]).atan2(task.goal[0] - task.start[0]);
+    (task.start[0], task.start[1], yaw)
+}
+
+/// Physics steps between two planner actions at `rate_hz` for a physics step `dt` (at least 1).
+pub fn control_every(rate_hz: f64, dt: f64) -> u64 {
+    ((1.0 / rate_hz) / dt).round().max(1.0) as u64
+}
+
 /// Runs one episode, reporting every control step to `observer`.
 pub fn run_episode_observed(
     world: &World,
@@ -92,8 +103,8 @@ pub fn run_episode_observed(
     observer: &mut dyn EpisodeObserver,
 ) -> EpisodeResult {
     let scale = world.scale;
-    let yaw = (task.goal[1] - task.start[1]).atan2(task.goal[0] - task.start[0]);
-    let mut sim = Simulation::new(world, vehicle, task.start[0], task.start[1], yaw);
+    let (x0, y0, yaw) = start_pose(task);
+    let mut sim = Simulation::new(world, vehicle, x0, y0, yaw);
     let dt = sim.dt();
     let info = vehicle.info();
     let mut metrics = EpisodeMetrics::default();
@@ -108,6 +119,7 @@ pub fn run_episode_observed(
         world,
         task,
         vehicle: &info,
+        spec: vehicle,
         sim_dt: dt,
     };
     if let Err(e) = planner.reset(&ctx) {
@@ -129,7 +141,7 @@ pub fn run_episode_observed(
             trajectory,
         );
     }
-    let control_every = ((1.0 / rate) / dt).round().max(1.0) as u64;
+    let control_every = control_every(rate, dt);
     // Stuck bookkeeping: positions sampled every `sample_dt`, window worth of samples in a ring.
     let sample_dt = 0.5;
     let sample_every = (sample_dt / dt).round().max(1.0) as u64;

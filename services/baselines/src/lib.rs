@@ -8,17 +8,18 @@
 //!   variance), as the release's EH.
 //!
 //! - [`mppi::Mppi`]: MPPI with a kinematic bicycle model.
-//!
-//! MPPI-6 is not written yet.
+//! - [`mppi6::Mppi6`]: MPPI-6, MPPI whose rollouts run our own 6-DoF simulator on a copy of the world (an
+//!   *oracle* model: the benchmark's own vehicle model, where the original used a learned one).
 
 pub mod mppi;
+pub mod mppi6;
 
 use sim_core::control::point_ahead;
 use sim_core::planner::{Action, Observation, Planner, PlannerContext, PlannerError};
 use sim_core::world::World;
 
 /// Names of the built-in planners.
-pub const NAMES: [&str; 3] = ["pid", "eh", "mppi"];
+pub const NAMES: [&str; 4] = ["pid", "eh", "mppi", "mppi6"];
 
 /// A built-in planner by name.
 pub fn by_name(name: &str) -> Option<Box<dyn Planner>> {
@@ -26,6 +27,7 @@ pub fn by_name(name: &str) -> Option<Box<dyn Planner>> {
         "pid" => Some(Box::new(Pid::new())),
         "eh" => Some(Box::new(ElevationHeuristic::new())),
         "mppi" => Some(Box::new(mppi::Mppi::new())),
+        "mppi6" => Some(Box::new(mppi6::Mppi6::new())),
         _ => None,
     }
 }
@@ -205,6 +207,10 @@ mod tests {
         World::uniform(h, Semantic::Dirt, Surface::Rigid { friction: 0.6 })
     }
 
+    fn spec() -> sim_core::VehicleSpec {
+        sim_core::vehicle::vehicle_by_name("hmmwv").unwrap()
+    }
+
     fn info() -> VehicleInfo {
         VehicleInfo {
             name: "t".into(),
@@ -246,6 +252,7 @@ mod tests {
             world: &w,
             task: &task,
             vehicle: &info(),
+            spec: &spec(),
             sim_dt: 0.002,
         })
         .unwrap();
@@ -285,6 +292,7 @@ mod tests {
             world: &w,
             task: &task,
             vehicle: &info(),
+            spec: &spec(),
             sim_dt: 0.002,
         })
         .unwrap();
@@ -309,6 +317,7 @@ mod tests {
             world: &w,
             task: &task,
             vehicle: &info(),
+            spec: &spec(),
             sim_dt: 0.002,
         })
         .unwrap();
@@ -327,6 +336,7 @@ mod tests {
             world: &w,
             task: &task,
             vehicle: &info(),
+            spec: &spec(),
             sim_dt: 0.002,
         })
         .unwrap();
@@ -357,6 +367,7 @@ mod tests {
                 world: &w,
                 task: &task,
                 vehicle: &info(),
+                spec: &spec(),
                 sim_dt: 0.002,
             })
             .unwrap();

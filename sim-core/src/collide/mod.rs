@@ -171,6 +171,12 @@ impl ObstacleSet {
         }
     }
 
+    /// Takes `other`'s near list (same obstacles assumed: the caller checks the counts).
+    pub fn copy_near_from(&mut self, other: &ObstacleSet) {
+        self.near = other.near;
+        self.near_len = other.near_len;
+    }
+
     /// Ids of the obstacles in the near list.
     pub fn near(&self) -> &[usize] {
         &self.near[..self.near_len]

@@ -116,6 +116,8 @@ pub struct SoilGrid {
     tiles_x: usize,
     tile_index: Vec<u32>,
     pool: Vec<[Node; TILE * TILE]>,
+    /// Tile id (index into `tile_index`) of every pool entry, in pool order (capacity [`TILE_POOL`]).
+    pool_tiles: Vec<u32>,
     patch_soil: [Option<SoilParams>; PATCHES * PATCHES],
     heights: crate::world::Heightmap,
     step: u64,
@@ -149,6 +151,7 @@ impl SoilGrid {
             tiles_x,
             tile_index: vec![NO_TILE; if any_soil { tiles_x * tiles_y } else { 0 }],
             pool: Vec::with_capacity(if any_soil { TILE_POOL } else { 0 }),
+            pool_tiles: Vec::with_capacity(if any_soil { TILE_POOL } else { 0 }),
             patch_soil,
             heights: h.clone(),
             step: 0,
@@ -199,8 +202,88 @@ impl SoilGrid {
     pub fn reset(&mut self) {
         self.tile_index.iter_mut().for_each(|t| *t = NO_TILE);
         self.pool.clear();
+        self.pool_tiles.clear();
         self.step = 0;
         self.exhausted = false;
+    }
+
+    /// Whether `other` is the soil of a world of the same geometry (grid size and spacing), so memory can be copied.
+    pub fn same_grid(&self, other: &SoilGrid) -> bool {
+        self.nx == other.nx
+            && self.ny == other.ny
+            && self.delta == other.delta
+            && self.tile_index.len() == other.tile_index.len()
+    }
+
+    /// Makes this soil's memory a copy of `src`'s within the square of half side `radius` around `(x, y)`
+    /// (whole tiles; `f64::INFINITY` copies everything): the rest is undeformed. Also copies the step counter, so
+    /// shear displacement carries over. Cost: the tiles this grid had touched plus the tiles `src` has in the
+    /// square; no allocation (the pool was allocated by [`SoilGrid::new`]). Both grids must have the same geometry
+    /// ([`SoilGrid::same_grid`]); otherwise nothing is copied and `false` is returned.
+    pub fn copy_memory_from(&mut self, src: &SoilGrid, x: f64, y: f64, radius: f64) -> bool {
+        if !self.same_grid(src) {
+            return false;
+        }
+        for &t in &self.pool_tiles {
+            self.tile_index[t as usize] = NO_TILE;
+        }
+        self.pool.clear();
+        self.pool_tiles.clear();
+        self.step = src.step;
+        self.exhausted = src.exhausted;
+        self.pressure = src.pressure;
+        if self.tile_index.is_empty() {
+            return true;
+        }
+        let tiles_y = self.tile_index.len() / self.tiles_x;
+        let side = TILE as f64 * self.delta;
+        let range = |c: f64, half: f64, n: usize| {
+            let lo = ((c - radius + half) / side).floor();
+            let hi = ((c + radius + half) / side).floor();
+            let lo = if lo.is_nan() { 0.0 } else { lo.max(0.0) };
+            let hi = if hi.is_nan() {
+                (n - 1) as f64
+            } else {
+                hi.min((n - 1) as f64)
+            };
+            (lo as usize, hi as usize)
+        };
+        let (x0, x1) = range(x, self.half_x, self.tiles_x);
+        let (y0, y1) = range(y, self.half_y, tiles_y);
+        if x0 > x1 || y0 > y1 {
+            return true;
+        }
+        let area = (x1 - x0 + 1) * (y1 - y0 + 1);
+        if area >= src.pool_tiles.len() {
+            // Fewer touched tiles than tiles in the square: walk the source's pool.
+            for (k, &t) in src.pool_tiles.iter().enumerate() {
+                let (tx, ty) = (t as usize % self.tiles_x, t as usize / self.tiles_x);
+                if (x0..=x1).contains(&tx) && (y0..=y1).contains(&ty) {
+                    self.push_tile(t, &src.pool[k]);
+                }
+            }
+        } else {
+            for ty in y0..=y1 {
+                for tx in x0..=x1 {
+                    let t = ty * self.tiles_x + tx;
+                    let k = src.tile_index[t];
+                    if k != NO_TILE {
+                        self.push_tile(t as u32, &src.pool[k as usize]);
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    fn push_tile(&mut self, t: u32, nodes: &[Node; TILE * TILE]) {
+        if self.pool.len() == self.pool.capacity() {
+            self.exhausted = true;
+            return;
+        }
+        self.tile_index[t as usize] = self.pool.len() as u32;
+        self.pool.push(*nodes);
+        self.pool_tiles.push(t);
     }
 
     fn node_mut(&mut self, i: usize, j: usize) -> Option<&mut Node> {
@@ -212,6 +295,7 @@ impl SoilGrid {
             }
             self.tile_index[t] = self.pool.len() as u32;
             self.pool.push([Node::default(); TILE * TILE]);
+            self.pool_tiles.push(t as u32);
         }
         Some(&mut self.pool[self.tile_index[t] as usize][(j % TILE) * TILE + i % TILE])
     }

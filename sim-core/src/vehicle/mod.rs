@@ -3,5 +3,5 @@
 pub mod model;
 pub mod spec;
 
-pub use model::{Simulation, StepInfo};
+pub use model::{Simulation, StateCopyError, StepInfo};
 pub use spec::{builtin_vehicles, vehicle_by_name, VehicleError, VehicleSpec};
