@@ -5,11 +5,12 @@
 //!   a torn last line is ignored and nothing is counted twice.
 //! - [`summary`]: success rate with a 95% Wilson interval, traversal time (successes only), roll and pitch, failure
 //!   mix, each broken down by elevation level, semantics kind and obstacle density.
-//! - [`report`]: `episodes.csv`, `summary.json`, `summary.txt` and SVG charts of the breakdowns.
+//! - [`report`] and [`parquet_file`]: `episodes.csv` and `episodes.parquet` (the same columns), `summary.json`, `summary.txt` and SVG charts of the breakdowns.
 //! - [`compare`]: paired comparison of two evaluations (difference in success rate with a 95% interval, exact
 //!   McNemar test).
 
 pub mod compare;
+pub mod parquet_file;
 pub mod report;
 pub mod run;
 pub mod summary;

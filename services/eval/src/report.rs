@@ -1,4 +1,4 @@
-//! Files of an evaluation: `episodes.csv`, `summary.json`, `summary.txt`, `charts.svg`; and a static leaderboard
+//! Files of an evaluation: `episodes.csv` (and `episodes.parquet`, [`crate::parquet_file`]), `summary.json`, `summary.txt`, `charts.svg`; and a static leaderboard
 //! page over several evaluations.
 
 use crate::summary::{Aggregate, Summary};
@@ -7,37 +7,147 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// One CSV row per episode with every metric.
+/// Values of one column of the episode table.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ColumnValues {
+    Text(Vec<String>),
+    Int(Vec<i64>),
+    /// Floats printed in CSV with the given number of decimals.
+    Float(Vec<f64>, usize),
+    /// Floats that may be absent (CSV: empty field; Parquet: null).
+    OptFloat(Vec<Option<f64>>, usize),
+}
+
+/// One column of the episode table: the same columns go to `episodes.csv` and `episodes.parquet`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Column {
+    pub name: &'static str,
+    pub values: ColumnValues,
+}
+
+/// The episode table: task factors, outcome, reason, traversal time (successes only) and every metric.
+pub fn episode_columns(rows: &[EpisodeRow]) -> Vec<Column> {
+    fn text(name: &'static str, rows: &[EpisodeRow], f: impl Fn(&EpisodeRow) -> String) -> Column {
+        Column {
+            name,
+            values: ColumnValues::Text(rows.iter().map(f).collect()),
+        }
+    }
+    fn int(name: &'static str, rows: &[EpisodeRow], f: impl Fn(&EpisodeRow) -> i64) -> Column {
+        Column {
+            name,
+            values: ColumnValues::Int(rows.iter().map(f).collect()),
+        }
+    }
+    fn float(
+        name: &'static str,
+        d: usize,
+        rows: &[EpisodeRow],
+        f: impl Fn(&EpisodeRow) -> f64,
+    ) -> Column {
+        Column {
+            name,
+            values: ColumnValues::Float(rows.iter().map(f).collect(), d),
+        }
+    }
+    vec![
+        text("task_id", rows, |r| r.task_id.clone()),
+        int("world_id", rows, |r| r.world_id.into()),
+        int("task_index", rows, |r| r.task_index.into()),
+        text("level", rows, |r| r.level.clone()),
+        text("semantics", rows, |r| r.semantics.clone()),
+        text("density", rows, |r| r.density.clone()),
+        text("planner", rows, |r| r.planner.clone()),
+        text("vehicle", rows, |r| r.vehicle.clone()),
+        // Full precision in CSV (`{}` of an f64 round-trips).
+        Column {
+            name: "scale",
+            values: ColumnValues::Text(rows.iter().map(|r| r.scale.to_string()).collect()),
+        },
+        int("seed", rows, |r| r.seed as i64),
+        text("task_set_version", rows, |r| r.task_set_version.clone()),
+        text("sim_version", rows, |r| r.sim_version.clone()),
+        text("outcome", rows, |r| r.outcome.clone()),
+        text("reason", rows, |r| r.reason.clone()),
+        float("time_s", 3, rows, |r| r.metrics.time),
+        Column {
+            name: "traversal_time_s",
+            values: ColumnValues::OptFloat(
+                rows.iter()
+                    .map(|r| (r.outcome == "success").then_some(r.metrics.time))
+                    .collect(),
+                3,
+            ),
+        },
+        float("roll_mean_deg", 4, rows, |r| r.metrics.roll.mean),
+        float("roll_var", 4, rows, |r| r.metrics.roll.var),
+        float("roll_max", 4, rows, |r| r.metrics.roll.max),
+        float("roll_abs_mean_deg", 4, rows, |r| r.metrics.roll_abs.mean),
+        float("roll_abs_var", 4, rows, |r| r.metrics.roll_abs.var),
+        float("roll_abs_max", 4, rows, |r| r.metrics.roll_abs.max),
+        float("pitch_mean_deg", 4, rows, |r| r.metrics.pitch.mean),
+        float("pitch_var", 4, rows, |r| r.metrics.pitch.var),
+        float("pitch_max", 4, rows, |r| r.metrics.pitch.max),
+        float("pitch_abs_mean_deg", 4, rows, |r| r.metrics.pitch_abs.mean),
+        float("pitch_abs_var", 4, rows, |r| r.metrics.pitch_abs.var),
+        float("pitch_abs_max", 4, rows, |r| r.metrics.pitch_abs.max),
+        float("throttle_mean", 4, rows, |r| r.metrics.throttle_mean),
+        float("throttle_var", 4, rows, |r| r.metrics.throttle_var),
+        float("throttle_tv", 4, rows, |r| r.metrics.throttle_tv),
+        float("steering_mean", 4, rows, |r| r.metrics.steering_mean),
+        float("steering_var", 4, rows, |r| r.metrics.steering_var),
+        float("steering_tv", 4, rows, |r| r.metrics.steering_tv),
+        float("path_length_m", 3, rows, |r| r.metrics.path_length),
+        float("energy_j", 1, rows, |r| r.metrics.energy),
+        int("obstacle_contacts", rows, |r| {
+            r.metrics.obstacle_contacts.into()
+        }),
+        float("final_goal_distance_m", 3, rows, |r| {
+            r.metrics.final_goal_distance
+        }),
+        int("steps", rows, |r| r.metrics.steps as i64),
+        float("wall_time_s", 4, rows, |r| r.wall_time_s),
+    ]
+}
+
+/// One CSV row per episode with every metric ([`episode_columns`]; an absent traversal time is an empty field).
 pub fn episodes_csv(rows: &[EpisodeRow]) -> String {
-    let mut s = String::from(
-        "task_id,world_id,task_index,level,semantics,density,planner,vehicle,scale,seed,task_set_version,sim_version,outcome,reason,time_s,roll_mean_deg,roll_var,roll_max,roll_abs_mean_deg,roll_abs_var,roll_abs_max,pitch_mean_deg,pitch_var,pitch_max,pitch_abs_mean_deg,pitch_abs_var,pitch_abs_max,throttle_mean,throttle_var,throttle_tv,steering_mean,steering_var,steering_tv,path_length_m,energy_j,obstacle_contacts,final_goal_distance_m,steps,wall_time_s\n",
-    );
-    for r in rows {
-        let m = &r.metrics;
-        let _ = writeln!(
-            s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.3},{:.1},{},{:.3},{},{:.4}",
-            r.task_id, r.world_id, r.task_index, r.level, r.semantics, r.density, r.planner, r.vehicle, r.scale, r.seed,
-            r.task_set_version, r.sim_version, r.outcome, r.reason, m.time, m.roll.mean, m.roll.var, m.roll.max,
-            m.roll_abs.mean, m.roll_abs.var, m.roll_abs.max, m.pitch.mean, m.pitch.var, m.pitch.max, m.pitch_abs.mean,
-            m.pitch_abs.var, m.pitch_abs.max, m.throttle_mean, m.throttle_var, m.throttle_tv, m.steering_mean,
-            m.steering_var, m.steering_tv, m.path_length, m.energy, m.obstacle_contacts, m.final_goal_distance, m.steps,
-            r.wall_time_s
-        );
+    let cols = episode_columns(rows);
+    let names: Vec<&str> = cols.iter().map(|c| c.name).collect();
+    let mut s = names.join(",") + "\n";
+    for i in 0..rows.len() {
+        for (j, c) in cols.iter().enumerate() {
+            if j > 0 {
+                s.push(',');
+            }
+            let _ = match &c.values {
+                ColumnValues::Text(v) => write!(s, "{}", v[i]),
+                ColumnValues::Int(v) => write!(s, "{}", v[i]),
+                ColumnValues::Float(v, d) => write!(s, "{:.*}", d, v[i]),
+                ColumnValues::OptFloat(v, d) => match v[i] {
+                    Some(x) => write!(s, "{:.*}", d, x),
+                    None => Ok(()),
+                },
+            };
+        }
+        s.push('\n');
     }
     s
 }
 
 fn line(name: &str, a: &Aggregate) -> String {
     format!(
-        "{name:<12} {:>5} {:>6.1}% [{:>5.1}, {:>5.1}] {:>7.1} {:>6.2} {:>6.2} {:>7.1}% {:>6.1}% {:>7.1}% {:>7.1}%\n",
+        "{name:<14} {:>5} {:>6.1}% [{:>5.1}, {:>5.1}] {:>6.1} {:>7.1} {:>6.2} {:>6.2} {:>6.2} {:>6.2} {:>7.1}% {:>6.1}% {:>7.1}% {:>7.1}%\n",
         a.episodes,
         100.0 * a.success_rate,
         100.0 * a.success_ci95.0,
         100.0 * a.success_ci95.1,
         a.traversal_time_mean,
+        a.traversal_time_var,
         a.roll_mean,
+        a.roll_var,
         a.pitch_mean,
+        a.pitch_var,
         a.rollover_pct,
         a.stuck_pct,
         a.timeout_pct,
@@ -51,7 +161,8 @@ pub fn summary_text(s: &Summary) -> String {
         "planner {} | vehicle {} (scale {}) | task set {} | {}\n",
         s.planner, s.vehicle, s.scale, s.task_set_version, s.sim_version
     );
-    t += "group        tasks success  [95% CI]      time_s  roll   pitch  rollover  stuck  timeout  other\n";
+    t += "(time: traversal time of successes, s, mean and variance; roll, pitch: per-episode mean |angle|, deg, mean and variance over episodes)\n";
+    t += "group          tasks success  [95% CI]      time  time_var   roll roll_var  pitch pitch_var rollover  stuck  timeout  other\n";
     t += &line("overall", &s.overall);
     for (title, map) in [
         ("elevation", &s.by_level),
@@ -143,7 +254,7 @@ pub fn write(dir: &Path, rows: &[EpisodeRow], s: &Summary) -> Result<(), EvalErr
         let p = dir.join(name);
         std::fs::write(&p, text).map_err(|e| io_err(&p, e))?;
     }
-    Ok(())
+    crate::parquet_file::write_episodes(&dir.join("episodes.parquet"), rows)
 }
 
 /// A static leaderboard page ranking evaluations by success rate, with their breakdowns.

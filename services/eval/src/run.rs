@@ -20,7 +20,7 @@ pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"));
 pub struct EvalConfig {
     pub planner: String,
     pub task_dir: PathBuf,
-    /// `all`, or a comma-separated list of world ids (`17`) and task ids (`w017-t3`).
+    /// `all`, or a comma-separated list of world ids (`17`), task ids (`w017-t3`) and named splits ([`SPLITS`]).
     pub tasks: String,
     pub vehicle: String,
     /// World scale; `None` = the vehicle's own scale.
@@ -51,6 +51,30 @@ pub struct EpisodeRow {
     pub wall_time_s: f64,
 }
 
+/// Named splits of the task set for `--tasks`: every task of the worlds with one factor level. An item list is a
+/// union (`low,dense` = the low worlds and the dense worlds).
+pub const SPLITS: [&str; 9] = [
+    "low",
+    "medium",
+    "high",
+    "rigid",
+    "deformable",
+    "mixed",
+    "sparse",
+    "medium-density",
+    "dense",
+];
+
+/// Whether a world with these factors belongs to a named split.
+fn in_split(w: &tasks::format::WorldEntry, split: &str) -> bool {
+    match split {
+        "medium-density" => w.density.as_str() == "medium",
+        "sparse" | "dense" => w.density.as_str() == split,
+        "rigid" | "deformable" | "mixed" => w.semantics.as_str() == split,
+        _ => w.level.as_str() == split,
+    }
+}
+
 /// Selects `(world id, task index)` pairs from a task set.
 pub fn select(set: &TaskSet, spec: &str) -> Result<Vec<(u32, u32)>, EvalError> {
     let ids = set.world_ids();
@@ -66,9 +90,18 @@ pub fn select(set: &TaskSet, spec: &str) -> Result<Vec<(u32, u32)>, EvalError> {
     for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
         let bad = || EvalError::Param {
             field: "tasks".into(),
-            message: format!("`{item}` is not `all`, a world id or a task id like w017-t3"),
+            message: format!(
+                "`{item}` is not `all`, a world id, a task id like w017-t3 or a split ({})",
+                SPLITS.join(", ")
+            ),
         };
-        if let Some(rest) = item.strip_prefix('w') {
+        if SPLITS.contains(&item) {
+            for &w in &ids {
+                if in_split(set.world_meta(w)?, item) {
+                    out.extend((0..10).map(|t| (w, t)));
+                }
+            }
+        } else if let Some(rest) = item.strip_prefix('w') {
             let (w, t) = rest.split_once("-t").ok_or_else(bad)?;
             let (w, t): (u32, u32) = (w.parse().map_err(|_| bad())?, t.parse().map_err(|_| bad())?);
             if !ids.contains(&w) || t >= 10 {
