@@ -73,7 +73,7 @@ enum Cmd {
         #[command(flatten)]
         opts: SubmitOpts,
     },
-    /// Submit one of the built-in baselines (pid, eh, mppi, ...).
+    /// Submit one of the built-in baselines (pid, eh, mppi, mppi6).
     Builtin {
         planner: String,
         #[command(flatten)]

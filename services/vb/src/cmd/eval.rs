@@ -6,10 +6,11 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct EvalArgs {
-    /// Built-in planner: pid, eh or mppi.
+    /// Built-in planner: pid, eh, mppi (bicycle model) or mppi6 (6-DoF oracle model: our own simulator).
     #[arg(long, default_value = "pid")]
     planner: String,
-    /// `all`, or comma-separated world ids (17) and task ids (w017-t3).
+    /// `all`, or a comma-separated union of world ids (17), task ids (w017-t3) and named splits: low, medium,
+    /// high (elevation), rigid, deformable, mixed (semantics), sparse, medium-density, dense (obstacles).
     #[arg(long, default_value = "all")]
     tasks: String,
     #[arg(long, default_value = "hmmwv")]
@@ -20,7 +21,8 @@ pub struct EvalArgs {
     /// Task-set directory (default: the committed set).
     #[arg(long)]
     task_dir: Option<PathBuf>,
-    /// Output directory; running again resumes an interrupted evaluation.
+    /// Output directory (results.jsonl, episodes.csv, episodes.parquet, summary.json, summary.txt, charts.svg);
+    /// running again resumes an interrupted evaluation.
     #[arg(long, default_value = "out/eval")]
     out: PathBuf,
     /// Use the original release's rules: 8 m goal radius and speed-based stuck (< 2 m/s for 10 s).
