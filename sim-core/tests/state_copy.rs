@@ -53,7 +53,8 @@ fn a_copy_steps_bit_identically_to_its_source_on_rigid_ground_soil_and_obstacles
         let spec = vehicle_by_name(name).unwrap();
         // Start on rigid ground heading into the mud (x > 0) and the rock.
         let mut src = Simulation::new(&w, &spec, -5.0, 0.0, 0.0);
-        let mut copy = Simulation::new(&w, &spec, 30.0, -20.0, 1.0);
+        // A clone of a fresh simulation works as well as a new one (its soil pool keeps its capacity).
+        let mut copy = Simulation::new(&w, &spec, 30.0, -20.0, 1.0).clone();
         let drive = action(0.8, 0.2, 0.0);
         for _ in 0..1500 {
             src.step(&drive);
@@ -62,6 +63,7 @@ fn a_copy_steps_bit_identically_to_its_source_on_rigid_ground_soil_and_obstacles
         copy.copy_state_from(&src, f64::INFINITY).unwrap();
         assert_eq!(bits(&copy), bits(&src));
         assert_eq!(copy.soil().touched_tiles(), src.soil().touched_tiles());
+        assert!(!copy.soil().exhausted());
         let turn = action(1.0, -0.6, 0.0);
         for _ in 0..1500 {
             assert_eq!(src.step(&turn), copy.step(&turn), "{name}");

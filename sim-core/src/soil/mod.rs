@@ -105,8 +105,8 @@ pub enum PressureDirection {
     WheelRadial,
 }
 
-/// The soil of a world.
-#[derive(Clone, Debug)]
+/// The soil of a world. A clone keeps the full tile pool capacity, so it never allocates while stepping either.
+#[derive(Debug)]
 pub struct SoilGrid {
     delta: f64,
     nx: usize,
@@ -123,6 +123,32 @@ pub struct SoilGrid {
     step: u64,
     exhausted: bool,
     pressure: PressureDirection,
+}
+
+impl Clone for SoilGrid {
+    fn clone(&self) -> Self {
+        // `Vec::clone` would shrink the pools to their length: the clone would run out of tiles at once.
+        let mut pool = Vec::with_capacity(self.pool.capacity());
+        pool.extend_from_slice(&self.pool);
+        let mut pool_tiles = Vec::with_capacity(self.pool_tiles.capacity());
+        pool_tiles.extend_from_slice(&self.pool_tiles);
+        SoilGrid {
+            delta: self.delta,
+            nx: self.nx,
+            ny: self.ny,
+            half_x: self.half_x,
+            half_y: self.half_y,
+            tiles_x: self.tiles_x,
+            tile_index: self.tile_index.clone(),
+            pool,
+            pool_tiles,
+            patch_soil: self.patch_soil,
+            heights: self.heights.clone(),
+            step: self.step,
+            exhausted: self.exhausted,
+            pressure: self.pressure,
+        }
+    }
 }
 
 impl SoilGrid {
