@@ -16,6 +16,24 @@ pub enum StuckRule {
     Speed { speed: f64, window: f64 },
 }
 
+/// When a tilted vehicle counts as rolled over.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RolloverRule {
+    /// The paper's definition (default): a trial fails by getting stuck or timing out, and a failed trial whose
+    /// final |roll| exceeds the threshold is a rollover. A vehicle that overturns (its chassis up-axis below the
+    /// horizon) ends the episode at once as a rollover: it cannot recover, and waiting for "stuck" only costs time.
+    /// A vehicle that leans past the threshold on a side slope and drives on is not failed for it.
+    #[default]
+    AtFailure,
+    /// The original release's post-hoc classification: a failed trial whose maximum |roll| or |pitch| during the
+    /// episode exceeded the threshold is a rollover (also ends at once on overturning).
+    MaxDuringFailure,
+    /// End the episode as soon as |roll| exceeds the threshold (the strict rule vertibench used before the
+    /// task-set evaluation showed it fails transient side-slope leans far below the vehicle's tipping angle).
+    Immediate,
+}
+
 /// Termination rules and recording options of an episode. Lengths are full-scale and get multiplied by the
 /// world's scale.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -24,8 +42,11 @@ pub struct EpisodeConfig {
     pub goal_radius: f64,
     /// Time limit, s.
     pub max_time: f64,
-    /// Rollover threshold on |roll|, degrees.
+    /// Rollover threshold on |roll|, degrees (how it is applied: `rollover`).
     pub rollover_deg: f64,
+    /// When the threshold makes a rollover.
+    #[serde(default)]
+    pub rollover: RolloverRule,
     pub stuck: StuckRule,
     /// Trajectory recording rate, Hz (`None`: no trajectory).
     pub record_hz: Option<f64>,
@@ -39,6 +60,7 @@ impl Default for EpisodeConfig {
             goal_radius: 10.0,
             max_time: 60.0,
             rollover_deg: 30.0,
+            rollover: RolloverRule::AtFailure,
             stuck: StuckRule::Displacement {
                 distance: 1.0,
                 window: 10.0,

@@ -2,8 +2,10 @@
 //!
 //! The vehicle starts at rest at the task's start facing the goal. The planner acts at its control rate; between
 //! its actions the physics runs at the vehicle's fixed step, and simulated time is frozen while the planner thinks.
-//! The episode ends on the first of: success (within the goal radius, horizontal distance), rollover (|roll| over
-//! the threshold), stuck, leaving the map, timeout, or a planner failure (error, NaN or out-of-range action).
+//! The episode ends on the first of: success (within the goal radius, horizontal distance), overturning (the
+//! chassis up-axis below the horizon: a rollover), stuck, leaving the map, timeout, or a planner failure (error, NaN
+//! or out-of-range action). A failed trial (stuck or timeout) is then classified as a rollover by the configured
+//! [`RolloverRule`]: by default, the paper's "more than 30 degrees of roll at the end of a failed trial".
 
 use crate::episode::*;
 use crate::planner::{Action, Observation, Planner, PlannerContext, VehicleState};
@@ -239,11 +241,25 @@ pub fn run_episode_observed(
         if (pos.x - task.goal[0]).hypot(pos.y - task.goal[1]) < goal_radius {
             break (Outcome::Success, "success", String::new());
         }
-        if r.abs() > cfg.rollover_deg {
+        if cfg.rollover == RolloverRule::Immediate && r.abs() > cfg.rollover_deg {
             break (
                 Outcome::Rollover,
                 "rollover",
                 format!("|roll| = {:.1} deg", r.abs()),
+            );
+        }
+        // Body z-axis in the world (R = Rz(yaw) Ry(pitch) Rx(roll)): its vertical component is cos(pitch) cos(roll).
+        let up_z = s.pitch.cos() * s.roll.cos();
+        if up_z < 0.0 {
+            break (
+                Outcome::Rollover,
+                "rollover",
+                format!(
+                    "overturned: chassis tilted {:.0} deg (roll {:.0}, pitch {:.0})",
+                    up_z.acos().to_degrees(),
+                    r,
+                    p
+                ),
             );
         }
         if pos.x.abs() > half_x || pos.y.abs() > half_y {
@@ -279,6 +295,8 @@ pub fn run_episode_observed(
             break (Outcome::Timeout, "timeout", String::new());
         }
     };
+    let (outcome, reason, message) =
+        classify_failure(cfg, result, &sim.state(), &roll_abs, &pitch_abs);
     let pos = sim.position();
     metrics.time = sim.time();
     metrics.steps = sim.steps();
@@ -292,5 +310,46 @@ pub fn run_episode_observed(
     metrics.throttle_var = t.var;
     metrics.steering_mean = st.mean;
     metrics.steering_var = st.var;
-    finish(result.0, result.1, result.2, metrics, trajectory)
+    finish(outcome, reason, message, metrics, trajectory)
+}
+
+/// Applies the rollover rule to a failed trial: a stuck or timed-out episode whose roll (final, or maximum roll or
+/// pitch under the release's rule) exceeds the threshold is a rollover; everything else is returned unchanged.
+fn classify_failure<'a>(
+    cfg: &EpisodeConfig,
+    result: (Outcome, &'a str, String),
+    end: &VehicleState,
+    roll_abs: &Running,
+    pitch_abs: &Running,
+) -> (Outcome, &'a str, String) {
+    let (outcome, reason, message) = result;
+    let failed = matches!(outcome, Outcome::Stuck | Outcome::Timeout) && reason != "cancelled";
+    if !failed {
+        return (outcome, reason, message);
+    }
+    let what = if message.is_empty() {
+        reason.to_string()
+    } else {
+        format!("{reason}: {message}")
+    };
+    let thr = cfg.rollover_deg;
+    match cfg.rollover {
+        RolloverRule::AtFailure if end.roll.to_degrees().abs() > thr => (
+            Outcome::Rollover,
+            "rollover",
+            format!(
+                "|roll| = {:.1} deg at the end of a failed trial ({what})",
+                end.roll.to_degrees().abs()
+            ),
+        ),
+        RolloverRule::MaxDuringFailure if roll_abs.max.max(pitch_abs.max) > thr => (
+            Outcome::Rollover,
+            "rollover",
+            format!(
+                "max |roll| {:.1} deg, max |pitch| {:.1} deg during a failed trial ({what})",
+                roll_abs.max, pitch_abs.max
+            ),
+        ),
+        _ => (outcome, reason, message),
+    }
 }

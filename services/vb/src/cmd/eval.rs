@@ -1,6 +1,6 @@
 //! `vb eval`: evaluate a planner on the task set, locally and in parallel.
 
-use sim_core::episode::{EpisodeConfig, StuckRule};
+use sim_core::episode::{EpisodeConfig, RolloverRule, StuckRule};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -25,7 +25,8 @@ pub struct EvalArgs {
     /// running again resumes an interrupted evaluation.
     #[arg(long, default_value = "out/eval")]
     out: PathBuf,
-    /// Use the original release's rules: 8 m goal radius and speed-based stuck (< 2 m/s for 10 s).
+    /// Use the original release's rules: 8 m goal radius, speed-based stuck (< 2 m/s for 10 s) and its post-hoc
+    /// rollover classification (a failed trial whose |roll| or |pitch| ever exceeded 30 degrees).
     #[arg(long)]
     release_rules: bool,
     /// Worker threads (default: all cores).
@@ -42,6 +43,7 @@ pub fn run(a: EvalArgs) -> anyhow::Result<()> {
     let mut episode = EpisodeConfig::default();
     if a.release_rules {
         episode.goal_radius = 8.0;
+        episode.rollover = RolloverRule::MaxDuringFailure;
         episode.stuck = StuckRule::Speed {
             speed: 2.0,
             window: 10.0,
