@@ -1,4 +1,5 @@
-//! An interim, procedural height source used until the SWAE generator (crate `swae`) is trained and committed.
+//! An interim, procedural height source: the committed set's heights until a trained SWAE generator (crate `swae`,
+//! `vb tasks generate --generator swae`) passes the per-level calibration.
 //!
 //! Spectral synthesis: a sum of random-phase cosine waves with log-uniform wavelengths (2.5 to 128 m) and
 //! amplitudes scaled by `f^-beta`; with the default beta = 0 the power spectrum falls as 1/f (a fractal surface,

@@ -8,7 +8,7 @@
 //! - [`format`]: the versioned on-disk format (`FORMAT.md`) and [`TaskSet`] loading and saving.
 //! - [`heightmap_io`]: external heightmaps (8/16-bit PNG/BMP, `.npy`).
 //! - [`import`]: the original Verti-Bench release's worlds.
-//! - [`interim`]: a procedural height source used until the SWAE generator is committed.
+//! - [`interim`]: a procedural height source (the committed set's, until the SWAE generator, crate `swae`, passes).
 //! - [`stats`]: composition and geometry statistics.
 //! - [`render`]: PNG pictures of worlds and a contact sheet.
 

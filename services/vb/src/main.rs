@@ -20,7 +20,7 @@ enum Command {
     /// Generate, inspect, render and import task sets.
     #[command(subcommand)]
     Tasks(cmd::tasks::TasksCmd),
-    /// Train the terrain generator.
+    /// Train, evaluate, calibrate and render the SWAE terrain generator.
     #[command(subcommand)]
     Terrain(cmd::terrain::TerrainCmd),
     /// Run single simulated episodes.

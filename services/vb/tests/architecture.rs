@@ -166,6 +166,7 @@ fn protobuf_types_stay_at_the_service_edge() {
     for dir in [
         "sim-core",
         "tasks",
+        "tasks/swae",
         "services/baselines",
         "services/eval",
         "services/viz",
@@ -191,5 +192,27 @@ fn protobuf_types_stay_at_the_service_edge() {
             !["sim-core", "tasks", "baselines", "eval"].contains(&d.as_str()),
             "the example planner depends on {d}"
         );
+    }
+}
+
+/// The task set does not depend on the terrain model (the dependency points from `swae` to `tasks`), and the
+/// deterministic decoder used for generation does not touch candle.
+#[test]
+fn tasks_do_not_depend_on_the_terrain_model_and_generation_avoids_candle() {
+    let deps = deps_of("tasks");
+    for forbidden in ["swae", "candle-core", "candle-nn"] {
+        assert!(
+            !deps.iter().any(|d| d == forbidden),
+            "tasks must not depend on {forbidden}"
+        );
+    }
+    for file in ["decoder.rs", "source.rs"] {
+        let text = std::fs::read_to_string(repo_root().join("tasks/swae/src").join(file)).unwrap();
+        for used in ["candle_core", "candle_nn", "rayon"] {
+            assert!(
+                !text.contains(used),
+                "tasks/swae/src/{file} must not use {used}"
+            );
+        }
     }
 }

@@ -13,6 +13,13 @@ pub enum TasksCmd {
         out: Option<PathBuf>,
         #[arg(long, default_value_t = tasks::generate::DEFAULT_SEED)]
         seed: u64,
+        /// Height source: `interim` (the spectral generator of the committed set) or `swae` (the SWAE decoder with
+        /// the committed weights; not yet the default, see BENCHMARKS.md).
+        #[arg(long, default_value = "interim")]
+        generator: String,
+        /// SWAE weights file instead of the committed one (only with `--generator swae`).
+        #[arg(long)]
+        weights: Option<PathBuf>,
     },
     /// Print the composition and per-level geometry statistics.
     Stats {
@@ -50,10 +57,27 @@ fn open(dir: Option<PathBuf>) -> anyhow::Result<TaskSet> {
 
 pub fn run(cmd: TasksCmd) -> anyhow::Result<()> {
     match cmd {
-        TasksCmd::Generate { out, seed } => {
+        TasksCmd::Generate {
+            out,
+            seed,
+            generator,
+            weights,
+        } => {
             let out = out.unwrap_or_else(TaskSet::default_dir);
-            let m =
-                tasks::cli::generate_set(&out, seed, &tasks::interim::SpectralSource::default())?;
+            let source: Box<dyn tasks::generate::HeightSource> = match (generator.as_str(), weights)
+            {
+                ("swae", None) => Box::new(swae::SwaeSource::committed()?),
+                ("swae", Some(w)) => Box::new(swae::SwaeSource::from_file(
+                    &w,
+                    swae::source::FULL_SCALE_HEIGHT,
+                )?),
+                ("interim", None) => Box::new(tasks::interim::SpectralSource::default()),
+                ("interim", Some(_)) => anyhow::bail!("--weights only applies to --generator swae"),
+                (other, _) => {
+                    anyhow::bail!("unknown generator `{other}`: use `swae` or `interim`")
+                }
+            };
+            let m = tasks::cli::generate_set(&out, seed, source.as_ref())?;
             println!(
                 "wrote {} worlds to {} (task-set version {}, generator {})",
                 m.worlds.len(),

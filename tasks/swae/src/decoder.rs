@@ -1,0 +1,307 @@
+//! The deterministic decoder used for generation: plain Rust, f64 arithmetic in a fixed loop order on one thread,
+//! weights read from the safetensors file. It computes the same function as [`crate::model::Swae::decode`] in
+//! evaluation mode (BatchNorm with running statistics), so its output matches candle's to float rounding
+//! (tested to 1e-4), but it does not depend on candle's multithreaded GEMM, whose summation order may vary. Its
+//! only transcendental function, `tanh`, is computed here from `+ - * /` (see [`tanh`]), so the result does not
+//! depend on the platform's libm either.
+
+use crate::model::{BN_EPS, BOTTOM_PX, LEAKY};
+use crate::{SwaeError, CROP_PX};
+use safetensors::SafeTensors;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+struct Tensor {
+    shape: Vec<usize>,
+    data: Vec<f64>,
+}
+
+/// BatchNorm in evaluation mode folded into a per-channel affine map.
+struct Affine {
+    scale: Vec<f64>,
+    shift: Vec<f64>,
+}
+
+struct Deconv {
+    cin: usize,
+    cout: usize,
+    /// `[cin, cout, 4, 4]`
+    weight: Vec<f64>,
+    bias: Vec<f64>,
+    bn: Option<Affine>,
+}
+
+/// The decoder half of a weights file (plus the encoder's shape, for [`crate::model::Swae::load`]).
+pub struct Decoder {
+    latent: usize,
+    bottom_channels: usize,
+    /// `[bottom * 16, latent]`
+    fc_weight: Vec<f64>,
+    fc_bias: Vec<f64>,
+    bn0: Affine,
+    deconvs: Vec<Deconv>,
+    encoder_channels: Vec<usize>,
+}
+
+impl Decoder {
+    /// Reads a weights file.
+    pub fn load(path: &Path) -> Result<Decoder, SwaeError> {
+        let bytes = std::fs::read(path).map_err(|e| SwaeError::io(path, e))?;
+        Self::from_bytes(&bytes, path)
+    }
+
+    /// Parses weights file bytes; `path` names the source in errors.
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Decoder, SwaeError> {
+        let bad = |message: String| SwaeError::Weights {
+            path: PathBuf::from(path),
+            message,
+        };
+        let st = SafeTensors::deserialize(bytes).map_err(|e| bad(e.to_string()))?;
+        let mut t: BTreeMap<String, Tensor> = BTreeMap::new();
+        for (name, view) in st.tensors() {
+            if view.dtype() != safetensors::Dtype::F32 {
+                return Err(bad(format!(
+                    "tensor `{name}` is {:?}, expected F32",
+                    view.dtype()
+                )));
+            }
+            let data: Vec<f64> = view
+                .data()
+                .chunks_exact(4)
+                .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64)
+                .collect();
+            t.insert(
+                name.clone(),
+                Tensor {
+                    shape: view.shape().to_vec(),
+                    data,
+                },
+            );
+        }
+        let get = |name: &str, rank: usize| -> Result<&Tensor, SwaeError> {
+            let x = t
+                .get(name)
+                .ok_or_else(|| bad(format!("missing tensor `{name}`")))?;
+            if x.shape.len() != rank {
+                return Err(bad(format!(
+                    "tensor `{name}` has shape {:?}, expected rank {rank}",
+                    x.shape
+                )));
+            }
+            Ok(x)
+        };
+        let expect_len = |name: &str, x: &Tensor, n: usize| -> Result<(), SwaeError> {
+            if x.data.len() != n {
+                return Err(bad(format!(
+                    "tensor `{name}` has {} values, expected {n}",
+                    x.data.len()
+                )));
+            }
+            Ok(())
+        };
+        let bn = |prefix: &str, c: usize| -> Result<Affine, SwaeError> {
+            let mut parts = Vec::new();
+            for f in ["weight", "bias", "running_mean", "running_var"] {
+                let name = format!("{prefix}.{f}");
+                let x = get(&name, 1)?;
+                expect_len(&name, x, c)?;
+                parts.push(&x.data);
+            }
+            let (w, b, m, v) = (parts[0], parts[1], parts[2], parts[3]);
+            let mut scale = vec![0.0; c];
+            let mut shift = vec![0.0; c];
+            for i in 0..c {
+                if v[i] < 0.0 {
+                    return Err(bad(format!("`{prefix}.running_var` is negative")));
+                }
+                scale[i] = w[i] / (v[i] + BN_EPS).sqrt();
+                shift[i] = b[i] - m[i] * scale[i];
+            }
+            Ok(Affine { scale, shift })
+        };
+        // Encoder shape (for loading the candle model).
+        let mut encoder_channels = Vec::new();
+        while let Some(w) = t.get(&format!("enc.conv{}.weight", encoder_channels.len())) {
+            encoder_channels.push(*w.shape.first().unwrap_or(&0));
+        }
+        let fc_w = get("dec.fc.weight", 2)?;
+        let (flat, latent) = (fc_w.shape[0], fc_w.shape[1]);
+        if latent == 0 || flat % (BOTTOM_PX * BOTTOM_PX) != 0 {
+            return Err(bad(format!(
+                "`dec.fc.weight` has shape {:?}, expected [channels * {}, latent]",
+                fc_w.shape,
+                BOTTOM_PX * BOTTOM_PX
+            )));
+        }
+        let bottom_channels = flat / (BOTTOM_PX * BOTTOM_PX);
+        let fc_b = get("dec.fc.bias", 1)?;
+        expect_len("dec.fc.bias", fc_b, flat)?;
+        let bn0 = bn("dec.bn0", bottom_channels)?;
+        let stages = (CROP_PX / BOTTOM_PX).trailing_zeros() as usize;
+        let mut deconvs = Vec::new();
+        let mut cin = bottom_channels;
+        for i in 0..stages {
+            let name = format!("dec.deconv{i}.weight");
+            let w = get(&name, 4)?;
+            if w.shape[0] != cin || w.shape[2] != 4 || w.shape[3] != 4 {
+                return Err(bad(format!(
+                    "tensor `{name}` has shape {:?}, expected [{cin}, out, 4, 4]",
+                    w.shape
+                )));
+            }
+            let cout = w.shape[1];
+            let last = i + 1 == stages;
+            if last && cout != 1 {
+                return Err(bad(format!("tensor `{name}` must have 1 output channel")));
+            }
+            let bname = format!("dec.deconv{i}.bias");
+            let b = get(&bname, 1)?;
+            expect_len(&bname, b, cout)?;
+            deconvs.push(Deconv {
+                cin,
+                cout,
+                weight: w.data.clone(),
+                bias: b.data.clone(),
+                bn: if last {
+                    None
+                } else {
+                    Some(bn(&format!("dec.bn{}", i + 1), cout)?)
+                },
+            });
+            cin = cout;
+        }
+        Ok(Decoder {
+            latent,
+            bottom_channels,
+            fc_weight: fc_w.data.clone(),
+            fc_bias: fc_b.data.clone(),
+            bn0,
+            deconvs,
+            encoder_channels,
+        })
+    }
+
+    /// Size of the latent code.
+    pub fn latent(&self) -> usize {
+        self.latent
+    }
+
+    /// Encoder channels found in the file (empty for a decoder-only file).
+    pub fn encoder_channels(&self) -> Vec<usize> {
+        self.encoder_channels.clone()
+    }
+
+    /// Decodes a latent code into a 128 x 128 map in (-1, 1), row-major.
+    pub fn decode(&self, z: &[f64]) -> Result<Vec<f64>, SwaeError> {
+        if z.len() != self.latent {
+            return Err(SwaeError::param(
+                "z",
+                format!("latent has {} values, expected {}", z.len(), self.latent),
+            ));
+        }
+        let c = self.bottom_channels;
+        let mut side = BOTTOM_PX;
+        let flat = c * side * side;
+        let mut h = vec![0.0; flat];
+        for (o, out) in h.iter_mut().enumerate() {
+            let row = &self.fc_weight[o * self.latent..(o + 1) * self.latent];
+            let mut s = self.fc_bias[o];
+            for (w, x) in row.iter().zip(z) {
+                s += w * x;
+            }
+            *out = s;
+        }
+        apply_bn_leaky(&mut h, &self.bn0, side * side);
+        for d in &self.deconvs {
+            let out_side = side * 2;
+            let mut out = vec![0.0; d.cout * out_side * out_side];
+            for oc in 0..d.cout {
+                out[oc * out_side * out_side..(oc + 1) * out_side * out_side].fill(d.bias[oc]);
+            }
+            // Transposed conv, kernel 4, stride 2, padding 1: input (iy, ix) adds to output
+            // (2 iy - 1 + ky, 2 ix - 1 + kx).
+            for ic in 0..d.cin {
+                let plane = &h[ic * side * side..(ic + 1) * side * side];
+                for oc in 0..d.cout {
+                    let k = &d.weight[(ic * d.cout + oc) * 16..(ic * d.cout + oc + 1) * 16];
+                    let dst = &mut out[oc * out_side * out_side..(oc + 1) * out_side * out_side];
+                    for iy in 0..side {
+                        for ky in 0..4 {
+                            let oy = (2 * iy + ky) as isize - 1;
+                            if oy < 0 || oy >= out_side as isize {
+                                continue;
+                            }
+                            let drow =
+                                &mut dst[oy as usize * out_side..(oy as usize + 1) * out_side];
+                            let srow = &plane[iy * side..(iy + 1) * side];
+                            for (ix, &v) in srow.iter().enumerate() {
+                                for kx in 0..4 {
+                                    let ox = (2 * ix + kx) as isize - 1;
+                                    if ox >= 0 && ox < out_side as isize {
+                                        drow[ox as usize] += v * k[ky * 4 + kx];
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            match &d.bn {
+                Some(bn) => apply_bn_leaky(&mut out, bn, out_side * out_side),
+                None => out.iter_mut().for_each(|v| *v = tanh(*v)),
+            }
+            h = out;
+            side = out_side;
+        }
+        Ok(h)
+    }
+}
+
+fn apply_bn_leaky(h: &mut [f64], bn: &Affine, plane: usize) {
+    for (c, chunk) in h.chunks_mut(plane).enumerate() {
+        for v in chunk {
+            let y = *v * bn.scale[c] + bn.shift[c];
+            *v = if y >= 0.0 { y } else { y * LEAKY };
+        }
+    }
+}
+
+/// `e^x` from `+ - * /` only (range reduction by ln 2, degree-16 Taylor polynomial, exact power of two), accurate
+/// to a few ulp and identical on every IEEE-754 machine.
+pub fn exp(x: f64) -> f64 {
+    if x > 700.0 {
+        return f64::INFINITY;
+    }
+    if x < -700.0 {
+        return 0.0;
+    }
+    const LN2: f64 = std::f64::consts::LN_2;
+    let k = (x / LN2).round();
+    let r = x - k * LN2;
+    let mut term = 1.0;
+    let mut sum = 1.0;
+    for i in 1..=16 {
+        term = term * r / i as f64;
+        sum += term;
+    }
+    sum * f64::from_bits(((k as i64 + 1023) as u64) << 52)
+}
+
+/// `tanh` from [`exp`]: `1 - 2 / (e^{2x} + 1)`, odd-symmetric.
+pub fn tanh(x: f64) -> f64 {
+    let a = x.abs();
+    let t = if a > 20.0 {
+        1.0
+    } else if a < 1e-3 {
+        // Avoid cancellation near 0: x - x^3/3 + 2x^5/15.
+        let a2 = a * a;
+        a * (1.0 - a2 / 3.0 + 2.0 * a2 * a2 / 15.0)
+    } else {
+        1.0 - 2.0 / (exp(2.0 * a) + 1.0)
+    };
+    if x < 0.0 {
+        -t
+    } else {
+        t
+    }
+}
