@@ -91,30 +91,8 @@ impl Planner for Mppi {
         };
         let h = &ctx.world.heightmap;
         (self.nx, self.ny, self.cell) = (h.nx, h.ny, h.cell);
-        let grid = sim_core::observe::occupancy_grid(ctx.world);
-        // Inflate by the vehicle's half width (in cells).
-        let r = (0.5 * ctx.vehicle.width / h.cell).ceil() as i64;
-        self.blocked = vec![false; h.nx * h.ny];
-        for iy in 0..h.ny as i64 {
-            for ix in 0..h.nx as i64 {
-                if grid[(iy as usize) * h.nx + ix as usize] == 0 {
-                    continue;
-                }
-                for dy in -r..=r {
-                    for dx in -r..=r {
-                        let (qx, qy) = (ix + dx, iy + dy);
-                        if qx >= 0
-                            && qy >= 0
-                            && qx < h.nx as i64
-                            && qy < h.ny as i64
-                            && dx * dx + dy * dy <= r * r
-                        {
-                            self.blocked[qy as usize * h.nx + qx as usize] = true;
-                        }
-                    }
-                }
-            }
-        }
+        // Inflate by the vehicle's half width.
+        self.blocked = crate::inflated_obstacles(ctx.world, 0.5 * ctx.vehicle.width);
         Ok(())
     }
     fn act(&mut self, obs: &Observation) -> Result<Action, PlannerError> {

@@ -203,29 +203,7 @@ impl Mppi6 {
         let h = &ctx.world.heightmap;
         let (nx, ny, cell) = (h.nx, h.ny, h.cell);
         self.grid = (nx, ny, cell);
-        let occ = sim_core::observe::occupancy_grid(ctx.world);
-        let r = (0.5 * ctx.vehicle.width / cell).ceil() as i64;
-        let mut blocked = vec![false; nx * ny];
-        for iy in 0..ny as i64 {
-            for ix in 0..nx as i64 {
-                if occ[iy as usize * nx + ix as usize] == 0 {
-                    continue;
-                }
-                for dy in -r..=r {
-                    for dx in -r..=r {
-                        let (qx, qy) = (ix + dx, iy + dy);
-                        if qx >= 0
-                            && qy >= 0
-                            && qx < nx as i64
-                            && qy < ny as i64
-                            && dx * dx + dy * dy <= r * r
-                        {
-                            blocked[qy as usize * nx + qx as usize] = true;
-                        }
-                    }
-                }
-            }
-        }
+        let blocked = crate::inflated_obstacles(ctx.world, 0.5 * ctx.vehicle.width);
         let (gx, gy) = h.grid_coords(self.goal[0], self.goal[1]);
         let g = (gy.round().clamp(0.0, (ny - 1) as f64) as usize) * nx
             + gx.round().clamp(0.0, (nx - 1) as f64) as usize;
