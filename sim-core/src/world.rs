@@ -314,6 +314,34 @@ impl Heightmap {
             (iy as f64 - (self.ny - 1) as f64 * 0.5) * self.cell,
         )
     }
+    /// The 8-connected neighbours of sample index `idx` (`iy * nx + ix`) that lie on the grid, each with its step
+    /// length in cells (1 or sqrt 2), in a fixed order (E, W, N, S, NE, SE, NW, SW): the moves of the grid
+    /// searches (the task set's A*, the MPPI-6 cost-to-go). Allocates nothing.
+    pub fn grid_neighbours(&self, idx: usize) -> impl Iterator<Item = (usize, f64)> {
+        const MOVES: [(i64, i64); 8] = [
+            (1, 0),
+            (-1, 0),
+            (0, 1),
+            (0, -1),
+            (1, 1),
+            (1, -1),
+            (-1, 1),
+            (-1, -1),
+        ];
+        let (nx, ny) = (self.nx as i64, self.ny as i64);
+        let (x, y) = ((idx % self.nx) as i64, (idx / self.nx) as i64);
+        MOVES.into_iter().filter_map(move |(dx, dy)| {
+            let (qx, qy) = (x + dx, y + dy);
+            (qx >= 0 && qy >= 0 && qx < nx && qy < ny).then(|| {
+                let step = if dx != 0 && dy != 0 {
+                    std::f64::consts::SQRT_2
+                } else {
+                    1.0
+                };
+                ((qy * nx + qx) as usize, step)
+            })
+        })
+    }
     /// Whether a world point lies on the map.
     pub fn contains(&self, x: f64, y: f64) -> bool {
         x.abs() <= self.half_x() && y.abs() <= self.half_y()
@@ -480,6 +508,44 @@ impl Task {
             start: self.start.map(|v| v * s),
             goal: self.goal.map(|v| v * s),
             path: self.path.iter().map(|p| p.map(|v| v * s)).collect(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_neighbours_stay_on_the_grid_with_diagonal_steps_of_sqrt_2() {
+        let h = Heightmap::from_fn(1.0, |_, _| 0.0);
+        let n = h.nx;
+        // Interior sample: all 8, in the fixed order E, W, N, S, NE, SE, NW, SW.
+        let i = 5 * n + 7;
+        let got: Vec<(usize, f64)> = h.grid_neighbours(i).collect();
+        let r2 = std::f64::consts::SQRT_2;
+        assert_eq!(
+            got,
+            vec![
+                (i + 1, 1.0),
+                (i - 1, 1.0),
+                (i + n, 1.0),
+                (i - n, 1.0),
+                (i + n + 1, r2),
+                (i - n + 1, r2),
+                (i + n - 1, r2),
+                (i - n - 1, r2),
+            ]
+        );
+        // Corners have three neighbours, edges five; every neighbour is adjacent and on the grid.
+        assert_eq!(h.grid_neighbours(0).count(), 3);
+        assert_eq!(h.grid_neighbours(n * n - 1).count(), 3);
+        assert_eq!(h.grid_neighbours(n / 2).count(), 5);
+        for (q, step) in h.grid_neighbours(n - 1) {
+            assert!(q < n * n);
+            let (dx, dy) = ((q % n).abs_diff(n - 1), q / n);
+            assert!(dx <= 1 && dy <= 1);
+            assert_eq!(step, if dx == 1 && dy == 1 { r2 } else { 1.0 });
         }
     }
 }

@@ -109,30 +109,10 @@ pub fn plan_on_grid(
         if gc > cost[idx] {
             continue;
         }
-        let (x, y) = ((idx % nx) as i64, (idx / nx) as i64);
-        for (dx, dy) in [
-            (1, 0),
-            (-1, 0),
-            (0, 1),
-            (0, -1),
-            (1, 1),
-            (1, -1),
-            (-1, 1),
-            (-1, -1),
-        ] {
-            let (qx, qy) = (x + dx, y + dy);
-            if qx < 0 || qy < 0 || qx >= nx as i64 || qy >= ny as i64 {
-                continue;
-            }
-            let q = qy as usize * nx + qx as usize;
+        for (q, step) in h.grid_neighbours(idx) {
             if blocked[q] {
                 continue;
             }
-            let step = if dx != 0 && dy != 0 {
-                std::f64::consts::SQRT_2
-            } else {
-                1.0
-            };
             let ng = gc + step;
             if ng < cost[q] {
                 cost[q] = ng;

@@ -216,28 +216,8 @@ impl Mppi6 {
             if d > self.togo[i] {
                 continue;
             }
-            let (ix, iy) = ((i % nx) as i64, (i / nx) as i64);
-            for (dx, dy) in [
-                (1, 0),
-                (-1, 0),
-                (0, 1),
-                (0, -1),
-                (1, 1),
-                (1, -1),
-                (-1, 1),
-                (-1, -1),
-            ] {
-                let (qx, qy) = (ix + dx, iy + dy);
-                if qx < 0 || qy < 0 || qx >= nx as i64 || qy >= ny as i64 {
-                    continue;
-                }
-                let q = qy as usize * nx + qx as usize;
-                let step = cell
-                    * if dx != 0 && dy != 0 {
-                        std::f64::consts::SQRT_2
-                    } else {
-                        1.0
-                    };
+            for (q, cells) in h.grid_neighbours(i) {
+                let step = cell * cells;
                 let nd = d + step * if blocked[q] { 20.0 } else { 1.0 };
                 if nd < self.togo[q] {
                     self.togo[q] = nd;
