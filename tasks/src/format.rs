@@ -43,6 +43,16 @@ pub struct WorldEntry {
     pub level: ElevationLevel,
     pub semantics: SemanticsKind,
     pub density: ObstacleDensity,
+    /// Terrain group: worlds of one group share heights and patches (absent: the world is its own group).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub terrain: Option<u32>,
+}
+
+impl WorldEntry {
+    /// The world's terrain group (its own id when the set has no groups).
+    pub fn terrain(&self) -> u32 {
+        self.terrain.unwrap_or(self.id)
+    }
 }
 
 /// A patch in a world spec: class, and friction for rigid classes (soil comes from the class).
@@ -72,6 +82,9 @@ pub struct WorldSpec {
     pub level: ElevationLevel,
     pub semantics: SemanticsKind,
     pub density: ObstacleDensity,
+    /// Terrain group (absent: the world is its own group).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub terrain: Option<u32>,
     /// Sample spacing at full scale, m.
     pub cell: f64,
     pub height_min: f64,
@@ -87,6 +100,8 @@ pub struct WorldSpec {
 pub struct WorldRecord {
     pub world: World,
     pub tasks: Vec<Task>,
+    /// Terrain group ([`crate::design`]); `None` when the world is its own group (imported worlds).
+    pub terrain: Option<u32>,
 }
 
 /// A loaded task set.
@@ -156,6 +171,7 @@ impl WorldRecord {
             level: w.level,
             semantics: w.semantics,
             density: w.density,
+            terrain: self.terrain,
             cell: w.heightmap.cell,
             height_min: lo,
             height_max: hi,
@@ -208,6 +224,7 @@ pub fn save(
             level: spec.level,
             semantics: spec.semantics,
             density: spec.density,
+            terrain: spec.terrain,
         });
     }
     let digest = hasher.finalize();
@@ -482,7 +499,11 @@ pub fn load_record(worlds_dir: &Path, id: u32) -> Result<WorldRecord, TasksError
         patches,
         obstacles: spec.obstacles,
     };
-    Ok(WorldRecord { world, tasks })
+    Ok(WorldRecord {
+        world,
+        tasks,
+        terrain: spec.terrain,
+    })
 }
 
 fn load_png16(path: &Path, lo: f64, hi: f64, cell: f64) -> Result<Heightmap, TasksError> {

@@ -1,19 +1,21 @@
 //! The generation pipeline: from a master seed and a height source to 100 worlds with 10 tasks each.
 //!
-//! For world `id` the generator derives its own seed (`world_seed`), takes its factors from [`crate::design`],
-//! asks the height source for a heightmap of the world's elevation level, samples semantic patches, places the ten
-//! start/goal pairs (diametrically opposite points of a 60 m circle at 36 degree steps, the first start at angle 0),
-//! places obstacles and plans the ten global paths. If some task has no path, the obstacles are resampled (up to
-//! 100 times; every one of the 1000 tasks must have a path). Everything is a pure function of the seed and the
-//! height source, so the set is reproducible byte for byte.
+//! Worlds are made per terrain group ([`crate::design`]): for group `g` the generator derives its seed
+//! (`terrain_seed(master, g)`), asks the height source for a heightmap of the group's elevation level, samples the
+//! semantic patches, places the ten start/goal pairs (diametrically opposite points of a 60 m circle at 36 degree
+//! steps, the first start at angle 0), places one obstacle layout at the group's highest density, gives every
+//! member world its nested share of it and plans the ten global paths of every member. If some task has no path,
+//! the layout is resampled (up to 100 times; every one of the 1000 tasks must have a path). Everything is a pure
+//! function of the seed and the height source, so the set is reproducible byte for byte.
 
-use crate::design::{factors, TASKS_PER_WORLD};
+use crate::design::{factors, group_members, TASKS_PER_WORLD};
 use crate::format::WorldRecord;
 use crate::path::{occupancy, plan_on_grid, DEFAULT_INFLATION};
 use crate::{obstacles, semantics, TasksError};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sim_core::world::{ElevationLevel, Heightmap, Task, World, MAP_PX};
+use std::collections::btree_map::{BTreeMap, Entry};
 
 /// The committed master seed of the benchmark's task set.
 pub const DEFAULT_SEED: u64 = 20_250_602;
@@ -29,9 +31,9 @@ pub trait HeightSource {
     fn heightmap(&self, seed: u64, level: ElevationLevel) -> Result<Heightmap, TasksError>;
 }
 
-/// Seed of world `id` derived from the master seed (SplitMix64 of the pair).
-pub fn world_seed(master: u64, id: u32) -> u64 {
-    let mut z = master ^ (id as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+/// Seed of terrain group `terrain` derived from the master seed (SplitMix64 of the pair).
+pub fn terrain_seed(master: u64, terrain: u32) -> u64 {
+    let mut z = master ^ (terrain as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)
@@ -52,75 +54,112 @@ pub fn start_goal_pairs() -> Vec<([f64; 2], [f64; 2])> {
         .collect()
 }
 
-/// Builds the rest of a world around a heightmap: patches, obstacles, tasks and paths.
-pub fn build_world(id: u32, seed: u64, heightmap: Heightmap) -> Result<WorldRecord, TasksError> {
+/// Builds the worlds of terrain group `terrain` around its heightmap: the shared patches, one obstacle layout for
+/// the group's densest member (the others take its first rocks and trees, [`obstacles::nested`]), tasks and paths.
+/// The layout is resampled until every task of every member has a path.
+pub fn build_group(
+    terrain: u32,
+    seed: u64,
+    heightmap: Heightmap,
+) -> Result<Vec<WorldRecord>, TasksError> {
+    let members = group_members(terrain);
+    let first = *members.first().ok_or_else(|| TasksError::Generation {
+        world: 0,
+        message: format!("terrain group {terrain} has no worlds"),
+    })?;
     if heightmap.nx != MAP_PX || heightmap.ny != MAP_PX {
         return Err(TasksError::Generation {
-            world: id,
+            world: first,
             message: format!(
                 "heightmap is {} x {}, expected {MAP_PX} x {MAP_PX}",
                 heightmap.nx, heightmap.ny
             ),
         });
     }
-    let f = factors(id);
+    let f = factors(first);
+    let densest = members
+        .iter()
+        .map(|&id| factors(id).density)
+        .max()
+        .unwrap_or(f.density);
     // The height source used `seed`; the layout draws from its own stream.
     let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(1));
     let patches = semantics::generate_patches(f.semantics, &mut rng);
     let pairs = start_goal_pairs();
     let keep_clear: Vec<[f64; 2]> = pairs.iter().flat_map(|(s, g)| [*s, *g]).collect();
-    let mut world = World {
-        id,
-        scale: 1.0,
-        level: f.level,
-        semantics: f.semantics,
-        density: f.density,
-        heightmap,
-        patches,
-        obstacles: Vec::new(),
-    };
     for _ in 0..MAX_LAYOUT_ATTEMPTS {
-        let Some(obs) = obstacles::place(f.density, &world.heightmap, &keep_clear, &mut rng) else {
+        let Some(layout) = obstacles::place(densest, &heightmap, &keep_clear, &mut rng) else {
             continue;
         };
-        world.obstacles = obs;
-        let blocked = occupancy(&world, DEFAULT_INFLATION);
-        let tasks: Option<Vec<Task>> = pairs
+        let records: Option<Vec<WorldRecord>> = members
             .iter()
-            .enumerate()
-            .map(|(k, (s, g))| {
-                plan_on_grid(&world, &blocked, *s, *g).map(|path| Task {
-                    world_id: id,
-                    index: k as u32,
-                    start: *s,
-                    goal: *g,
-                    path,
+            .map(|&id| {
+                let density = factors(id).density;
+                let world = World {
+                    id,
+                    scale: 1.0,
+                    level: f.level,
+                    semantics: f.semantics,
+                    density,
+                    heightmap: heightmap.clone(),
+                    patches: patches.clone(),
+                    obstacles: obstacles::nested(&layout, density),
+                };
+                let blocked = occupancy(&world, DEFAULT_INFLATION);
+                let tasks: Option<Vec<Task>> = pairs
+                    .iter()
+                    .enumerate()
+                    .map(|(k, (s, g))| {
+                        plan_on_grid(&world, &blocked, *s, *g).map(|path| Task {
+                            world_id: id,
+                            index: k as u32,
+                            start: *s,
+                            goal: *g,
+                            path,
+                        })
+                    })
+                    .collect();
+                tasks.map(|tasks| WorldRecord {
+                    world,
+                    tasks,
+                    terrain: Some(terrain),
                 })
             })
             .collect();
-        if let Some(tasks) = tasks {
-            return Ok(WorldRecord { world, tasks });
+        if let Some(records) = records {
+            return Ok(records);
         }
     }
     Err(TasksError::Generation {
-        world: id,
+        world: first,
         message: format!(
-            "no obstacle layout with a path for every task in {MAX_LAYOUT_ATTEMPTS} attempts"
+            "terrain group {terrain}: no obstacle layout with a path for every task in {MAX_LAYOUT_ATTEMPTS} attempts"
         ),
     })
 }
 
-/// Generates worlds `ids` from the master seed and a height source.
+/// Generates worlds `ids` from the master seed and a height source. Each terrain group is built once, from the
+/// seed of the group ([`terrain_seed`] of the master seed and the group number), whichever of its worlds are asked
+/// for, so a world is the same whether it is generated alone or with the whole set.
 pub fn generate(
     master_seed: u64,
     ids: &[u32],
     source: &dyn HeightSource,
 ) -> Result<Vec<WorldRecord>, TasksError> {
+    let mut groups: BTreeMap<u32, Vec<WorldRecord>> = BTreeMap::new();
     ids.iter()
         .map(|&id| {
-            let seed = world_seed(master_seed, id);
-            let heights = source.heightmap(seed, factors(id).level)?;
-            build_world(id, seed, heights)
+            let f = factors(id);
+            if let Entry::Vacant(slot) = groups.entry(f.terrain) {
+                let seed = terrain_seed(master_seed, f.terrain);
+                let heights = source.heightmap(seed, f.level)?;
+                slot.insert(build_group(f.terrain, seed, heights)?);
+            }
+            groups[&f.terrain]
+                .iter()
+                .find(|r| r.world.id == id)
+                .cloned()
+                .ok_or(TasksError::UnknownWorld(id))
         })
         .collect()
 }

@@ -309,5 +309,9 @@ pub fn import_world(w: &ReleaseWorld) -> Result<WorldRecord, TasksError> {
             path,
         });
     }
-    Ok(WorldRecord { world, tasks })
+    Ok(WorldRecord {
+        world,
+        tasks,
+        terrain: None,
+    })
 }

@@ -7,6 +7,9 @@
 //!   other obstacle, inside the map with its whole footprint; at most 500 tries per obstacle. If an obstacle
 //!   cannot be placed the whole layout is resampled (the caller also resamples when a task loses its path).
 //!
+//! The worlds of one terrain group share one layout placed at the group's highest density; a sparser world takes
+//! its first rocks and trees ([`nested`]).
+//!
 //! Distances are full-scale; [`sim_core::world::World::scaled`] scales them.
 
 use rand::Rng;
@@ -105,6 +108,23 @@ pub fn place(
     Some(placed)
 }
 
+/// The obstacles of a world of `density` taken from a layout placed at a higher (or the same) density: its first
+/// rocks and first trees, in placement order. Every spacing and clearance rule of the layout holds for the subset,
+/// and a path around all of the layout's obstacles is a path around the subset's.
+pub fn nested(layout: &[Obstacle], density: ObstacleDensity) -> Vec<Obstacle> {
+    let (rocks, trees) = counts(density);
+    let pick = |kind: ObstacleKind, n: usize| {
+        layout
+            .iter()
+            .filter(move |o| o.kind == kind)
+            .take(n)
+            .cloned()
+    };
+    pick(ObstacleKind::Rock, rocks)
+        .chain(pick(ObstacleKind::Tree, trees))
+        .collect()
+}
+
 fn round3(v: f64) -> f64 {
     (v * 1e3).round() / 1e3
 }
@@ -167,6 +187,22 @@ mod tests {
             placed_any >= 5,
             "dense placement failed too often ({placed_any}/10)"
         );
+    }
+
+    #[test]
+    fn nested_layouts_take_the_first_rocks_and_trees() {
+        let keep = [[60.0, 0.0], [-60.0, 0.0]];
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let dense = place(ObstacleDensity::Dense, &flat(), &keep, &mut rng).unwrap();
+        assert_eq!(nested(&dense, ObstacleDensity::Dense), dense);
+        let medium = nested(&dense, ObstacleDensity::Medium);
+        let sparse = nested(&dense, ObstacleDensity::Sparse);
+        assert_eq!(medium.len(), 22);
+        assert_eq!(&medium[..20], &dense[..20]);
+        assert_eq!(&medium[20..], &dense[40..42]);
+        assert_eq!(sparse.len(), 11);
+        assert_eq!(&sparse[..10], &dense[..10]);
+        assert_eq!(sparse[10], dense[40]);
     }
 
     #[test]

@@ -29,6 +29,44 @@ fn the_set_has_100_balanced_worlds_and_1000_tasks() {
 }
 
 #[test]
+fn worlds_of_a_terrain_group_share_terrain_and_have_nested_obstacles() {
+    let set = TaskSet::load(&TaskSet::default_dir()).unwrap();
+    let records = records();
+    let mut groups = std::collections::BTreeMap::<u32, Vec<&WorldRecord>>::new();
+    for r in &records {
+        let f = tasks::design::factors(r.world.id);
+        assert_eq!(r.terrain, Some(f.terrain), "world {}", r.world.id);
+        assert_eq!(set.world_meta(r.world.id).unwrap().terrain(), f.terrain);
+        assert_eq!(
+            (r.world.level, r.world.semantics, r.world.density),
+            (f.level, f.semantics, f.density)
+        );
+        groups.entry(f.terrain).or_default().push(r);
+    }
+    assert_eq!(groups.len(), tasks::design::TERRAIN_GROUPS as usize);
+    let mut triples = 0;
+    for (g, members) in &groups {
+        let densest = members.last().unwrap();
+        for m in members {
+            assert_eq!(m.world.heightmap, densest.world.heightmap, "group {g}");
+            assert_eq!(m.world.patches, densest.world.patches, "group {g}");
+            assert_eq!(
+                m.world.obstacles,
+                tasks::obstacles::nested(&densest.world.obstacles, m.world.density),
+                "group {g}: world {} is not the nested share of world {}",
+                m.world.id,
+                densest.world.id
+            );
+            for (a, b) in m.tasks.iter().zip(&densest.tasks) {
+                assert_eq!((a.start, a.goal), (b.start, b.goal));
+            }
+        }
+        triples += usize::from(members.len() == 3);
+    }
+    assert_eq!(triples, 33);
+}
+
+#[test]
 fn obstacles_keep_the_release_spacing_rules_in_every_world() {
     for r in records() {
         let w = &r.world;

@@ -54,6 +54,7 @@ pub fn episode_plot(world: &World, task: &Task, result: &EpisodeResult) -> RgbIm
     let record = tasks::format::WorldRecord {
         world: world.clone(),
         tasks: vec![task.clone()],
+        terrain: None,
     };
     let ppm = 4u32;
     let map = tasks::render::render_world(&record, ppm);

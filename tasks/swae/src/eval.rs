@@ -355,8 +355,10 @@ pub fn unit_measurements(
 ) -> Result<Vec<(ElevationLevel, f64, f64)>, SwaeError> {
     let mut out = Vec::new();
     for id in 1..=tasks::design::WORLDS {
-        let s = tasks::generate::world_seed(seed, id);
-        let level = tasks::design::factors(id).level;
+        // The worlds of a terrain group share the group's heights (crate `tasks`, module `design`).
+        let f = tasks::design::factors(id);
+        let s = tasks::generate::terrain_seed(seed, f.terrain);
+        let level = f.level;
         // Unit scale at the high level: heights = decoded (x + 1) / 2 in metres.
         let h = source.heightmap_at(s, ElevationLevel::High, 1.0)?;
         let g = geometry_stats(&h);
