@@ -1,11 +1,11 @@
 //! Paired comparison of two evaluations on the same tasks.
 
 use crate::EpisodeRow;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// Result of a paired comparison (A minus B).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Comparison {
     pub paired_tasks: usize,
     pub success_a: f64,
@@ -45,16 +45,21 @@ pub fn compare(a: &[EpisodeRow], b: &[EpisodeRow]) -> Comparison {
         .iter()
         .map(|r| (r.task_id.as_str(), r.outcome == "success"))
         .collect();
+    paired(a.iter().filter_map(|r| {
+        bm.get(r.task_id.as_str())
+            .map(|&ok_b| (r.outcome == "success", ok_b))
+    }))
+}
+
+/// Paired statistics of (A succeeded, B succeeded) pairs.
+pub fn paired(pairs: impl IntoIterator<Item = (bool, bool)>) -> Comparison {
     let (mut n, mut sa, mut sb, mut a_only, mut b_only) = (0usize, 0usize, 0usize, 0usize, 0usize);
-    for r in a {
-        if let Some(&ok_b) = bm.get(r.task_id.as_str()) {
-            let ok_a = r.outcome == "success";
-            n += 1;
-            sa += ok_a as usize;
-            sb += ok_b as usize;
-            a_only += (ok_a && !ok_b) as usize;
-            b_only += (!ok_a && ok_b) as usize;
-        }
+    for (ok_a, ok_b) in pairs {
+        n += 1;
+        sa += ok_a as usize;
+        sb += ok_b as usize;
+        a_only += (ok_a && !ok_b) as usize;
+        b_only += (!ok_a && ok_b) as usize;
     }
     let nf = n.max(1) as f64;
     let d = (a_only as f64 - b_only as f64) / nf;

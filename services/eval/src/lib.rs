@@ -4,7 +4,8 @@
 //!   as it finishes (flushed), so an interrupted evaluation resumes where it stopped: finished task ids are skipped,
 //!   a torn last line is ignored and nothing is counted twice.
 //! - [`summary`]: success rate with a 95% Wilson interval, traversal time (successes only), roll and pitch, failure
-//!   mix, each broken down by elevation level, semantics kind and obstacle density.
+//!   mix, each broken down by elevation level, semantics kind and obstacle density; semantics success standardised
+//!   over levels; and the paired density contrasts on matched tasks (same terrain group and start/goal pair).
 //! - [`report`] and [`parquet_file`]: `episodes.csv` and `episodes.parquet` (the same columns), `summary.json`, `summary.txt` and SVG charts of the breakdowns.
 //! - [`compare`]: paired comparison of two evaluations (difference in success rate with a 95% interval, exact
 //!   McNemar test).

@@ -2,7 +2,7 @@
 //! written with the parquet crate's low-level column writers (no Arrow: the table is a handful of flat columns,
 //! and leaving Arrow out keeps the build small). Types: text as `BYTE_ARRAY (UTF8)`, integers as `INT64`, metrics
 //! as `DOUBLE` at full precision; `traversal_time_s` is an `OPTIONAL DOUBLE`, null for episodes that did not
-//! succeed. Uncompressed (the file is about 300 kB for 1000 episodes; no codec crates to build).
+//! succeed, and `terrain` an `OPTIONAL INT64`, null for worlds without a terrain group. Uncompressed (the file is about 300 kB for 1000 episodes; no codec crates to build).
 
 use crate::report::{episode_columns, ColumnValues};
 use crate::{io_err, EpisodeRow, EvalError};
@@ -22,6 +22,7 @@ pub fn schema(rows: &[EpisodeRow]) -> String {
             ColumnValues::Int(_) => "REQUIRED INT64",
             ColumnValues::Float(..) => "REQUIRED DOUBLE",
             ColumnValues::OptFloat(..) => "OPTIONAL DOUBLE",
+            ColumnValues::OptInt(_) => "OPTIONAL INT64",
         };
         let ann = if matches!(c.values, ColumnValues::Text(_)) {
             " (UTF8)"
@@ -71,6 +72,13 @@ pub fn write_episodes(path: &Path, rows: &[EpisodeRow]) -> Result<(), EvalError>
                 let present: Vec<f64> = v.iter().flatten().copied().collect();
                 let def: Vec<i16> = v.iter().map(|x| i16::from(x.is_some())).collect();
                 col.typed::<DoubleType>()
+                    .write_batch(&present, Some(&def), None)
+                    .map_err(err)?;
+            }
+            ColumnValues::OptInt(v) => {
+                let present: Vec<i64> = v.iter().flatten().copied().collect();
+                let def: Vec<i16> = v.iter().map(|x| i16::from(x.is_some())).collect();
+                col.typed::<Int64Type>()
                     .write_batch(&present, Some(&def), None)
                     .map_err(err)?;
             }

@@ -16,6 +16,8 @@ pub enum ColumnValues {
     Float(Vec<f64>, usize),
     /// Floats that may be absent (CSV: empty field; Parquet: null).
     OptFloat(Vec<Option<f64>>, usize),
+    /// Integers that may be absent (CSV: empty field; Parquet: null).
+    OptInt(Vec<Option<i64>>),
 }
 
 /// One column of the episode table: the same columns go to `episodes.csv` and `episodes.parquet`.
@@ -57,6 +59,10 @@ pub fn episode_columns(rows: &[EpisodeRow]) -> Vec<Column> {
         text("level", rows, |r| r.level.clone()),
         text("semantics", rows, |r| r.semantics.clone()),
         text("density", rows, |r| r.density.clone()),
+        Column {
+            name: "terrain",
+            values: ColumnValues::OptInt(rows.iter().map(|r| r.terrain.map(i64::from)).collect()),
+        },
         text("planner", rows, |r| r.planner.clone()),
         text("vehicle", rows, |r| r.vehicle.clone()),
         // Full precision in CSV (`{}` of an f64 round-trips).
@@ -128,6 +134,10 @@ pub fn episodes_csv(rows: &[EpisodeRow]) -> String {
                     Some(x) => write!(s, "{:.*}", d, x),
                     None => Ok(()),
                 },
+                ColumnValues::OptInt(v) => match v[i] {
+                    Some(x) => write!(s, "{x}"),
+                    None => Ok(()),
+                },
             };
         }
         s.push('\n');
@@ -172,6 +182,31 @@ pub fn summary_text(s: &Summary) -> String {
         t += &format!("-- {title}\n");
         for (k, a) in map.iter() {
             t += &line(k, a);
+        }
+    }
+    if s.semantics_level_adjusted.len() > 1 {
+        t += "-- semantics, success standardised over elevation levels (mean of the per-level rates)\n";
+        for (k, v) in &s.semantics_level_adjusted {
+            t += &format!("{k:<14} {:>12.1}%\n", 100.0 * v);
+        }
+    }
+    if !s.density_matched.is_empty() {
+        t += "-- obstacle density on matched tasks (same terrain and start/goal; denser minus sparser)\n";
+        for c in &s.density_matched {
+            let m = &c.comparison;
+            t += &format!(
+                "{:<6} -> {:<6} {:>5} tasks  {:>5.1}% -> {:>5.1}%  {:>+6.1} points [{:+.1}, {:+.1}]  McNemar p = {:.4}{}\n",
+                c.sparser,
+                c.denser,
+                m.paired_tasks,
+                100.0 * m.success_b,
+                100.0 * m.success_a,
+                100.0 * m.difference,
+                100.0 * m.difference_ci95.0,
+                100.0 * m.difference_ci95.1,
+                m.mcnemar_p,
+                if m.significant { " (significant)" } else { "" }
+            );
         }
     }
     t

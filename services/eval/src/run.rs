@@ -38,6 +38,10 @@ pub struct EpisodeRow {
     pub level: String,
     pub semantics: String,
     pub density: String,
+    /// Terrain group of the world: worlds of one group share heights and patches and differ only in obstacle
+    /// density (nested layouts). `None` for sets without groups (imported worlds).
+    #[serde(default)]
+    pub terrain: Option<u32>,
     pub planner: String,
     pub vehicle: String,
     pub scale: f64,
@@ -237,6 +241,7 @@ pub fn run(cfg: &EvalConfig, progress: Progress<'_>) -> Result<Vec<EpisodeRow>, 
                 level: world.level.as_str().into(),
                 semantics: world.semantics.as_str().into(),
                 density: world.density.as_str().into(),
+                terrain: set.world_meta(w)?.terrain,
                 planner: cfg.planner.clone(),
                 vehicle: vehicle.name.clone(),
                 scale,

@@ -1,8 +1,9 @@
 //! Aggregates of an evaluation: overall and per factor level.
 
+use crate::compare::{paired, Comparison};
 use crate::EpisodeRow;
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// 95% Wilson score interval of a proportion.
 pub fn wilson(successes: usize, n: usize) -> (f64, f64) {
@@ -87,6 +88,74 @@ pub fn aggregate<'a>(rows: impl IntoIterator<Item = &'a EpisodeRow>) -> Aggregat
     }
 }
 
+/// Success at a denser obstacle layout against a sparser one on the same terrain and the same start/goal pair
+/// (worlds of one terrain group, [`tasks::design`]): `comparison` is denser minus sparser, so a negative
+/// difference is the success the added obstacles cost, with the exact McNemar test on the discordant tasks.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DensityContrast {
+    pub sparser: String,
+    pub denser: String,
+    pub comparison: Comparison,
+}
+
+/// Per semantics kind, the mean over the levels of the evaluation of its per-level success rate (a kind missing at
+/// some level of the evaluation is left out).
+pub fn semantics_level_adjusted(rows: &[EpisodeRow]) -> BTreeMap<String, f64> {
+    let mut cells: BTreeMap<(&str, &str), (usize, usize)> = BTreeMap::new();
+    for r in rows {
+        let c = cells
+            .entry((r.semantics.as_str(), r.level.as_str()))
+            .or_default();
+        c.0 += usize::from(r.outcome == "success");
+        c.1 += 1;
+    }
+    let levels: BTreeSet<&str> = rows.iter().map(|r| r.level.as_str()).collect();
+    let kinds: BTreeSet<&str> = rows.iter().map(|r| r.semantics.as_str()).collect();
+    kinds
+        .into_iter()
+        .filter_map(|k| {
+            let rates: Option<Vec<f64>> = levels
+                .iter()
+                .map(|l| cells.get(&(k, *l)).map(|&(s, n)| s as f64 / n as f64))
+                .collect();
+            rates.map(|r| (k.to_string(), r.iter().sum::<f64>() / r.len() as f64))
+        })
+        .collect()
+}
+
+/// The three density contrasts (sparse-medium, medium-dense, sparse-dense) of the rows that carry a terrain
+/// group; pairs are (terrain group, task index). Empty when no task is present at two densities.
+pub fn density_matched(rows: &[EpisodeRow]) -> Vec<DensityContrast> {
+    let mut by: BTreeMap<(u32, u32, &str), bool> = BTreeMap::new();
+    for r in rows {
+        if let Some(t) = r.terrain {
+            by.insert(
+                (t, r.task_index, r.density.as_str()),
+                r.outcome == "success",
+            );
+        }
+    }
+    [
+        ("sparse", "medium"),
+        ("medium", "dense"),
+        ("sparse", "dense"),
+    ]
+    .into_iter()
+    .filter_map(|(sparser, denser)| {
+        let pairs: Vec<(bool, bool)> = by
+            .iter()
+            .filter(|((_, _, d), _)| *d == denser)
+            .filter_map(|(&(t, k, _), &ok)| by.get(&(t, k, sparser)).map(|&s| (ok, s)))
+            .collect();
+        (!pairs.is_empty()).then(|| DensityContrast {
+            sparser: sparser.into(),
+            denser: denser.into(),
+            comparison: paired(pairs),
+        })
+    })
+    .collect()
+}
+
 /// The whole summary.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
@@ -99,6 +168,15 @@ pub struct Summary {
     pub by_level: BTreeMap<String, Aggregate>,
     pub by_semantics: BTreeMap<String, Aggregate>,
     pub by_density: BTreeMap<String, Aggregate>,
+    /// Success rate of each semantics kind standardised over elevation levels: the mean of its per-level success
+    /// rates over the levels present in the evaluation. The 100 worlds cannot balance semantics within every level
+    /// (each level has 11 terrain triples, split 4 / 4 / 3 between the kinds), and level dominates success, so raw
+    /// per-kind rates carry the design's imbalance; these do not.
+    #[serde(default)]
+    pub semantics_level_adjusted: BTreeMap<String, f64>,
+    /// Density contrasts on matched tasks: the same terrain group and start/goal pair at two densities.
+    #[serde(default)]
+    pub density_matched: Vec<DensityContrast>,
     /// Sum of per-episode wall times (CPU time spent in episodes), s.
     pub episode_cpu_s: f64,
 }
@@ -131,6 +209,8 @@ pub fn summarise(rows: &[EpisodeRow]) -> Summary {
         by_level: by(|r| &r.level),
         by_semantics: by(|r| &r.semantics),
         by_density: by(|r| &r.density),
+        semantics_level_adjusted: semantics_level_adjusted(rows),
+        density_matched: density_matched(rows),
         episode_cpu_s: rows.iter().map(|r| r.wall_time_s).sum(),
     }
 }
@@ -160,6 +240,7 @@ mod tests {
             level: level.into(),
             semantics: "rigid".into(),
             density: "sparse".into(),
+            terrain: None,
             planner: "pid".into(),
             vehicle: "hmmwv".into(),
             scale: 1.0,
@@ -187,5 +268,82 @@ mod tests {
         assert_eq!(s.overall.stuck_pct, 25.0);
         assert_eq!(s.by_level["low"].success_rate, 1.0);
         assert_eq!(s.by_level["high"].rollover_pct, 50.0);
+        // Rigid (the only kind): low 2/2, high 0/2: standardised over the two levels, 50%.
+        assert_eq!(s.semantics_level_adjusted["rigid"], 0.5);
+        // A kind with more low (easy) worlds is not favoured: 3 of 3 low and 1 of 4 high against 1 of 1 low and
+        // 1 of 4 high give the same adjusted rate, (1 + 1/4) / 2.
+        let mut rows = Vec::new();
+        for (sem, low_ok, low_n) in [("rigid", 3, 3), ("mixed", 1, 1)] {
+            for k in 0..low_n {
+                let mut r = row(if k < low_ok { "success" } else { "stuck" }, 1.0, "low");
+                r.semantics = sem.into();
+                rows.push(r);
+            }
+            for k in 0..4 {
+                let mut r = row(if k < 1 { "success" } else { "stuck" }, 1.0, "high");
+                r.semantics = sem.into();
+                rows.push(r);
+            }
+        }
+        let adj = semantics_level_adjusted(&rows);
+        assert_eq!(adj["rigid"], 0.625);
+        assert_eq!(adj["mixed"], 0.625);
+    }
+
+    #[test]
+    fn density_contrasts_pair_tasks_of_one_terrain_group() {
+        let row = |terrain: u32, index: u32, density: &str, ok: bool| EpisodeRow {
+            task_id: format!("w{terrain:03}{density}-t{index}"),
+            world_id: terrain,
+            task_index: index,
+            level: "low".into(),
+            semantics: "rigid".into(),
+            density: density.into(),
+            terrain: Some(terrain),
+            planner: "pid".into(),
+            vehicle: "hmmwv".into(),
+            scale: 1.0,
+            seed: 0,
+            task_set_version: "v".into(),
+            sim_version: "s".into(),
+            outcome: if ok { "success" } else { "stuck" }.into(),
+            reason: String::new(),
+            detail: String::new(),
+            metrics: Default::default(),
+            wall_time_s: 0.1,
+        };
+        let mut rows = Vec::new();
+        // Group 1: all succeed sparse; task 0 fails dense. Group 2: task 1 succeeds only at medium density.
+        for k in 0..2 {
+            rows.push(row(1, k, "sparse", true));
+            rows.push(row(1, k, "medium", true));
+            rows.push(row(1, k, "dense", k != 0));
+            rows.push(row(2, k, "sparse", false));
+            rows.push(row(2, k, "medium", k == 1));
+        }
+        // A task without a partner at another density is not paired.
+        rows.push(row(3, 0, "dense", false));
+        let c = density_matched(&rows);
+        assert_eq!(c.len(), 3);
+        let (sm, md, sd) = (&c[0], &c[1], &c[2]);
+        assert_eq!(
+            (sm.sparser.as_str(), sm.denser.as_str()),
+            ("sparse", "medium")
+        );
+        assert_eq!(sm.comparison.paired_tasks, 4);
+        assert_eq!((sm.comparison.a_only, sm.comparison.b_only), (1, 0));
+        assert_eq!(md.comparison.paired_tasks, 2);
+        assert_eq!((md.comparison.a_only, md.comparison.b_only), (0, 1));
+        assert_eq!(sd.comparison.paired_tasks, 2);
+        assert_eq!(sd.comparison.difference, -0.5);
+        // Rows without a terrain group give no contrast.
+        let ungrouped: Vec<EpisodeRow> = rows
+            .into_iter()
+            .map(|mut r| {
+                r.terrain = None;
+                r
+            })
+            .collect();
+        assert!(density_matched(&ungrouped).is_empty());
     }
 }

@@ -1,5 +1,5 @@
 //! `episodes.parquet` holds the same columns and values as `episodes.csv`, read back with the parquet reader;
-//! the traversal time of a failed episode is null (an empty CSV field).
+//! the traversal time of a failed episode and the terrain group of an ungrouped world are null (an empty CSV field).
 
 use eval::summary::summarise;
 use eval::EpisodeRow;
@@ -27,6 +27,8 @@ fn row(task: u32, outcome: &str, time: f64) -> EpisodeRow {
         level: "high".into(),
         semantics: "mixed".into(),
         density: "dense".into(),
+        // Odd tasks come from a set without terrain groups: a null terrain.
+        terrain: task.is_multiple_of(2).then_some(6),
         planner: "mppi6".into(),
         vehicle: "hmmwv".into(),
         scale: 1.0 / 6.0,
@@ -90,9 +92,12 @@ fn parquet_rows_equal_the_csv_rows_with_null_traversal_times_for_failures() {
                     assert_eq!(format!("{v:.decimals$}"), cell, "{name} row {i}");
                 }
                 Field::Null => {
-                    assert_eq!(name, "traversal_time_s");
                     assert_eq!(cell, "", "empty CSV field for a null");
-                    assert_ne!(rows[i].outcome, "success");
+                    match name.as_str() {
+                        "traversal_time_s" => assert_ne!(rows[i].outcome, "success"),
+                        "terrain" => assert_eq!(rows[i].terrain, None),
+                        other => panic!("unexpected null in {other}"),
+                    }
                 }
                 other => panic!("unexpected field {name}: {other:?}"),
             }
@@ -107,6 +112,15 @@ fn parquet_rows_equal_the_csv_rows_with_null_traversal_times_for_failures() {
         } else {
             assert_eq!(tt, Field::Null);
         }
+        let terrain = r
+            .get_column_iter()
+            .find(|(n, _)| n.as_str() == "terrain")
+            .map(|(_, f)| f.clone())
+            .unwrap();
+        let want = rows[i]
+            .terrain
+            .map_or(Field::Null, |t| Field::Long(t.into()));
+        assert_eq!(terrain, want);
     }
     assert_eq!(n, rows.len());
     std::fs::remove_dir_all(&dir).unwrap();

@@ -64,8 +64,10 @@ impl IntoResponse for WebError {
     }
 }
 
-/// Turns stored finished episodes into the evaluation rows the summaries are computed from.
-pub fn rows(sub: &Submission, eps: &[EpisodeRecord]) -> Vec<EpisodeRow> {
+/// Turns stored finished episodes into the evaluation rows the summaries are computed from. `set`, when it is the
+/// submission's task set, gives each world's terrain group (for the matched density contrasts).
+pub fn rows(sub: &Submission, eps: &[EpisodeRecord], set: Option<&TaskSet>) -> Vec<EpisodeRow> {
+    let set = set.filter(|s| s.version() == sub.task_set_version);
     eps.iter()
         .filter(|e| e.state == "done")
         .map(|e| EpisodeRow {
@@ -75,6 +77,9 @@ pub fn rows(sub: &Submission, eps: &[EpisodeRecord]) -> Vec<EpisodeRow> {
             level: e.level.clone(),
             semantics: e.semantics.clone(),
             density: e.density.clone(),
+            terrain: set
+                .and_then(|s| s.world_meta(e.world_id).ok())
+                .and_then(|m| m.terrain),
             planner: sub.name.clone(),
             vehicle: sub.vehicle.clone(),
             scale: sub.scale,
@@ -126,7 +131,7 @@ impl Leaderboard {
     async fn entry(&self, sub: Submission) -> Result<SubmissionEntry, WebError> {
         let progress = self.reader.progress(&sub.id).await?;
         let eps = self.reader.episodes(&sub.id).await?;
-        let mut summary = eval::summary::summarise(&rows(&sub, &eps));
+        let mut summary = eval::summary::summarise(&rows(&sub, &eps, self.set.as_deref()));
         summary.planner = sub.name.clone();
         summary.vehicle = sub.vehicle.clone();
         summary.scale = sub.scale;

@@ -213,6 +213,7 @@ pub fn submission(e: &SubmissionEntry, eps: &[EpisodeRecord]) -> String {
             &sum.by_density,
             ["sparse", "medium", "dense"],
         ));
+        b.push_str(&matched_density_table(&sum.density_matched));
     }
     b.push_str("<h2>Episodes</h2><table id='episodes'><tr><th class='l'>task</th><th class='l'>level</th><th class='l'>semantics</th><th class='l'>density</th><th class='l'>state</th><th class='l'>outcome</th><th class='l'>reason</th><th>time (s)</th><th>attempts</th><th class='l'>detail</th></tr>\n");
     for ep in eps {
@@ -414,4 +415,30 @@ pub fn episode(sub: &Submission, d: &EpisodeDetail, world_task: Option<&(World, 
     }
     let live = r.state == "queued" || r.state == "leased";
     layout(&r.task_id, &b, live)
+}
+
+/// The density contrasts on matched tasks (same terrain group and start/goal pair), when the summary has them.
+fn matched_density_table(contrasts: &[eval::summary::DensityContrast]) -> String {
+    if contrasts.is_empty() {
+        return String::new();
+    }
+    let mut t = String::from("<h3>Obstacle density on matched tasks</h3><p>The same terrain and start/goal pair at two densities (nested obstacle layouts); difference = denser minus sparser, exact McNemar test.</p><table id='density-matched'><tr><th class='l'>contrast</th><th>tasks</th><th>sparser</th><th>denser</th><th>difference (points)</th><th>95% CI</th><th>McNemar p</th></tr>\n");
+    for c in contrasts {
+        let m = &c.comparison;
+        let _ = writeln!(
+            t,
+            "<tr><td class='l'>{} &rarr; {}</td><td>{}</td><td>{:.1}%</td><td>{:.1}%</td><td>{:+.1}</td><td>[{:+.1}, {:+.1}]</td><td>{:.4}{}</td></tr>",
+            esc(&c.sparser),
+            esc(&c.denser),
+            m.paired_tasks,
+            100.0 * m.success_b,
+            100.0 * m.success_a,
+            100.0 * m.difference,
+            100.0 * m.difference_ci95.0,
+            100.0 * m.difference_ci95.1,
+            m.mcnemar_p,
+            if m.significant { " *" } else { "" }
+        );
+    }
+    t + "</table>\n"
 }
