@@ -3,6 +3,7 @@
 use crate::format::{self, WorldRecord};
 use crate::generate::{self, HeightSource};
 use crate::{import, render, stats, TaskSet, TasksError};
+use sim_core::world::SemanticsKind;
 use std::path::Path;
 
 /// Generates the whole task set into `out` and returns its manifest.
@@ -11,9 +12,26 @@ pub fn generate_set(
     seed: u64,
     source: &dyn HeightSource,
 ) -> Result<format::Manifest, TasksError> {
+    generate_set_with_surface(out, seed, source, None)
+}
+
+/// [`generate_set`], or with `surface = Some(kind)` the set's surface counterfactual (every world on ground of
+/// semantics kind `kind`, everything else unchanged; [`generate::generate_with_surface`]). The manifest's
+/// generator then ends in ` surface=<kind>`, so the counterfactual has its own version and is never mistaken for
+/// the benchmark's set.
+pub fn generate_set_with_surface(
+    out: &Path,
+    seed: u64,
+    source: &dyn HeightSource,
+    surface: Option<SemanticsKind>,
+) -> Result<format::Manifest, TasksError> {
     let ids: Vec<u32> = (1..=crate::design::WORLDS).collect();
-    let records = generate::generate(seed, &ids, source)?;
-    format::save(out, Some(seed), &source.name(), &records)
+    let records = generate::generate_with_surface(seed, &ids, source, surface)?;
+    let generator = match surface {
+        None => source.name(),
+        Some(k) => format!("{} surface={}", source.name(), k.as_str()),
+    };
+    format::save(out, Some(seed), &generator, &records)
 }
 
 /// Imports every world of an original release directory into `out`.

@@ -14,7 +14,7 @@ use crate::path::{occupancy, plan_on_grid, DEFAULT_INFLATION};
 use crate::{obstacles, semantics, TasksError};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use sim_core::world::{ElevationLevel, Heightmap, Task, World, MAP_PX};
+use sim_core::world::{ElevationLevel, Heightmap, SemanticsKind, Task, World, MAP_PX};
 use std::collections::btree_map::{BTreeMap, Entry};
 
 /// The committed master seed of the benchmark's task set.
@@ -57,10 +57,16 @@ pub fn start_goal_pairs() -> Vec<([f64; 2], [f64; 2])> {
 /// Builds the worlds of terrain group `terrain` around its heightmap: the shared patches, one obstacle layout for
 /// the group's densest member (the others take its first rocks and trees, [`obstacles::nested`]), tasks and paths.
 /// The layout is resampled until every task of every member has a path.
+///
+/// With `surface = Some(kind)` the group's patches are replaced by patches of `kind` drawn from a separate stream
+/// of the group's seed, after the design's patches were drawn and before the layout: heights, obstacles, tasks
+/// and paths stay exactly those of the design's set (paths ignore the surface), only the ground changes. That makes
+/// a *surface counterfactual* of the set, for paired semantics contrasts ([`generate_with_surface`]).
 pub fn build_group(
     terrain: u32,
     seed: u64,
     heightmap: Heightmap,
+    surface: Option<SemanticsKind>,
 ) -> Result<Vec<WorldRecord>, TasksError> {
     let members = group_members(terrain);
     let first = *members.first().ok_or_else(|| TasksError::Generation {
@@ -84,7 +90,13 @@ pub fn build_group(
         .unwrap_or(f.density);
     // The height source used `seed`; the layout draws from its own stream.
     let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(1));
-    let patches = semantics::generate_patches(f.semantics, &mut rng);
+    let mut patches = semantics::generate_patches(f.semantics, &mut rng);
+    let mut kind = f.semantics;
+    if let Some(k) = surface {
+        let mut surface_rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(2));
+        patches = semantics::generate_patches(k, &mut surface_rng);
+        kind = k;
+    }
     let pairs = start_goal_pairs();
     let keep_clear: Vec<[f64; 2]> = pairs.iter().flat_map(|(s, g)| [*s, *g]).collect();
     for _ in 0..MAX_LAYOUT_ATTEMPTS {
@@ -99,7 +111,7 @@ pub fn build_group(
                     id,
                     scale: 1.0,
                     level: f.level,
-                    semantics: f.semantics,
+                    semantics: kind,
                     density,
                     heightmap: heightmap.clone(),
                     patches: patches.clone(),
@@ -146,6 +158,19 @@ pub fn generate(
     ids: &[u32],
     source: &dyn HeightSource,
 ) -> Result<Vec<WorldRecord>, TasksError> {
+    generate_with_surface(master_seed, ids, source, None)
+}
+
+/// [`generate`], or with `surface = Some(kind)` its surface counterfactual: every world keeps its heights,
+/// obstacles, tasks and paths and gets patches of semantics kind `kind` instead (see [`build_group`]). Evaluating
+/// one planner on the counterfactuals of the three kinds pairs every task with itself on rigid, mixed and
+/// deformable ground, so a semantics contrast carries no terrain or obstacle spread.
+pub fn generate_with_surface(
+    master_seed: u64,
+    ids: &[u32],
+    source: &dyn HeightSource,
+    surface: Option<SemanticsKind>,
+) -> Result<Vec<WorldRecord>, TasksError> {
     let mut groups: BTreeMap<u32, Vec<WorldRecord>> = BTreeMap::new();
     ids.iter()
         .map(|&id| {
@@ -153,7 +178,7 @@ pub fn generate(
             if let Entry::Vacant(slot) = groups.entry(f.terrain) {
                 let seed = terrain_seed(master_seed, f.terrain);
                 let heights = source.heightmap(seed, f.level)?;
-                slot.insert(build_group(f.terrain, seed, heights)?);
+                slot.insert(build_group(f.terrain, seed, heights, surface)?);
             }
             groups[&f.terrain]
                 .iter()

@@ -1,6 +1,6 @@
 //! Properties of the committed task set (tasks/data/v1) and of its regeneration.
 
-use sim_core::world::{ElevationLevel, ObstacleKind};
+use sim_core::world::{ElevationLevel, ObstacleKind, SemanticsKind};
 use std::path::Path;
 use tasks::format::WorldRecord;
 use tasks::obstacles::{occupies, required_spacing, START_GOAL_CLEARANCE};
@@ -219,4 +219,90 @@ fn scaled_worlds_scale_every_length() {
     ));
     assert_eq!(full.level, set.world_meta(7).unwrap().level);
     let _ = ElevationLevel::ALL;
+}
+
+#[test]
+fn a_surface_counterfactual_changes_only_the_ground() {
+    let committed = TaskSet::load(&TaskSet::default_dir()).unwrap();
+    let seed = committed.manifest.seed.expect("generated set has a seed");
+    let base = records();
+    let out = std::env::temp_dir().join(format!("vb-surface-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let kind = SemanticsKind::Deformable;
+    let m = tasks::cli::generate_set_with_surface(
+        &out,
+        seed,
+        &tasks::interim::SpectralSource::default(),
+        Some(kind),
+    )
+    .unwrap();
+    assert_eq!(
+        m.generator,
+        format!("{} surface=deformable", committed.manifest.generator)
+    );
+    assert_ne!(m.version, committed.manifest.version);
+    let cf = TaskSet::load(&out).unwrap();
+    let s = tasks::cli::stats(&cf).unwrap();
+    assert_eq!(s.by_semantics.get("deformable"), Some(&100), "{s:?}");
+    let cf_records = cf.records().unwrap();
+    assert_eq!(cf_records.len(), base.len());
+    let mut changed = 0;
+    for (a, b) in base.iter().zip(&cf_records) {
+        let id = a.world.id;
+        assert_eq!(b.world.id, id);
+        // Heights, obstacles, tasks and paths are those of the benchmark's world ...
+        assert_eq!(a.world.heightmap, b.world.heightmap, "world {id}");
+        assert_eq!(a.world.obstacles, b.world.obstacles, "world {id}");
+        assert_eq!(a.tasks, b.tasks, "world {id}");
+        assert_eq!(
+            (a.world.level, a.world.density, a.terrain),
+            (b.world.level, b.world.density, b.terrain)
+        );
+        // ... and the ground is deformable everywhere.
+        assert_eq!(b.world.semantics, kind);
+        assert!(b.world.patches.iter().all(|p| p.semantic.is_deformable()));
+        changed += usize::from(a.world.patches != b.world.patches);
+    }
+    // Only the design's deformable worlds could keep their patches by chance; none does (own stream).
+    assert_eq!(changed, 100);
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn mixed_and_rigid_counterfactuals_keep_their_label_pools() {
+    let src = tasks::interim::SpectralSource::default();
+    let ids = [1, 2, 3, 100];
+    let base =
+        tasks::generate::generate_with_surface(tasks::generate::DEFAULT_SEED, &ids, &src, None)
+            .unwrap();
+    for kind in [SemanticsKind::Rigid, SemanticsKind::Mixed] {
+        let cf = tasks::generate::generate_with_surface(
+            tasks::generate::DEFAULT_SEED,
+            &ids,
+            &src,
+            Some(kind),
+        )
+        .unwrap();
+        for (a, b) in base.iter().zip(&cf) {
+            assert_eq!(
+                (&a.world.heightmap, &a.world.obstacles, &a.tasks),
+                (&b.world.heightmap, &b.world.obstacles, &b.tasks)
+            );
+            assert_eq!(b.world.semantics, kind);
+            let deformable = b
+                .world
+                .patches
+                .iter()
+                .filter(|p| p.semantic.is_deformable())
+                .count();
+            match kind {
+                SemanticsKind::Rigid => assert_eq!(deformable, 0, "world {}", b.world.id),
+                _ => assert!(
+                    deformable > 0 && deformable < b.world.patches.len(),
+                    "world {}: {deformable} deformable patches",
+                    b.world.id
+                ),
+            }
+        }
+    }
 }

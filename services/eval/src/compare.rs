@@ -51,6 +51,26 @@ pub fn compare(a: &[EpisodeRow], b: &[EpisodeRow]) -> Comparison {
     }))
 }
 
+/// A note when A and B ran on different task sets: tasks are paired by id, which is what a surface counterfactual
+/// (`vb tasks generate --surface`) is made for and a mistake otherwise.
+pub fn task_set_note(a: &[EpisodeRow], b: &[EpisodeRow]) -> Option<String> {
+    let versions = |rows: &[EpisodeRow]| {
+        rows.iter()
+            .map(|r| r.task_set_version.as_str())
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let (va, vb) = (versions(a), versions(b));
+    (va != vb).then(|| {
+        format!(
+            "note: A ran on task set {va}, B on {vb}; tasks are paired by id (right for a surface counterfactual of one \
+             set, meaningless for unrelated sets)"
+        )
+    })
+}
+
 /// Paired statistics of (A succeeded, B succeeded) pairs.
 pub fn paired(pairs: impl IntoIterator<Item = (bool, bool)>) -> Comparison {
     let (mut n, mut sa, mut sb, mut a_only, mut b_only) = (0usize, 0usize, 0usize, 0usize, 0usize);
@@ -90,5 +110,36 @@ mod tests {
         assert_eq!(binomial_two_sided(5, 10), 1.0);
         // 2 of 12: 2 * (1 + 12 + 66) / 4096 = 0.03857.
         assert!((binomial_two_sided(2, 12) - 0.038574).abs() < 1e-5);
+    }
+
+    #[test]
+    fn different_task_sets_are_noted_and_paired_by_task_id() {
+        let row = |task: &str, version: &str, ok: bool| EpisodeRow {
+            task_id: task.into(),
+            world_id: 1,
+            task_index: 0,
+            level: "low".into(),
+            semantics: "rigid".into(),
+            density: "sparse".into(),
+            terrain: Some(1),
+            planner: "pid".into(),
+            vehicle: "hmmwv".into(),
+            scale: 1.0,
+            seed: 0,
+            task_set_version: version.into(),
+            sim_version: "s".into(),
+            outcome: if ok { "success" } else { "stuck" }.into(),
+            reason: String::new(),
+            detail: String::new(),
+            metrics: Default::default(),
+            wall_time_s: 0.1,
+        };
+        let a = vec![row("w001-t0", "aaa", true), row("w001-t1", "aaa", true)];
+        let b = vec![row("w001-t1", "bbb", false), row("w002-t0", "bbb", false)];
+        assert_eq!(task_set_note(&a, &a), None);
+        let note = task_set_note(&a, &b).unwrap();
+        assert!(note.contains("aaa") && note.contains("bbb"), "{note}");
+        let c = compare(&a, &b);
+        assert_eq!((c.paired_tasks, c.a_only, c.b_only), (1, 1, 0));
     }
 }

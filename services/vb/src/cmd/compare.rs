@@ -15,6 +15,9 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     anyhow::ensure!(!b.is_empty(), "{}: no results", args.b.display());
     let c = eval::compare::compare(&a, &b);
     anyhow::ensure!(c.paired_tasks > 0, "the two evaluations share no task");
+    if let Some(note) = eval::compare::task_set_note(&a, &b) {
+        println!("{note}");
+    }
     println!(
         "{} paired tasks: success A {:.1}%, B {:.1}%",
         c.paired_tasks,

@@ -1,6 +1,7 @@
 //! `vb tasks ...`: generate, inspect, render and import task sets.
 
 use clap::Subcommand;
+use sim_core::world::SemanticsKind;
 use std::path::PathBuf;
 use tasks::TaskSet;
 
@@ -20,6 +21,11 @@ pub enum TasksCmd {
         /// SWAE weights file instead of the committed one (only with `--generator swae`).
         #[arg(long)]
         weights: Option<PathBuf>,
+        /// Surface counterfactual: every world keeps its heights, obstacles, tasks and paths but gets ground of this
+        /// semantics kind (`rigid`, `mixed` or `deformable`). Evaluating a planner on the three counterfactuals
+        /// pairs each task with itself on the three kinds (`vb compare`); the set gets its own version.
+        #[arg(long, value_parser = parse_kind)]
+        surface: Option<SemanticsKind>,
     },
     /// Print the composition and per-level geometry statistics.
     Stats {
@@ -51,6 +57,13 @@ pub enum TasksCmd {
     },
 }
 
+fn parse_kind(s: &str) -> Result<SemanticsKind, String> {
+    SemanticsKind::ALL
+        .into_iter()
+        .find(|k| k.as_str() == s)
+        .ok_or_else(|| format!("unknown semantics kind `{s}`: use rigid, mixed or deformable"))
+}
+
 fn open(dir: Option<PathBuf>) -> anyhow::Result<TaskSet> {
     Ok(TaskSet::load(&dir.unwrap_or_else(TaskSet::default_dir))?)
 }
@@ -62,7 +75,12 @@ pub fn run(cmd: TasksCmd) -> anyhow::Result<()> {
             seed,
             generator,
             weights,
+            surface,
         } => {
+            anyhow::ensure!(
+                surface.is_none() || out.is_some(),
+                "--surface makes a counterfactual, never the benchmark's committed set: give --out DIR"
+            );
             let out = out.unwrap_or_else(TaskSet::default_dir);
             let source: Box<dyn tasks::generate::HeightSource> = match (generator.as_str(), weights)
             {
@@ -77,7 +95,7 @@ pub fn run(cmd: TasksCmd) -> anyhow::Result<()> {
                     anyhow::bail!("unknown generator `{other}`: use `swae` or `interim`")
                 }
             };
-            let m = tasks::cli::generate_set(&out, seed, source.as_ref())?;
+            let m = tasks::cli::generate_set_with_surface(&out, seed, source.as_ref(), surface)?;
             println!(
                 "wrote {} worlds to {} (task-set version {}, generator {})",
                 m.worlds.len(),
