@@ -281,3 +281,68 @@ fn on_soft_soil_the_climbable_grade_is_set_by_the_friction_angle() {
         }
     }
 }
+
+#[test]
+fn a_wheel_leaving_a_rut_for_rigid_ground_climbs_out_instead_of_being_launched() {
+    // Flat ground, snow west of x = 0 and concrete east of it. In snow the HMMWV's wheels sink (here about
+    // 0.25 m), so at the patch edge each wheel meets the rigid surface above its rim. It must roll out of the rut like
+    // up a short ramp (rising half a metre per metre): the chassis pitches by about the rut's depth over the wheelbase
+    // (6 degrees at 2 m/s, 9 at 5 m/s) and rises at no more than about half the speed. Before the rut-exit rule the stiff tyre fired the wheels out of the ground: the HMMWV
+    // flipped end over end here at 2 and at 5 m/s (pitch 90 degrees, vertical speed about 5 m/s), as it did on gentle
+    // terrain in the benchmark's mixed worlds.
+    let mut w = world_with(|_, _| 0.0, Surface::Rigid { friction: 0.8 });
+    for (k, p) in w.patches.iter_mut().enumerate() {
+        if k % sim_core::world::PATCHES < sim_core::world::PATCHES / 2 {
+            p.semantic = sim_core::world::Semantic::Snow;
+            p.surface = Surface::Deformable {
+                soil: sim_core::world::SoilParams::SNOW,
+            };
+        }
+    }
+    assert!(matches!(
+        w.patch_at(-1.0, 0.0).surface,
+        Surface::Deformable { .. }
+    ));
+    assert!(matches!(
+        w.patch_at(1.0, 0.0).surface,
+        Surface::Rigid { .. }
+    ));
+    for target in [2.0, 5.0] {
+        let mut sim = Simulation::new(&w, &hmmwv(), -25.0, 0.0, 0.0);
+        let (mut max_pitch, mut max_vz, mut min_z_in_snow) = (0.0f64, 0.0f64, f64::INFINITY);
+        for _ in 0..(40.0 / sim.dt()) as usize {
+            let s = sim.state();
+            if s.position[0] > 12.0 {
+                break;
+            }
+            sim.step(&action(
+                ((target - s.speed) * 0.5).clamp(0.0, 1.0),
+                0.0,
+                0.0,
+            ));
+            let s = sim.state();
+            if s.position[0] > -12.0 {
+                max_pitch = max_pitch.max(s.pitch.abs().to_degrees());
+                max_vz = max_vz.max(s.velocity[2].abs());
+            }
+            if s.position[0] < -5.0 && s.position[0] > -12.0 {
+                min_z_in_snow = min_z_in_snow.min(s.position[2]);
+            }
+        }
+        let x = sim.position().x;
+        assert!(
+            x > 10.0,
+            "{target} m/s: did not cross onto concrete, x = {x:.1}"
+        );
+        assert!(
+            max_pitch < 12.0 && max_vz < 0.5 * target + 0.5,
+            "{target} m/s: launched at the rut's edge: |pitch| up to {max_pitch:.1} deg, |vz| up to {max_vz:.2} m/s"
+        );
+        // The wheels did sink in the snow (the chassis rides lower there than on concrete).
+        assert!(
+            sim.position().z - min_z_in_snow > 0.15,
+            "{target} m/s: no sinkage in snow (z {min_z_in_snow:.3} vs {:.3})",
+            sim.position().z
+        );
+    }
+}

@@ -47,6 +47,10 @@ const RIM_SIN_COS: [(f64, f64); 7] = [
     (0.642_787_609_686_539_4, 0.766_044_443_118_978),
     (0.866_025_403_784_438_6, 0.5),
 ];
+/// Static tyre deflection of the rigid-ground tyre at full scale, m (sets the tyre's vertical stiffness).
+const TYRE_STATIC_DEFLECTION: f64 = 0.01;
+/// Rise of the ground per metre rolled for a wheel climbing out of a soil rut onto a rigid patch.
+const RUT_EXIT_SLOPE: f64 = 0.5;
 const RIM_LATERAL: [f64; 3] = [-0.66, 0.0, 0.66];
 /// Fraction of the total mass carried by each wheel as unsprung mass.
 const UNSPRUNG_FRACTION: f64 = 0.04;
@@ -74,6 +78,11 @@ struct Wheel {
     steer_angle: f64,
     /// Tyre deflection of the previous step (for damping).
     deflection: f64,
+    /// The wheel's last contact was soil: at its next rigid contact it may sit in a rut below the rigid surface.
+    from_soil: bool,
+    /// How far below the rigid surface the ground under this wheel still is while it climbs out of a soil rut onto
+    /// a rigid patch (m; see `wheel_contact`). Zero otherwise.
+    rut_offset: f64,
 }
 
 /// Tyre friction at one contact: the force `[fx, fy]` in the contact frame, `d fx / d(rim speed)` for the implicit
@@ -258,6 +267,8 @@ impl Simulation {
                     bristle: [0.0; 2],
                     steer_angle: 0.0,
                     deflection: 0.0,
+                    from_soil: false,
+                    rut_offset: 0.0,
                 });
             }
         }
@@ -275,7 +286,7 @@ impl Simulation {
         let i = spec.chassis.inertia;
         let inertia = Matrix3::from_diagonal(&Vector3::new(i[0], i[1], i[2]));
         let static_load = total * G / n;
-        let tyre_k = static_load / (0.01 * scale);
+        let tyre_k = static_load / (TYRE_STATIC_DEFLECTION * scale);
         let bristle_k = static_load / (0.005 * scale);
         let body_k = total * G / (0.02 * scale) / 4.0;
         let [l, w, h] = spec.chassis.size;
@@ -396,6 +407,8 @@ impl Simulation {
             wh.spin = 0.0;
             wh.bristle = [0.0; 2];
             wh.deflection = 0.0;
+            wh.from_soil = false;
+            wh.rut_offset = 0.0;
         }
         self.gear = 0;
         self.steering = 0.0;
@@ -523,6 +536,8 @@ impl Simulation {
             w.bristle = s.bristle;
             w.steer_angle = s.steer_angle;
             w.deflection = s.deflection;
+            w.from_soil = s.from_soil;
+            w.rut_offset = s.rut_offset;
         }
         self.obstacles.copy_near_from(&src.obstacles);
         self.soil
@@ -956,6 +971,11 @@ impl Simulation {
                 },
                 self.dt,
             );
+            // Sunk in soil, the wheel sits below the nominal surface; if it rolls onto a rigid patch it must climb out.
+            let wm = &mut self.wheels[k];
+            wm.deflection = 0.0;
+            wm.from_soil = true;
+            wm.rut_offset = 0.0;
             if sc.nodes == 0 {
                 return WheelContact::default();
             }
@@ -993,11 +1013,27 @@ impl Simulation {
             }
         }
         let wm = &mut self.wheels[k];
-        if best.0 <= 0.0 {
+        // A wheel sunk in soil sits below the nominal surface, so when its centre crosses onto a rigid patch the
+        // rigid ground is suddenly up to its sinkage above the rim bottom (the heightmap has no step there; only the
+        // soil sank). Taken at face value the stiff tyre (1 cm static deflection) would fire the wheel out of the
+        // ground like a catapult. Instead the wheel climbs out of its rut: the ground under it starts at the wheel's
+        // sinkage below the rigid surface and rises as the wheel rolls on, RUT_EXIT_SLOPE metres per metre, as if
+        // the rut's end were a ramp of soil.
+        if wm.from_soil {
+            wm.from_soil = false;
+            wm.rut_offset = (best.0 - TYRE_STATIC_DEFLECTION * self.spec.scale).max(0.0);
+            wm.deflection = best.0 - wm.rut_offset;
+        }
+        if wm.rut_offset > 0.0 {
+            let v = self.vel + (self.rot * self.omega).cross(&(centre - self.pos));
+            wm.rut_offset = (wm.rut_offset - v.xy().norm() * self.dt * RUT_EXIT_SLOPE).max(0.0);
+        }
+        let depth = best.0 - wm.rut_offset;
+        if depth <= 0.0 {
             wm.deflection = 0.0;
             return WheelContact::default();
         }
-        let (depth, point, ang) = best;
+        let (point, ang) = (best.1, best.2);
         let mut normal = (centre + axle * (point - centre).dot(&axle) - point).normalize();
         if ang == 0.0 {
             // Flat contact under the centre: the terrain normal is better conditioned than the radial one.
