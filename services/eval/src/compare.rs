@@ -21,6 +21,15 @@ pub struct Comparison {
     pub significant: bool,
 }
 
+/// A p-value as text: `p = 0.0123`, or `p < 0.0001` below the fourth decimal (never `p = 0.0000`).
+pub fn p_text(p: f64) -> String {
+    if p < 1e-4 {
+        "p < 0.0001".into()
+    } else {
+        format!("p = {p:.4}")
+    }
+}
+
 /// Two-sided exact binomial p-value for k successes in n trials at p = 1/2.
 pub fn binomial_two_sided(k: usize, n: usize) -> f64 {
     if n == 0 {
@@ -110,6 +119,8 @@ mod tests {
         assert_eq!(binomial_two_sided(5, 10), 1.0);
         // 2 of 12: 2 * (1 + 12 + 66) / 4096 = 0.03857.
         assert!((binomial_two_sided(2, 12) - 0.038574).abs() < 1e-5);
+        assert_eq!(p_text(binomial_two_sided(2, 12)), "p = 0.0386");
+        assert_eq!(p_text(binomial_two_sided(0, 30)), "p < 0.0001");
     }
 
     #[test]

@@ -195,7 +195,7 @@ pub fn summary_text(s: &Summary) -> String {
         for c in &s.density_matched {
             let m = &c.comparison;
             t += &format!(
-                "{:<6} -> {:<6} {:>5} tasks  {:>5.1}% -> {:>5.1}%  {:>+6.1} points [{:+.1}, {:+.1}]  McNemar p = {:.4}{}\n",
+                "{:<6} -> {:<6} {:>5} tasks  {:>5.1}% -> {:>5.1}%  {:>+6.1} points [{:+.1}, {:+.1}]  McNemar {}{}\n",
                 c.sparser,
                 c.denser,
                 m.paired_tasks,
@@ -204,7 +204,7 @@ pub fn summary_text(s: &Summary) -> String {
                 100.0 * m.difference,
                 100.0 * m.difference_ci95.0,
                 100.0 * m.difference_ci95.1,
-                m.mcnemar_p,
+                crate::compare::p_text(m.mcnemar_p),
                 if m.significant { " (significant)" } else { "" }
             );
         }

@@ -422,12 +422,12 @@ fn matched_density_table(contrasts: &[eval::summary::DensityContrast]) -> String
     if contrasts.is_empty() {
         return String::new();
     }
-    let mut t = String::from("<h3>Obstacle density on matched tasks</h3><p>The same terrain and start/goal pair at two densities (nested obstacle layouts); difference = denser minus sparser, exact McNemar test.</p><table id='density-matched'><tr><th class='l'>contrast</th><th>tasks</th><th>sparser</th><th>denser</th><th>difference (points)</th><th>95% CI</th><th>McNemar p</th></tr>\n");
+    let mut t = String::from("<h3>Obstacle density on matched tasks</h3><p>The same terrain and start/goal pair at two densities (nested obstacle layouts); difference = denser minus sparser, exact McNemar test.</p><table id='density-matched'><tr><th class='l'>contrast</th><th>tasks</th><th>sparser</th><th>denser</th><th>difference (points)</th><th>95% CI</th><th>McNemar</th></tr>\n");
     for c in contrasts {
         let m = &c.comparison;
         let _ = writeln!(
             t,
-            "<tr><td class='l'>{} &rarr; {}</td><td>{}</td><td>{:.1}%</td><td>{:.1}%</td><td>{:+.1}</td><td>[{:+.1}, {:+.1}]</td><td>{:.4}{}</td></tr>",
+            "<tr><td class='l'>{} &rarr; {}</td><td>{}</td><td>{:.1}%</td><td>{:.1}%</td><td>{:+.1}</td><td>[{:+.1}, {:+.1}]</td><td>{}{}</td></tr>",
             esc(&c.sparser),
             esc(&c.denser),
             m.paired_tasks,
@@ -436,7 +436,7 @@ fn matched_density_table(contrasts: &[eval::summary::DensityContrast]) -> String
             100.0 * m.difference,
             100.0 * m.difference_ci95.0,
             100.0 * m.difference_ci95.1,
-            m.mcnemar_p,
+            esc(&eval::compare::p_text(m.mcnemar_p)),
             if m.significant { " *" } else { "" }
         );
     }

@@ -31,10 +31,10 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
         100.0 * c.difference_ci95.1
     );
     println!(
-        "discordant: A only {}, B only {}; exact McNemar p = {:.4}: {}",
+        "discordant: A only {}, B only {}; exact McNemar {}: {}",
         c.a_only,
         c.b_only,
-        c.mcnemar_p,
+        eval::compare::p_text(c.mcnemar_p),
         if c.significant {
             "significant at 5%"
         } else {
