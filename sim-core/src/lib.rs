@@ -21,5 +21,11 @@ pub mod terrain_stats;
 pub mod vehicle;
 
 pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
+
+/// Identifies the physics that produced a result: the crate version and a revision bumped with every change that
+/// alters trajectories (results carry it; the coordinator refuses workers of another one, and `vb eval` will not
+/// resume an output directory written by another one). Revision 2: wheels climb out of soil ruts onto rigid
+/// patches instead of being fired out.
+pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r2");
 pub use vehicle::{Simulation, VehicleSpec};
 pub mod world;

@@ -13,7 +13,7 @@ use std::time::Instant;
 use tasks::TaskSet;
 
 /// Version of the simulator recorded with every result.
-pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"));
+pub use sim_core::SIM_VERSION;
 
 /// What to evaluate.
 #[derive(Clone, Debug)]
@@ -200,10 +200,11 @@ pub fn run(cfg: &EvalConfig, progress: Progress<'_>) -> Result<Vec<EpisodeRow>, 
             || r.vehicle != vehicle.name
             || (r.scale - scale).abs() > 1e-12
             || r.task_set_version != set.version()
+            || r.sim_version != SIM_VERSION
         {
             return Err(EvalError::Param {
                 field: "out".into(),
-                message: format!("{} holds results of planner {} / vehicle {} / scale {} / task set {}; use another --out", results_path.display(), r.planner, r.vehicle, r.scale, r.task_set_version),
+                message: format!("{} holds results of planner {} / vehicle {} / scale {} / task set {} / {}; use another --out", results_path.display(), r.planner, r.vehicle, r.scale, r.task_set_version, r.sim_version),
             });
         }
     }

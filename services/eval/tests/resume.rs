@@ -91,3 +91,33 @@ fn bad_parameters_get_clear_errors() {
         .to_string()
         .contains("unknown vehicle `spaceship`"));
 }
+
+#[test]
+fn results_of_another_physics_revision_are_never_resumed() {
+    let out = std::env::temp_dir().join(format!("vb-simver-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let c = cfg(&out, "w004-t1");
+    let rows = run(&c, &|_, _, _| {}).unwrap();
+    assert_eq!(rows[0].sim_version, eval::SIM_VERSION);
+    // The same directory as if an older sim-core had written it.
+    let log = out.join("results.jsonl");
+    let text = std::fs::read_to_string(&log).unwrap();
+    let old = text.replace(eval::SIM_VERSION, "sim-core 0.1.0");
+    assert_ne!(old, text);
+    std::fs::write(&log, &old).unwrap();
+    let e = run(&cfg(&out, "w004-t1,w004-t2"), &|_, _, _| {
+        panic!("no episode may run into another revision's results")
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("sim-core 0.1.0") && e.contains("use another --out"),
+        "{e}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(&log).unwrap(),
+        old,
+        "nothing appended"
+    );
+    std::fs::remove_dir_all(&out).unwrap();
+}

@@ -32,7 +32,7 @@ use vb_proto::v1 as pb;
 use vb_proto::v1::worker_pool_client::WorkerPoolClient;
 
 /// Version of the simulator this worker runs (must match the coordinator's).
-pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"));
+pub use sim_core::SIM_VERSION;
 
 /// Trajectory recording rate of service episodes, Hz.
 pub const RECORD_HZ: f64 = 5.0;
