@@ -261,10 +261,14 @@ fn a_surface_counterfactual_changes_only_the_ground() {
         // ... and the ground is deformable everywhere.
         assert_eq!(b.world.semantics, kind);
         assert!(b.world.patches.iter().all(|p| p.semantic.is_deformable()));
+        if a.world.semantics != kind {
+            assert_ne!(a.world.patches, b.world.patches, "world {id}");
+        }
         changed += usize::from(a.world.patches != b.world.patches);
     }
-    // Only the design's deformable worlds could keep their patches by chance; none does (own stream).
-    assert_eq!(changed, 100);
+    // Rigid and mixed worlds all change; a deformable world keeps its patches only by chance (both draws one and
+    // the same soil class, whose patches carry no per-patch friction): 3 of the 33 here, one terrain group.
+    assert!(changed >= 67 + 30, "{changed} worlds changed");
     std::fs::remove_dir_all(&out).unwrap();
 }
 
