@@ -670,7 +670,7 @@ impl Simulation {
         // Contacts and tyre force trials.
         let mut power = 0.0;
         for k in 0..self.wheels.len() {
-            let c = self.wheel_contact(k, &up, &fwd_body);
+            let c = self.wheel_contact(k, &up, &fwd_body, &omega_w);
             self.contacts[k] = c;
             let w = &self.wheels[k];
             let g = w.group;
@@ -934,12 +934,14 @@ impl Simulation {
         }
     }
 
-    /// Finds the contact of wheel `k` with the ground (rigid or soil) and its tyre deflection force.
+    /// Finds the contact of wheel `k` with the ground (rigid or soil) and its tyre deflection force. `omega_w` is the
+    /// chassis' angular velocity in the world frame, as `step` already has it.
     fn wheel_contact(
         &mut self,
         k: usize,
         up: &Vector3<f64>,
         fwd_body: &Vector3<f64>,
+        omega_w: &Vector3<f64>,
     ) -> WheelContact {
         let w = &self.wheels[k];
         let centre = self.pos
@@ -957,7 +959,6 @@ impl Simulation {
         let axle = up.cross(&heading).normalize();
         let h = &self.world_patches.heightmap;
         if let Some(_soil) = self.soil.soil_at(centre.x, centre.y) {
-            let omega_w = self.rot * self.omega;
             let vel = self.vel + omega_w.cross(&(centre - self.pos));
             let spin_vec = axle * w.spin + omega_w;
             let sc = self.soil.wheel_contact(
@@ -1025,7 +1026,7 @@ impl Simulation {
             wm.deflection = best.0 - wm.rut_offset;
         }
         if wm.rut_offset > 0.0 {
-            let v = self.vel + (self.rot * self.omega).cross(&(centre - self.pos));
+            let v = self.vel + omega_w.cross(&(centre - self.pos));
             wm.rut_offset = (wm.rut_offset - v.xy().norm() * self.dt * RUT_EXIT_SLOPE).max(0.0);
         }
         let depth = best.0 - wm.rut_offset;
