@@ -67,6 +67,10 @@ impl SemanticsKind {
             Self::Mixed => "mixed",
         }
     }
+    /// The kind named `name` (the inverse of [`Self::as_str`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.as_str() == name)
+    }
 }
 
 /// Obstacle density of a world (10 / 20 / 40 rocks).

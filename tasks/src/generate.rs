@@ -90,13 +90,15 @@ pub fn build_group(
         .unwrap_or(f.density);
     // The height source used `seed`; the layout draws from its own stream.
     let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(1));
-    let mut patches = semantics::generate_patches(f.semantics, &mut rng);
-    let mut kind = f.semantics;
-    if let Some(k) = surface {
-        let mut surface_rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(2));
-        patches = semantics::generate_patches(k, &mut surface_rng);
-        kind = k;
-    }
+    // The design's patches are drawn even for a counterfactual, so the layout below draws the same obstacles.
+    let design_patches = semantics::generate_patches(f.semantics, &mut rng);
+    let (kind, patches) = match surface {
+        None => (f.semantics, design_patches),
+        Some(k) => {
+            let mut surface_rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(2));
+            (k, semantics::generate_patches(k, &mut surface_rng))
+        }
+    };
     let pairs = start_goal_pairs();
     let keep_clear: Vec<[f64; 2]> = pairs.iter().flat_map(|(s, g)| [*s, *g]).collect();
     for _ in 0..MAX_LAYOUT_ATTEMPTS {

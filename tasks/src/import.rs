@@ -160,12 +160,12 @@ pub fn import_world(w: &ReleaseWorld) -> Result<WorldRecord, TasksError> {
             ))
         }
     };
-    let semantics = match cfg.terrain_type.as_str() {
-        "rigid" => SemanticsKind::Rigid,
-        "deformable" => SemanticsKind::Deformable,
-        "mixed" => SemanticsKind::Mixed,
-        other => return Err(bad("terrain_type", format!("unknown kind `{other}`"))),
-    };
+    let semantics = SemanticsKind::from_name(&cfg.terrain_type).ok_or_else(|| {
+        bad(
+            "terrain_type",
+            format!("unknown kind `{}`", cfg.terrain_type),
+        )
+    })?;
     let density = match cfg.obstacle_density.as_str() {
         "sparse" => ObstacleDensity::Sparse,
         "medium" => ObstacleDensity::Medium,

@@ -58,9 +58,7 @@ pub enum TasksCmd {
 }
 
 fn parse_kind(s: &str) -> Result<SemanticsKind, String> {
-    SemanticsKind::ALL
-        .into_iter()
-        .find(|k| k.as_str() == s)
+    SemanticsKind::from_name(s)
         .ok_or_else(|| format!("unknown semantics kind `{s}`: use rigid, mixed or deformable"))
 }
 
