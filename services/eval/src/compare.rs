@@ -126,24 +126,9 @@ mod tests {
     #[test]
     fn different_task_sets_are_noted_and_paired_by_task_id() {
         let row = |task: &str, version: &str, ok: bool| EpisodeRow {
-            task_id: task.into(),
-            world_id: 1,
-            task_index: 0,
-            level: "low".into(),
-            semantics: "rigid".into(),
-            density: "sparse".into(),
             terrain: Some(1),
-            planner: "pid".into(),
-            vehicle: "hmmwv".into(),
-            scale: 1.0,
-            seed: 0,
             task_set_version: version.into(),
-            sim_version: "s".into(),
-            outcome: if ok { "success" } else { "stuck" }.into(),
-            reason: String::new(),
-            detail: String::new(),
-            metrics: Default::default(),
-            wall_time_s: 0.1,
+            ..EpisodeRow::for_test(task, if ok { "success" } else { "stuck" })
         };
         let a = vec![row("w001-t0", "aaa", true), row("w001-t1", "aaa", true)];
         let b = vec![row("w001-t1", "bbb", false), row("w002-t0", "bbb", false)];

@@ -55,6 +55,34 @@ pub struct EpisodeRow {
     pub wall_time_s: f64,
 }
 
+#[cfg(test)]
+impl EpisodeRow {
+    /// A PID episode with the HMMWV on a low, rigid, sparse world of task set `v`, for unit tests to override field
+    /// by field.
+    pub(crate) fn for_test(task_id: &str, outcome: &str) -> Self {
+        EpisodeRow {
+            task_id: task_id.into(),
+            world_id: 1,
+            task_index: 0,
+            level: "low".into(),
+            semantics: "rigid".into(),
+            density: "sparse".into(),
+            terrain: None,
+            planner: "pid".into(),
+            vehicle: "hmmwv".into(),
+            scale: 1.0,
+            seed: 0,
+            task_set_version: "v".into(),
+            sim_version: "s".into(),
+            outcome: outcome.into(),
+            reason: String::new(),
+            detail: String::new(),
+            metrics: EpisodeMetrics::default(),
+            wall_time_s: 0.1,
+        }
+    }
+}
+
 /// Named splits of the task set for `--tasks`: every task of the worlds with one factor level. An item list is a
 /// union (`low,dense` = the low worlds and the dense worlds).
 pub const SPLITS: [&str; 9] = [

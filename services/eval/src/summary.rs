@@ -234,27 +234,13 @@ mod tests {
     #[test]
     fn aggregates_count_outcomes_and_time_successes_only() {
         let row = |outcome: &str, time: f64, level: &str| EpisodeRow {
-            task_id: format!("w001-t{time}"),
-            world_id: 1,
-            task_index: 0,
             level: level.into(),
-            semantics: "rigid".into(),
-            density: "sparse".into(),
-            terrain: None,
-            planner: "pid".into(),
-            vehicle: "hmmwv".into(),
-            scale: 1.0,
-            seed: 0,
-            task_set_version: "v".into(),
-            sim_version: "s".into(),
-            outcome: outcome.into(),
             reason: outcome.into(),
-            detail: String::new(),
             metrics: sim_core::episode::EpisodeMetrics {
                 time,
                 ..Default::default()
             },
-            wall_time_s: 0.1,
+            ..EpisodeRow::for_test(&format!("w001-t{time}"), outcome)
         };
         let rows = vec![
             row("success", 20.0, "low"),
@@ -293,24 +279,14 @@ mod tests {
     #[test]
     fn density_contrasts_pair_tasks_of_one_terrain_group() {
         let row = |terrain: u32, index: u32, density: &str, ok: bool| EpisodeRow {
-            task_id: format!("w{terrain:03}{density}-t{index}"),
             world_id: terrain,
             task_index: index,
-            level: "low".into(),
-            semantics: "rigid".into(),
             density: density.into(),
             terrain: Some(terrain),
-            planner: "pid".into(),
-            vehicle: "hmmwv".into(),
-            scale: 1.0,
-            seed: 0,
-            task_set_version: "v".into(),
-            sim_version: "s".into(),
-            outcome: if ok { "success" } else { "stuck" }.into(),
-            reason: String::new(),
-            detail: String::new(),
-            metrics: Default::default(),
-            wall_time_s: 0.1,
+            ..EpisodeRow::for_test(
+                &format!("w{terrain:03}{density}-t{index}"),
+                if ok { "success" } else { "stuck" },
+            )
         };
         let mut rows = Vec::new();
         // Group 1: all succeed sparse; task 0 fails dense. Group 2: task 1 succeeds only at medium density.
