@@ -1,6 +1,6 @@
 //! Properties of the committed task set (tasks/data/v1) and of its regeneration.
 
-use sim_core::world::{ElevationLevel, ObstacleKind, SemanticsKind};
+use sim_core::world::{ObstacleKind, SemanticsKind};
 use std::path::Path;
 use tasks::format::WorldRecord;
 use tasks::obstacles::{occupies, required_spacing, START_GOAL_CLEARANCE};
@@ -218,7 +218,6 @@ fn scaled_worlds_scale_every_length() {
         Err(tasks::TasksError::UnknownWorld(101))
     ));
     assert_eq!(full.level, set.world_meta(7).unwrap().level);
-    let _ = ElevationLevel::ALL;
 }
 
 #[test]
