@@ -5,7 +5,7 @@ use nalgebra::{Rotation3, Vector3};
 use sim_core::collide::{ObstacleContact, ObstacleSet, OrientedBox, MAX_NEAR};
 use sim_core::world::{Obstacle, ObstacleKind};
 
-/// The vehicles' full-scale physics step (`vehicle::model::DT`, 4 ms), s.
+/// The vehicles' full-scale physics step (`vehicle::default_dt(1.0)`, 4 ms), s.
 const DT: f64 = 0.004;
 
 fn rock(x: f64, y: f64, yaw: f64) -> Obstacle {

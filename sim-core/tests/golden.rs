@@ -70,7 +70,12 @@ fn trajectory_hash(vehicle: &str, x0: f64, seconds: f64) -> u64 {
         );
         sim.step(&a);
         let s = sim.state();
-        for v in s.position.iter().chain(&s.velocity).chain(&s.angular_velocity) {
+        for v in s
+            .position
+            .iter()
+            .chain(&s.velocity)
+            .chain(&s.angular_velocity)
+        {
             h.add(*v);
         }
         for v in [s.roll, s.pitch, s.yaw] {

@@ -111,7 +111,7 @@ fn planner_failures_end_the_episode_with_their_reason() {
         assert_eq!(r.reason, reason);
         assert!(!r.detail.is_empty());
         // It failed at its 20th action, after 19 control periods of driving normally.
-        let dt = sim_core::vehicle::model::default_dt(1.0);
+        let dt = sim_core::vehicle::default_dt(1.0);
         let expected = 19.0 * (0.05 / dt).round() * dt;
         assert!(
             (r.metrics.time - expected).abs() < 1e-9,

@@ -1,0 +1,250 @@
+//! Building a [`Simulation`] from a vehicle spec (wheel layout, spin groups, stiffnesses, body points, the terrain's
+//! block maxima) and placing it at rest on the ground.
+
+use super::simulation::*;
+use crate::collide::ObstacleSet;
+use crate::soil::SoilGrid;
+use crate::vehicle::spec::{Differential, SteeringKind, VehicleSpec};
+use crate::world::World;
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+
+impl Simulation {
+    /// Places the vehicle in `world` at `(x, y)` with heading `yaw`, resting on the ground.
+    pub fn new(world: &World, spec: &VehicleSpec, x: f64, y: f64, yaw: f64) -> Simulation {
+        let scale = spec.scale;
+        let dt = default_dt(scale);
+        let n_wheels_axle = 2;
+        let mut wheels = Vec::new();
+        let total = spec.chassis.mass;
+        let unsprung = UNSPRUNG_FRACTION * total;
+        let xs: Vec<f64> = spec.axles.iter().map(|a| a.x).collect();
+        let x_front = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let x_rear_ref = {
+            let rear: Vec<f64> = spec
+                .axles
+                .iter()
+                .filter(|a| !a.steered)
+                .map(|a| a.x)
+                .collect();
+            if rear.is_empty() {
+                xs.iter().copied().fold(f64::INFINITY, f64::min)
+            } else {
+                rear.iter().sum::<f64>() / rear.len() as f64
+            }
+        };
+        // Static axle loads from the moment balance (two-axle exact; more axles: proportional to 1/|x - x_cg| weights
+        // normalised, a documented approximation for the preload reference only).
+        let n_axles = spec.axles.len();
+        let loads: Vec<f64> = if n_axles == 2 {
+            let (a, b) = (spec.axles[0].x, spec.axles[1].x);
+            vec![total * G * (-b) / (a - b), total * G * a / (a - b)]
+        } else {
+            vec![total * G / n_axles as f64; n_axles]
+        };
+        let skid = spec.steering.kind == SteeringKind::Skid;
+        let mut positions: Vec<(usize, f64)> = spec
+            .axles
+            .iter()
+            .enumerate()
+            .map(|(ai, a)| (ai, a.x))
+            .collect();
+        if let Some(t) = &spec.tracks {
+            for w in 0..n_axles.saturating_sub(1) {
+                for k in 1..=t.belt_points_between_wheels {
+                    let f = k as f64 / (t.belt_points_between_wheels + 1) as f64;
+                    let x = spec.axles[w].x + (spec.axles[w + 1].x - spec.axles[w].x) * f;
+                    positions.push((w, x));
+                }
+            }
+        }
+        let contact_count = positions.len() * n_wheels_axle;
+        for (ai, px) in &positions {
+            let a = &spec.axles[*ai];
+            for side in [1.0, -1.0] {
+                let per_wheel_load = loads[*ai] / 2.0 * (n_axles * 2) as f64 / contact_count as f64;
+                let group = match (skid, a.driven, spec.powertrain.differential) {
+                    (true, _, _) => usize::from(side < 0.0),
+                    (false, true, Differential::Locked) => 0,
+                    _ => usize::MAX,
+                };
+                let steer_factor = if a.steered && x_front != x_rear_ref {
+                    (a.x - x_rear_ref) / (x_front - x_rear_ref)
+                } else {
+                    0.0
+                };
+                wheels.push(Wheel {
+                    hard: Vector3::new(*px, side * a.track / 2.0, -spec.chassis.com_height),
+                    side,
+                    steer_factor,
+                    steered: a.steered && !skid,
+                    driven: a.driven || spec.tracks.is_some(),
+                    group,
+                    spring: a.spring,
+                    damper: a.damper,
+                    travel: a.travel,
+                    static_compression: (per_wheel_load - unsprung * G).max(0.0) / a.spring,
+                    compression: 0.0,
+                    compression_rate: 0.0,
+                    spin: 0.0,
+                    bristle: [0.0; 2],
+                    steer_angle: 0.0,
+                    deflection: 0.0,
+                    from_soil: false,
+                    rut_offset: 0.0,
+                });
+            }
+        }
+        // Groups: locked drivelines share one spin group; others each wheel its own.
+        let mut next = if skid { 2 } else { 1 };
+        for w in wheels.iter_mut() {
+            if w.group == usize::MAX {
+                w.group = next;
+                next += 1;
+            }
+        }
+        let groups = next;
+        let n = wheels.len() as f64;
+        let sprung = total - n * unsprung;
+        let i = spec.chassis.inertia;
+        let inertia = Matrix3::from_diagonal(&Vector3::new(i[0], i[1], i[2]));
+        let static_load = total * G / n;
+        let tyre_k = static_load / (TYRE_STATIC_DEFLECTION * scale);
+        let bristle_k = static_load / (0.005 * scale);
+        let body_k = total * G / (0.02 * scale) / 4.0;
+        let [l, w, h] = spec.chassis.size;
+        let bottom = -spec.chassis.com_height - spec.wheels.radius + spec.chassis.ground_clearance;
+        let mut body_points = Vec::new();
+        for xi in 0..5 {
+            for yi in 0..3 {
+                let px = -l / 2.0 + l * xi as f64 / 4.0;
+                let py = -w / 2.0 + w * yi as f64 / 2.0;
+                body_points.push(Vector3::new(px, py, bottom));
+                body_points.push(Vector3::new(px, py, bottom + h));
+                if yi != 1 {
+                    body_points.push(Vector3::new(px, py, bottom + h / 2.0));
+                }
+            }
+        }
+        let hm = &world.heightmap;
+        let blocks_x = hm.nx.div_ceil(4);
+        let blocks_y = hm.ny.div_ceil(4);
+        let mut block_max = vec![f64::NEG_INFINITY; blocks_x * blocks_y];
+        for iy in 0..hm.ny {
+            for ix in 0..hm.nx {
+                // Each sample influences the bilinear surface of the cells around it: widen by one block.
+                for by in (iy / 4).saturating_sub(1)..=(iy / 4 + 1).min(blocks_y - 1) {
+                    for bx in (ix / 4).saturating_sub(1)..=(ix / 4 + 1).min(blocks_x - 1) {
+                        let m = &mut block_max[by * blocks_x + bx];
+                        *m = m.max(hm.at(ix, iy));
+                    }
+                }
+            }
+        }
+        let mut sim = Simulation {
+            block_max,
+            blocks_x,
+            world_patches: world.clone(),
+            soil: SoilGrid::new(world),
+            obstacles: ObstacleSet::new(&world.obstacles),
+            spec: spec.clone(),
+            dt,
+            mass: sprung,
+            inertia,
+            inertia_inv: inertia.try_inverse().unwrap_or_else(Matrix3::identity),
+            unsprung,
+            radius: spec.wheels.radius,
+            width: spec.wheels.width,
+            wheel_inertia: spec.wheels.inertia,
+            tyre_mu: spec.wheels.mu,
+            bristle_k,
+            bristle_c: 2.0 * 0.7 * (bristle_k * total / n).sqrt(),
+            tyre_k,
+            tyre_c: 2.0 * 0.5 * (tyre_k * unsprung).sqrt(),
+            body_points,
+            body_k,
+            body_c: 2.0 * 0.7 * (body_k * total / 4.0).sqrt(),
+            obstacle_k: total * G / (0.002 * scale),
+            groups,
+            group_torque: vec![0.0; groups],
+            group_num: vec![0.0; groups],
+            group_den: vec![0.0; groups],
+            group_spin: vec![0.0; groups],
+            group_brake: vec![0.0; groups],
+            group_inertia: (0..groups)
+                .map(|g| {
+                    spec.wheels.inertia
+                        * wheels.iter().filter(|w| w.group == g).count().max(1) as f64
+                })
+                .collect(),
+            contacts: vec![WheelContact::default(); wheels.len()],
+            wheels,
+            time: 0.0,
+            pos: Vector3::zeros(),
+            rot: UnitQuaternion::identity(),
+            vel: Vector3::zeros(),
+            omega: Vector3::zeros(),
+            gear: 0,
+            steering: 0.0,
+            accel_prev: Vector3::zeros(),
+            steps: 0,
+        };
+        sim.place(x, y, yaw);
+        sim
+    }
+
+    /// Puts the vehicle at rest at `(x, y)` with heading `yaw`, pitched and rolled to the local terrain, its
+    /// wheels at static compression.
+    pub fn place(&mut self, x: f64, y: f64, yaw: f64) {
+        let h = &self.world_patches.heightmap;
+        let (l, w) = (self.spec.wheelbase().max(1e-3), self.spec.track().max(1e-3));
+        let (c, s) = (yaw.cos(), yaw.sin());
+        let hf = h.height_bilinear(x + c * l / 2.0, y + s * l / 2.0);
+        let hb = h.height_bilinear(x - c * l / 2.0, y - s * l / 2.0);
+        let hl = h.height_bilinear(x - s * w / 2.0, y + c * w / 2.0);
+        let hr = h.height_bilinear(x + s * w / 2.0, y - c * w / 2.0);
+        let pitch = -((hf - hb) / l).atan();
+        let roll = ((hl - hr) / w).atan();
+        self.rot = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
+        let ground = h.height_bilinear(x, y).max((hf + hb + hl + hr) / 4.0);
+        // Along the body's up axis, so the wheels just touch a sloped plane instead of starting inside it.
+        let lift = self.radius + self.spec.chassis.com_height + 0.01 * self.spec.scale;
+        self.pos = Vector3::new(x, y, ground) + (self.rot * Vector3::z()) * lift;
+        // On rough ground no wheel may start inside the terrain: raise the vehicle until every rim sample clears
+        // it (it then drops a little and settles, as the release's spawn 1 m above the ground).
+        let mut raise: f64 = 0.0;
+        let (up, fwd) = (self.rot * Vector3::z(), self.rot * Vector3::x());
+        for wh in &self.wheels {
+            let centre = self.pos + self.rot * wh.hard;
+            for &(sin, cos) in &RIM_SIN_COS {
+                let p = centre + (fwd * sin - up * cos) * self.radius;
+                raise = raise.max(h.height_bilinear(p.x, p.y) - p.z);
+            }
+        }
+        self.pos.z += raise;
+        self.vel = Vector3::zeros();
+        self.omega = Vector3::zeros();
+        for wh in &mut self.wheels {
+            wh.compression = wh.static_compression.min(wh.travel);
+            wh.compression_rate = 0.0;
+            wh.spin = 0.0;
+            wh.bristle = [0.0; 2];
+            wh.deflection = 0.0;
+            wh.from_soil = false;
+            wh.rut_offset = 0.0;
+        }
+        self.gear = 0;
+        self.steering = 0.0;
+        self.time = 0.0;
+        self.steps = 0;
+        self.accel_prev = Vector3::zeros();
+        self.soil.reset();
+        self.obstacles.refresh_near(x, y, self.reach());
+    }
+
+    /// Radius of the obstacle near list around the chassis.
+    pub(super) fn reach(&self) -> f64 {
+        0.5 * self.spec.chassis.size[0].hypot(self.spec.chassis.size[1])
+            + self.radius
+            + 15.0 * self.spec.scale
+    }
+}

@@ -1,0 +1,156 @@
+//! Phase 4, contacts: each wheel's contact with the ground. On rigid patches the rim is sampled against the
+//! heightfield (the deepest sample gives the tyre deflection, its radial direction the normal, so a wheel climbs a
+//! step); on deformable patches the soil grid computes the wheel's force ([`crate::soil::SoilGrid`]).
+
+use super::simulation::*;
+use super::step::Frame;
+use crate::soil::WheelGeometry;
+use crate::world::Surface;
+use nalgebra::Vector3;
+
+impl Simulation {
+    /// Phase 4: finds every wheel's contact into `self.contacts`.
+    pub(super) fn find_contacts(&mut self, frame: &Frame) {
+        for k in 0..self.wheels.len() {
+            self.contacts[k] = self.wheel_contact(k, &frame.up, &frame.fwd, &frame.omega_w);
+        }
+    }
+
+    /// Coulomb friction of the chassis against the ground at `(x, y)`.
+    pub(super) fn patch_mu(&self, x: f64, y: f64) -> f64 {
+        match self.world_patches.patch_at(x, y).surface {
+            Surface::Rigid { friction } => friction.min(self.tyre_mu),
+            Surface::Deformable { soil } => soil.friction_angle_deg.to_radians().tan(),
+        }
+    }
+
+    /// Finds the contact of wheel `k` with the ground (rigid or soil) and its tyre deflection force. `omega_w` is the
+    /// chassis' angular velocity in the world frame, as `step` already has it.
+    fn wheel_contact(
+        &mut self,
+        k: usize,
+        up: &Vector3<f64>,
+        fwd_body: &Vector3<f64>,
+        omega_w: &Vector3<f64>,
+    ) -> WheelContact {
+        let w = &self.wheels[k];
+        let centre = self.pos
+            + self.rot
+                * (w.hard
+                    + Vector3::new(0.0, 0.0, w.compression - w.static_compression.min(w.travel)));
+        // Rotate the body's forward axis about its up axis by the steering angle (Rodrigues; up is a unit vector
+        // perpendicular to fwd).
+        let heading = if w.steer_angle == 0.0 {
+            *fwd_body
+        } else {
+            let (s, c) = w.steer_angle.sin_cos();
+            fwd_body * c + up.cross(fwd_body) * s
+        };
+        let axle = up.cross(&heading).normalize();
+        let h = &self.world_patches.heightmap;
+        if let Some(_soil) = self.soil.soil_at(centre.x, centre.y) {
+            let vel = self.vel + omega_w.cross(&(centre - self.pos));
+            let spin_vec = axle * w.spin + omega_w;
+            let sc = self.soil.wheel_contact(
+                &WheelGeometry {
+                    centre,
+                    axle,
+                    radius: self.radius,
+                    width: self.width,
+                    velocity: vel,
+                    angular_velocity: spin_vec,
+                },
+                self.dt,
+            );
+            // Sunk in soil, the wheel sits below the nominal surface; if it rolls onto a rigid patch it must climb out.
+            let wm = &mut self.wheels[k];
+            wm.deflection = 0.0;
+            wm.from_soil = true;
+            wm.rut_offset = 0.0;
+            if sc.nodes == 0 {
+                return WheelContact::default();
+            }
+            let n = sc.normal_dir;
+            let tx = (heading - n * heading.dot(&n)).normalize();
+            let ty = n.cross(&tx);
+            let point = centre - n * self.radius;
+            return WheelContact {
+                active: true,
+                soil: true,
+                point,
+                normal: n,
+                load: sc.normal,
+                mu: 0.0,
+                tx,
+                ty,
+                // The soil acts on the spin through the force's component along tx at the rim radius (the soil's
+                // torque about the axle is approximated that way).
+                soil_force: sc.force,
+                soil_stiffness: sc.traction_stiffness,
+                r_eff: self.radius,
+            };
+        }
+        let mut best = (0.0, Vector3::zeros(), 0.0);
+        for lat in RIM_LATERAL {
+            for (k, &(sin, cos)) in RIM_SIN_COS.iter().enumerate() {
+                let p = centre
+                    + axle * (lat * 0.5 * self.width)
+                    + (heading * sin - up * cos) * self.radius;
+                let depth_v = h.height_bilinear(p.x, p.y) - p.z;
+                let depth = depth_v * cos;
+                if depth > best.0 {
+                    best = (depth, p, RIM_ANGLES[k]);
+                }
+            }
+        }
+        let wm = &mut self.wheels[k];
+        // A wheel sunk in soil sits below the nominal surface, so when its centre crosses onto a rigid patch the
+        // rigid ground is suddenly up to its sinkage above the rim bottom (the heightmap has no step there; only the
+        // soil sank). Taken at face value the stiff tyre (1 cm static deflection) would fire the wheel out of the
+        // ground like a catapult. Instead the wheel climbs out of its rut: the ground under it starts at the wheel's
+        // sinkage below the rigid surface and rises as the wheel rolls on, RUT_EXIT_SLOPE metres per metre, as if
+        // the rut's end were a ramp of soil.
+        if wm.from_soil {
+            wm.from_soil = false;
+            wm.rut_offset = (best.0 - TYRE_STATIC_DEFLECTION * self.spec.scale).max(0.0);
+            wm.deflection = best.0 - wm.rut_offset;
+        }
+        if wm.rut_offset > 0.0 {
+            let v = self.vel + omega_w.cross(&(centre - self.pos));
+            wm.rut_offset = (wm.rut_offset - v.xy().norm() * self.dt * RUT_EXIT_SLOPE).max(0.0);
+        }
+        let depth = best.0 - wm.rut_offset;
+        if depth <= 0.0 {
+            wm.deflection = 0.0;
+            return WheelContact::default();
+        }
+        let (point, ang) = (best.1, best.2);
+        let mut normal = (centre + axle * (point - centre).dot(&axle) - point).normalize();
+        if ang == 0.0 {
+            // Flat contact under the centre: the terrain normal is better conditioned than the radial one.
+            normal = h.surface_normal(point.x, point.y);
+        }
+        let rate = (depth - wm.deflection) / self.dt;
+        wm.deflection = depth;
+        let load = (self.tyre_k * depth + self.tyre_c * rate).max(0.0);
+        let tx = (heading - normal * heading.dot(&normal)).normalize();
+        let ty = normal.cross(&tx);
+        let mu = match self.world_patches.patch_at(point.x, point.y).surface {
+            Surface::Rigid { friction } => friction.min(self.tyre_mu),
+            Surface::Deformable { .. } => self.tyre_mu,
+        };
+        WheelContact {
+            active: true,
+            soil: false,
+            point,
+            normal,
+            load,
+            mu,
+            tx,
+            ty,
+            soil_force: Vector3::zeros(),
+            soil_stiffness: 0.0,
+            r_eff: (self.radius - depth).max(0.5 * self.radius),
+        }
+    }
+}

@@ -1,0 +1,162 @@
+//! The vehicle model's data: [`Simulation`] (parameters, state and the step's preallocated scratch), its wheels
+//! and contacts, and the named constants of the model. Building it is in `build.rs`, the step in `step.rs`.
+
+use crate::collide::ObstacleSet;
+use crate::soil::SoilGrid;
+use crate::vehicle::spec::VehicleSpec;
+use crate::world::World;
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+
+pub(super) const G: f64 = 9.81;
+/// Rim sample angles (rad) and lateral offsets (fraction of the half width) of the wheel contact.
+pub(super) const RIM_ANGLES: [f64; 7] = [
+    -1.047_197_551_196_597_6,
+    -0.698_131_700_797_731_8,
+    -0.349_065_850_398_865_9,
+    0.0,
+    0.349_065_850_398_865_9,
+    0.698_131_700_797_731_8,
+    1.047_197_551_196_597_6,
+];
+/// `(sin, cos)` of [`RIM_ANGLES`] (-60 .. 60 degrees in steps of 20), precomputed: no trigonometry in the step loop.
+pub(super) const RIM_SIN_COS: [(f64, f64); 7] = [
+    (-0.866_025_403_784_438_6, 0.5),
+    (-0.642_787_609_686_539_4, 0.766_044_443_118_978),
+    (-0.342_020_143_325_668_7, 0.939_692_620_785_908_4),
+    (0.0, 1.0),
+    (0.342_020_143_325_668_7, 0.939_692_620_785_908_4),
+    (0.642_787_609_686_539_4, 0.766_044_443_118_978),
+    (0.866_025_403_784_438_6, 0.5),
+];
+/// Static tyre deflection of the rigid-ground tyre at full scale, m (sets the tyre's vertical stiffness).
+pub(super) const TYRE_STATIC_DEFLECTION: f64 = 0.01;
+/// Rise of the ground per metre rolled for a wheel climbing out of a soil rut onto a rigid patch.
+pub(super) const RUT_EXIT_SLOPE: f64 = 0.5;
+pub(super) const RIM_LATERAL: [f64; 3] = [-0.66, 0.0, 0.66];
+/// Fraction of the total mass carried by each wheel as unsprung mass.
+pub(super) const UNSPRUNG_FRACTION: f64 = 0.04;
+/// Steps between refreshes of the obstacle near list (its radius has 15 m of slack at full scale: 80 ms at 30 m/s
+/// covers 2.4 m).
+pub(super) const OBSTACLE_REFRESH_STEPS: u64 = 20;
+
+#[derive(Clone, Debug)]
+pub(super) struct Wheel {
+    /// Hard point (wheel centre at static ride height) in the chassis frame.
+    pub(super) hard: Vector3<f64>,
+    /// +1 left, -1 right.
+    pub(super) side: f64,
+    pub(super) steer_factor: f64,
+    pub(super) steered: bool,
+    /// Whether the powertrain drives this contact (all contacts of a tracked vehicle are driven).
+    pub(super) driven: bool,
+    pub(super) group: usize,
+    pub(super) spring: f64,
+    pub(super) damper: f64,
+    pub(super) travel: f64,
+    /// Compression at static ride height (spring preload reference), m.
+    pub(super) static_compression: f64,
+    pub(super) compression: f64,
+    pub(super) compression_rate: f64,
+    pub(super) spin: f64,
+    pub(super) bristle: [f64; 2],
+    pub(super) steer_angle: f64,
+    /// Tyre deflection of the previous step (for damping).
+    pub(super) deflection: f64,
+    /// The wheel's last contact was soil: at its next rigid contact it may sit in a rut below the rigid surface.
+    pub(super) from_soil: bool,
+    /// How far below the rigid surface the ground under this wheel still is while it climbs out of a soil rut onto
+    /// a rigid patch (m; see `wheel_contact`). Zero otherwise.
+    pub(super) rut_offset: f64,
+}
+
+/// What one step produced (for metrics).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepInfo {
+    /// Mechanical power delivered by the powertrain to the wheels, W (positive when driving).
+    pub drive_power: f64,
+    /// Whether any part of the vehicle touches an obstacle.
+    pub obstacle_contact: bool,
+}
+
+/// Why [`Simulation::copy_state_from`] refused a source.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum StateCopyError {
+    #[error("cannot copy the state of a {src} into a {dst}: different vehicles")]
+    Vehicle { src: String, dst: String },
+    #[error("cannot copy the state of a simulation of a different world (heightmap, soil grid or obstacles)")]
+    World,
+}
+
+/// A vehicle driving in a world.
+#[derive(Clone, Debug)]
+pub struct Simulation {
+    pub(super) spec: VehicleSpec,
+    pub(super) world_patches: World,
+    pub(super) soil: SoilGrid,
+    pub(super) obstacles: ObstacleSet,
+    pub(super) dt: f64,
+    pub(super) mass: f64,
+    pub(super) inertia: Matrix3<f64>,
+    pub(super) inertia_inv: Matrix3<f64>,
+    pub(super) unsprung: f64,
+    pub(super) radius: f64,
+    pub(super) width: f64,
+    pub(super) wheel_inertia: f64,
+    pub(super) tyre_mu: f64,
+    pub(super) bristle_k: f64,
+    pub(super) bristle_c: f64,
+    pub(super) tyre_k: f64,
+    pub(super) tyre_c: f64,
+    pub(super) body_points: Vec<Vector3<f64>>,
+    pub(super) body_k: f64,
+    pub(super) body_c: f64,
+    pub(super) obstacle_k: f64,
+    pub(super) wheels: Vec<Wheel>,
+    pub(super) groups: usize,
+    /// Highest terrain (plus one cell of slack) over 4 x 4-sample blocks: a body point above it cannot touch.
+    pub(super) block_max: Vec<f64>,
+    pub(super) blocks_x: usize,
+    // state
+    pub(super) time: f64,
+    pub(super) pos: Vector3<f64>,
+    pub(super) rot: UnitQuaternion<f64>,
+    pub(super) vel: Vector3<f64>,
+    /// Angular velocity in the chassis frame.
+    pub(super) omega: Vector3<f64>,
+    pub(super) gear: usize,
+    pub(super) steering: f64,
+    pub(super) accel_prev: Vector3<f64>,
+    pub(super) steps: u64,
+    // scratch (preallocated; no allocation in the step loop)
+    pub(super) group_torque: Vec<f64>,
+    pub(super) group_num: Vec<f64>,
+    pub(super) group_den: Vec<f64>,
+    pub(super) group_spin: Vec<f64>,
+    pub(super) group_brake: Vec<f64>,
+    /// Total spin inertia of each group (constant).
+    pub(super) group_inertia: Vec<f64>,
+    pub(super) contacts: Vec<WheelContact>,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct WheelContact {
+    pub(super) active: bool,
+    pub(super) soil: bool,
+    pub(super) point: Vector3<f64>,
+    pub(super) normal: Vector3<f64>,
+    /// Normal force magnitude (tyre deflection force), N.
+    pub(super) load: f64,
+    pub(super) mu: f64,
+    pub(super) tx: Vector3<f64>,
+    pub(super) ty: Vector3<f64>,
+    /// Force on the wheel from the ground (soil: complete), world.
+    pub(super) soil_force: Vector3<f64>,
+    pub(super) soil_stiffness: f64,
+    pub(super) r_eff: f64,
+}
+
+/// Fixed physics step for a vehicle scale: 4 ms at full scale (Chrono: 5 ms), scaled by sqrt(scale) (Froude similitude keeps the
+/// ratio of step to natural periods); chosen by the stability tests in `tests/physics_*.rs`.
+pub fn default_dt(scale: f64) -> f64 {
+    0.004 * scale.sqrt()
+}

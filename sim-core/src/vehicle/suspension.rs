@@ -1,0 +1,69 @@
+//! Phase 7, wheel forces and suspension: the ground force on each wheel at its new spin (tyre friction and load on
+//! rigid ground, the soil's force on soil), the wheel's vertical DOF along the chassis up axis (spring, damper, bump
+//! stop, unsprung mass), and what reaches the chassis: the strut force at the hard point and the ground force's
+//! components across the strut.
+
+use super::simulation::*;
+use super::step::{Frame, Wrench};
+use nalgebra::Vector3;
+
+impl Simulation {
+    /// Phase 7: see the module docs.
+    pub(super) fn wheel_forces(&mut self, frame: &Frame, wrench: &mut Wrench) {
+        // Apply contact forces with the new spins.
+        for k in 0..self.wheels.len() {
+            let c = self.contacts[k];
+            let hard_world = self.pos
+                + self.rot
+                    * (self.wheels[k].hard
+                        - Vector3::new(
+                            0.0,
+                            0.0,
+                            self.wheels[k].static_compression.min(self.wheels[k].travel),
+                        )
+                        + Vector3::new(0.0, 0.0, self.wheels[k].compression));
+            let mut ground = Vector3::zeros();
+            if c.active {
+                if c.soil {
+                    ground = c.soil_force;
+                } else {
+                    let w = &self.wheels[k];
+                    let v_p = self.vel + frame.omega_w.cross(&(c.point - self.pos));
+                    let vsx = v_p.dot(&c.tx) - w.spin * c.r_eff;
+                    let vsy = v_p.dot(&c.ty);
+                    let t = self.tyre_force(w, &c, vsx, vsy, frame.dt);
+                    self.wheels[k].bristle = t.bristle;
+                    let f = t.force;
+                    ground = c.normal * c.load + c.tx * f[0] + c.ty * f[1];
+                }
+            }
+            // Wheel vertical DOF along the chassis up axis.
+            let a_rel = self.accel_prev;
+            let wm = &mut self.wheels[k];
+            let f_spring = wm.spring * wm.compression + wm.damper * wm.compression_rate;
+            let bump = if wm.compression > wm.travel {
+                20.0 * wm.spring * (wm.compression - wm.travel)
+                    + wm.damper * wm.compression_rate.max(0.0)
+            } else {
+                0.0
+            };
+            let f_strut = (f_spring + bump).max(0.0);
+            let gvec = Vector3::new(0.0, 0.0, -G) * self.unsprung;
+            let along = (ground + gvec - self.unsprung * a_rel).dot(&frame.up);
+            let acc = (along - f_strut) / self.unsprung;
+            wm.compression_rate += acc * frame.dt;
+            wm.compression += wm.compression_rate * frame.dt;
+            if wm.compression < 0.0 {
+                wm.compression = 0.0;
+                wm.compression_rate = wm.compression_rate.max(0.0);
+            }
+            // Chassis: strut force at the hard point plus the ground force components across the strut.
+            let across = ground + gvec - frame.up * (ground + gvec).dot(&frame.up);
+            let f_chassis = frame.up * f_strut + across;
+            wrench.force += f_chassis;
+            let arm = if c.active { c.point } else { hard_world };
+            wrench.torque += (arm - self.pos).cross(&across)
+                + (hard_world - self.pos).cross(&(frame.up * f_strut));
+        }
+    }
+}

@@ -1,0 +1,106 @@
+//! Phase 5, tyre and soil force trials: the longitudinal ground force on each wheel in contact at the spin of the
+//! previous step and its derivative with respect to the rim speed, summed per spin group for the implicit spin
+//! update. On rigid ground the force comes from the tyre model ([`TyreModel`]); on soil from the soil contact.
+
+use super::simulation::*;
+use super::step::Frame;
+use crate::planner::Action;
+use crate::vehicle::spec::TyreModel;
+
+/// Tyre friction at one contact: the force `[fx, fy]` in the contact frame, `d fx / d(rim speed)` for the implicit
+/// spin update, and the tyre's bristle deflection after this step (unchanged for the handling tyre).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct TyreForce {
+    pub force: [f64; 2],
+    pub stiffness: f64,
+    pub bristle: [f64; 2],
+}
+
+impl Simulation {
+    /// Phase 5: see the module docs. Also sums each group's spin inertia, momentum and brake torque.
+    pub(super) fn force_trials(&mut self, frame: &Frame, action: &Action) {
+        let dt = frame.dt;
+        for k in 0..self.wheels.len() {
+            let c = self.contacts[k];
+            let w = &self.wheels[k];
+            let g = w.group;
+            self.group_den[g] += self.wheel_inertia;
+            self.group_spin[g] += w.spin * self.wheel_inertia;
+            self.group_brake[g] += self.spec.powertrain.brake_torque * action.brake.clamp(0.0, 1.0);
+            if !c.active {
+                continue;
+            }
+            let v_p = self.vel + frame.omega_w.cross(&(c.point - self.pos));
+            let (fx0, kx) = if c.soil {
+                (c.soil_force.dot(&c.tx), c.soil_stiffness)
+            } else {
+                let vsx = v_p.dot(&c.tx) - w.spin * c.r_eff;
+                let vsy = v_p.dot(&c.ty);
+                let t = self.tyre_force(w, &c, vsx, vsy, dt);
+                (t.force[0], t.stiffness)
+            };
+            self.group_num[g] -= fx0 * c.r_eff;
+            self.group_den[g] += dt * kx * c.r_eff * c.r_eff;
+        }
+    }
+
+    /// Tyre friction on rigid ground for slip velocities `(vsx, vsy)`: see [`TyreForce`].
+    pub(super) fn tyre_force(
+        &self,
+        w: &Wheel,
+        c: &WheelContact,
+        vsx: f64,
+        vsy: f64,
+        dt: f64,
+    ) -> TyreForce {
+        let lim = c.mu * c.load;
+        match self.spec.wheels.tyre {
+            TyreModel::Rigid => {
+                let trial = [
+                    -(self.bristle_k * (w.bristle[0] + vsx * dt)) - self.bristle_c * vsx,
+                    -(self.bristle_k * (w.bristle[1] + vsy * dt)) - self.bristle_c * vsy,
+                ];
+                let norm = trial[0].hypot(trial[1]);
+                if norm > lim && norm > 0.0 {
+                    // Sliding: the force sits on the friction circle and the bristle relaxes to carry it.
+                    let s = vsx.hypot(vsy).max(0.01);
+                    let force = [trial[0] / norm * lim, trial[1] / norm * lim];
+                    TyreForce {
+                        force,
+                        stiffness: lim / s,
+                        bristle: [-force[0] / self.bristle_k, -force[1] / self.bristle_k],
+                    }
+                } else {
+                    TyreForce {
+                        force: trial,
+                        stiffness: self.bristle_k * dt + self.bristle_c,
+                        bristle: [w.bristle[0] + vsx * dt, w.bristle[1] + vsy * dt],
+                    }
+                }
+            }
+            TyreModel::Handling => {
+                let v_ref = (w.spin * c.r_eff)
+                    .abs()
+                    .max((vsx + w.spin * c.r_eff).abs())
+                    .max(0.5 * self.spec.scale.sqrt());
+                let s = vsx.hypot(vsy) / v_ref;
+                let (b, cc) = (10.0, 1.9);
+                let mag = lim * (cc * (b * s).atan()).sin();
+                let stiffness = lim * b * cc / v_ref;
+                if s < 1e-9 {
+                    return TyreForce {
+                        force: [0.0, 0.0],
+                        stiffness,
+                        bristle: w.bristle,
+                    };
+                }
+                let d = [-vsx / (s * v_ref), -vsy / (s * v_ref)];
+                TyreForce {
+                    force: [mag * d[0], mag * d[1]],
+                    stiffness,
+                    bristle: w.bristle,
+                }
+            }
+        }
+    }
+}
