@@ -10,6 +10,7 @@
 //! - [`episode`]: termination rules, outcomes and metrics.
 //! - [`terrain_stats`]: relief, slope and roughness statistics of heightmaps.
 
+pub mod characterize;
 pub mod collide;
 pub mod control;
 pub mod episode;
@@ -24,8 +25,11 @@ pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
 
 /// Identifies the physics that produced a result: the crate version and a revision bumped with every change that
 /// alters trajectories (results carry it; the coordinator refuses workers of another one, and `vb eval` will not
-/// resume an output directory written by another one). Revision 2: wheels climb out of soil ruts onto rigid
-/// patches instead of being fired out.
-pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r2");
+/// resume an output directory written by another one; `tests/golden.rs` pins a hash of a few runs' trajectories
+/// to it). Revision 2: wheels climb out of soil ruts onto rigid patches instead of being fired out. Revision 3
+/// (issue 13): whole-vehicle translational inertia, wheel vertical DOF implicit in its stiff terms, symmetric wheel
+/// contact, the release's HMMWV (mass, CoG, steering), start poses fitted over the footprint and settled at rest,
+/// soil pressure along the wheel's surface normal.
+pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r3");
 pub use vehicle::{Simulation, VehicleSpec};
 pub mod world;

@@ -11,8 +11,24 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 impl Simulation {
     /// Places the vehicle in `world` at `(x, y)` with heading `yaw`, resting on the ground.
     pub fn new(world: &World, spec: &VehicleSpec, x: f64, y: f64, yaw: f64) -> Simulation {
+        Simulation::with_options(world, spec, x, y, yaw, &SimOptions::default())
+    }
+
+    /// [`Simulation::new`] with a chosen time step and gravity (convergence studies, tilt tables). A step that is
+    /// not finite and positive falls back to [`default_dt`].
+    pub fn with_options(
+        world: &World,
+        spec: &VehicleSpec,
+        x: f64,
+        y: f64,
+        yaw: f64,
+        options: &SimOptions,
+    ) -> Simulation {
         let scale = spec.scale;
-        let dt = default_dt(scale);
+        let dt = options
+            .dt
+            .filter(|d| d.is_finite() && *d > 0.0)
+            .unwrap_or_else(|| default_dt(scale));
         let n_wheels_axle = 2;
         let mut wheels = Vec::new();
         let total = spec.chassis.mass;
@@ -149,6 +165,8 @@ impl Simulation {
             spec: spec.clone(),
             dt,
             mass: sprung,
+            total_mass: total,
+            gravity: Vector3::from(options.gravity),
             inertia,
             inertia_inv: inertia.try_inverse().unwrap_or_else(Matrix3::identity),
             unsprung,
@@ -177,6 +195,7 @@ impl Simulation {
                 })
                 .collect(),
             contacts: vec![WheelContact::default(); wheels.len()],
+            ground_forces: vec![Vector3::zeros(); wheels.len()],
             wheels,
             time: 0.0,
             pos: Vector3::zeros(),
@@ -192,35 +211,34 @@ impl Simulation {
         sim
     }
 
-    /// Puts the vehicle at rest at `(x, y)` with heading `yaw`, pitched and rolled to the local terrain, its
-    /// wheels at static compression.
+    /// Puts the vehicle at rest on the ground at `(x, y)` with heading `yaw`: its pose comes from a plane fitted
+    /// over the footprint ([`Simulation::footprint_plane`]; never from single samples, so one pit does not start a
+    /// task tilted), the wheels rest on it at static tyre deflection with no spin, raised where a rim sample would
+    /// start deeper in rough ground, and the vehicle then settles with its brakes on ([`Simulation::settle`]), as
+    /// the release drops its vehicle onto the ground. Time and step count start at zero afterwards.
     pub fn place(&mut self, x: f64, y: f64, yaw: f64) {
         let h = &self.world_patches.heightmap;
-        let (l, w) = (self.spec.wheelbase().max(1e-3), self.spec.track().max(1e-3));
-        let (c, s) = (yaw.cos(), yaw.sin());
-        let hf = h.height_bilinear(x + c * l / 2.0, y + s * l / 2.0);
-        let hb = h.height_bilinear(x - c * l / 2.0, y - s * l / 2.0);
-        let hl = h.height_bilinear(x - s * w / 2.0, y + c * w / 2.0);
-        let hr = h.height_bilinear(x + s * w / 2.0, y - c * w / 2.0);
-        let pitch = -((hf - hb) / l).atan();
-        let roll = ((hl - hr) / w).atan();
-        self.rot = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
-        let ground = h.height_bilinear(x, y).max((hf + hb + hl + hr) / 4.0);
-        // Along the body's up axis, so the wheels just touch a sloped plane instead of starting inside it.
-        let lift = self.radius + self.spec.chassis.com_height + 0.01 * self.spec.scale;
-        self.pos = Vector3::new(x, y, ground) + (self.rot * Vector3::z()) * lift;
-        // On rough ground no wheel may start inside the terrain: raise the vehicle until every rim sample clears
-        // it (it then drops a little and settles, as the release's spawn 1 m above the ground).
+        let (centre_z, rot) = self.footprint_plane(x, y, yaw);
+        self.rot = rot;
+        let (up, fwd) = (rot * Vector3::z(), rot * Vector3::x());
+        let deflection = TYRE_STATIC_DEFLECTION * self.spec.scale;
+        let lift = self.radius - deflection + self.spec.chassis.com_height;
+        self.pos = Vector3::new(x, y, centre_z) + up * lift;
+        // On rough ground no wheel may start deeper in the terrain than its static deflection.
         let mut raise: f64 = 0.0;
-        let (up, fwd) = (self.rot * Vector3::z(), self.rot * Vector3::x());
         for wh in &self.wheels {
             let centre = self.pos + self.rot * wh.hard;
+            let axle = up.cross(&fwd);
             for &(sin, cos) in &RIM_SIN_COS {
-                let p = centre + (fwd * sin - up * cos) * self.radius;
-                raise = raise.max(h.height_bilinear(p.x, p.y) - p.z);
+                for lat in RIM_LATERAL {
+                    let p = centre
+                        + (fwd * sin - up * cos) * self.radius
+                        + axle * (lat * 0.5 * self.width);
+                    raise = raise.max((h.height_bilinear(p.x, p.y) - p.z) * cos - deflection);
+                }
             }
         }
-        self.pos.z += raise;
+        self.pos += up * raise.max(0.0);
         self.vel = Vector3::zeros();
         self.omega = Vector3::zeros();
         for wh in &mut self.wheels {
@@ -228,17 +246,87 @@ impl Simulation {
             wh.compression_rate = 0.0;
             wh.spin = 0.0;
             wh.bristle = [0.0; 2];
-            wh.deflection = 0.0;
+            wh.deflection = deflection;
             wh.from_soil = false;
             wh.rut_offset = 0.0;
         }
         self.gear = 0;
         self.steering = 0.0;
-        self.time = 0.0;
-        self.steps = 0;
         self.accel_prev = Vector3::zeros();
         self.soil.reset();
         self.obstacles.refresh_near(x, y, self.reach());
+        self.settle();
+    }
+
+    /// The least-squares plane through the terrain under the vehicle's footprint (a 5 x 5 grid of samples over the
+    /// wheelbase plus a wheel diameter by the track plus a tyre width, heading `yaw`): the plane's height at `(x, y)`
+    /// and the orientation whose up axis is the plane's normal and whose forward axis points along `yaw`.
+    pub fn footprint_plane(&self, x: f64, y: f64, yaw: f64) -> (f64, UnitQuaternion<f64>) {
+        let h = &self.world_patches.heightmap;
+        let half_l = 0.5 * self.spec.wheelbase() + self.radius;
+        let half_w = 0.5 * (self.spec.track() + self.width);
+        let (c, s) = (yaw.cos(), yaw.sin());
+        let (mut sum, mut su, mut sv, mut suu, mut svv) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for i in 0..FOOTPRINT_SAMPLES {
+            for j in 0..FOOTPRINT_SAMPLES {
+                let t = |k: usize| 2.0 * k as f64 / (FOOTPRINT_SAMPLES - 1) as f64 - 1.0;
+                let (u, v) = (t(i) * half_l, t(j) * half_w);
+                let z = h.height_bilinear(x + u * c - v * s, y + u * s + v * c);
+                sum += z;
+                su += u * z;
+                sv += v * z;
+                suu += u * u;
+                svv += v * v;
+            }
+        }
+        // On a symmetric grid the normal equations decouple: z = a + b u + d v.
+        let a = sum / (FOOTPRINT_SAMPLES * FOOTPRINT_SAMPLES) as f64;
+        let (b, d) = (su / suu, sv / svv);
+        let (fwd_h, left_h) = (Vector3::new(c, s, 0.0), Vector3::new(-s, c, 0.0));
+        let normal = (Vector3::z() - fwd_h * b - left_h * d).normalize();
+        let fwd = (fwd_h + Vector3::z() * b).normalize();
+        let fwd = (fwd - normal * fwd.dot(&normal)).normalize();
+        let left = normal.cross(&fwd);
+        let m = nalgebra::Matrix3::from_columns(&[fwd, left, normal]);
+        let rot =
+            UnitQuaternion::from_rotation_matrix(&nalgebra::Rotation3::from_matrix_unchecked(m));
+        (a, rot)
+    }
+
+    /// Lets the vehicle come to rest on the ground with its brakes on and no throttle: steps until the chassis and
+    /// wheels have been still (speed below [`SETTLED_SPEED`]) for [`SETTLED_FOR`] seconds, at most [`SETTLE_MAX`]
+    /// seconds (all times scaled by sqrt(scale)); the soil sinks under the wheels meanwhile. Then time and step
+    /// count are set back to zero, so an episode starts at rest. Returns the settling time, s.
+    pub fn settle(&mut self) -> f64 {
+        let brake = crate::planner::Action {
+            steering: 0.0,
+            throttle: 0.0,
+            brake: 1.0,
+        };
+        let time_scale = self.spec.scale.sqrt();
+        let speed_scale = self.spec.scale.sqrt();
+        let mut still = 0.0;
+        self.time = 0.0;
+        self.steps = 0;
+        while self.time < SETTLE_MAX * time_scale && still < SETTLED_FOR * time_scale {
+            self.step(&brake);
+            let moving = self.vel.norm().max(self.omega.norm() * self.radius).max(
+                self.wheels
+                    .iter()
+                    .map(|w| w.compression_rate.abs())
+                    .fold(0.0, f64::max),
+            );
+            still = if moving < SETTLED_SPEED * speed_scale {
+                still + self.dt
+            } else {
+                0.0
+            };
+        }
+        let settled = self.time;
+        self.time = 0.0;
+        self.steps = 0;
+        self.gear = 0;
+        settled
     }
 
     /// Radius of the obstacle near list around the chassis.

@@ -80,6 +80,9 @@ impl Simulation {
                 point,
                 normal: n,
                 load: sc.normal,
+                sinkage: sc.sinkage,
+                k_normal: 0.0,
+                c_normal: 0.0,
                 mu: 0.0,
                 tx,
                 ty,
@@ -90,17 +93,23 @@ impl Simulation {
                 r_eff: self.radius,
             };
         }
+        // The deepest rim angle wins; across the tread its contact point is the depth-weighted mean of the lateral
+        // samples, so a wheel on flat ground touches under its mid-plane (left and right wheels mirror each other).
         let mut best = (0.0, Vector3::zeros(), 0.0);
-        for lat in RIM_LATERAL {
-            for (k, &(sin, cos)) in RIM_SIN_COS.iter().enumerate() {
-                let p = centre
-                    + axle * (lat * 0.5 * self.width)
-                    + (heading * sin - up * cos) * self.radius;
-                let depth_v = h.height_bilinear(p.x, p.y) - p.z;
-                let depth = depth_v * cos;
-                if depth > best.0 {
-                    best = (depth, p, RIM_ANGLES[k]);
+        for (a, &(sin, cos)) in RIM_SIN_COS.iter().enumerate() {
+            let rim = centre + (heading * sin - up * cos) * self.radius;
+            let (mut deepest, mut weight, mut weighted) = (0.0_f64, 0.0, Vector3::zeros());
+            for lat in RIM_LATERAL {
+                let p = rim + axle * (lat * 0.5 * self.width);
+                let depth = (h.height_bilinear(p.x, p.y) - p.z) * cos;
+                if depth > 0.0 {
+                    deepest = deepest.max(depth);
+                    weight += depth;
+                    weighted += p * depth;
                 }
+            }
+            if deepest > best.0 {
+                best = (deepest, weighted / weight, RIM_ANGLES[a]);
             }
         }
         let wm = &mut self.wheels[k];
@@ -145,6 +154,9 @@ impl Simulation {
             point,
             normal,
             load,
+            sinkage: depth,
+            k_normal: self.tyre_k,
+            c_normal: self.tyre_c,
             mu,
             tx,
             ty,

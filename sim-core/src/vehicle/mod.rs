@@ -34,5 +34,8 @@ mod step;
 mod suspension;
 mod tyre;
 
-pub use simulation::{default_dt, Simulation, StateCopyError, StepInfo};
+pub use simulation::{
+    default_dt, SimOptions, Simulation, StateCopyError, StepInfo, WheelReport, SETTLED_FOR,
+    SETTLED_SPEED, SETTLE_MAX,
+};
 pub use spec::{builtin_vehicles, vehicle_by_name, VehicleError, VehicleSpec};

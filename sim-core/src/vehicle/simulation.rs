@@ -35,6 +35,16 @@ pub(super) const RUT_EXIT_SLOPE: f64 = 0.5;
 pub(super) const RIM_LATERAL: [f64; 3] = [-0.66, 0.0, 0.66];
 /// Fraction of the total mass carried by each wheel as unsprung mass.
 pub(super) const UNSPRUNG_FRACTION: f64 = 0.04;
+/// Samples per side of the grid over the footprint to which the start pose's plane is fitted.
+pub(super) const FOOTPRINT_SAMPLES: usize = 5;
+/// Settling at the start (scaled by sqrt(scale)): at most this long, s ...
+pub const SETTLE_MAX: f64 = 3.0;
+/// ... until every part moved slower than this for [`SETTLED_FOR`], m/s ...
+pub const SETTLED_SPEED: f64 = 2e-3;
+/// ... seconds.
+pub const SETTLED_FOR: f64 = 0.25;
+/// Bump-stop stiffness as a multiple of the suspension spring rate.
+pub(super) const BUMP_STOP_STIFFNESS: f64 = 20.0;
 /// Steps between refreshes of the obstacle near list (its radius has 15 m of slack at full scale: 80 ms at 30 m/s
 /// covers 2.4 m).
 pub(super) const OBSTACLE_REFRESH_STEPS: u64 = 20;
@@ -78,6 +88,43 @@ pub struct StepInfo {
     pub obstacle_contact: bool,
 }
 
+/// What one wheel (or track contact) is doing, for scenario tests and datasheets ([`Simulation::wheels`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WheelReport {
+    /// Whether it touches the ground, and whether that ground is soil.
+    pub contact: bool,
+    pub soil: bool,
+    /// Sinkage below the undeformed soil surface on soil, tyre deflection on rigid ground, m.
+    pub sinkage: f64,
+    /// Ground force on the wheel (normal load plus friction or soil force), world frame, N; and its part along the
+    /// contact normal, N.
+    pub force: [f64; 3],
+    pub normal_load: f64,
+    /// Longitudinal slip `(omega r - v) / max(|omega r|, |v|)`: positive when driving, -1 locked while moving.
+    pub slip: f64,
+    /// Spin, rad/s; suspension compression from full droop, m.
+    pub spin: f64,
+    pub compression: f64,
+}
+
+/// Options of [`Simulation::with_options`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SimOptions {
+    /// Physics step, s (`None`: [`default_dt`] of the vehicle's scale).
+    pub dt: Option<f64>,
+    /// Gravity, world frame, m/s^2.
+    pub gravity: [f64; 3],
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        SimOptions {
+            dt: None,
+            gravity: [0.0, 0.0, -G],
+        }
+    }
+}
+
 /// Why [`Simulation::copy_state_from`] refused a source.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum StateCopyError {
@@ -95,7 +142,12 @@ pub struct Simulation {
     pub(super) soil: SoilGrid,
     pub(super) obstacles: ObstacleSet,
     pub(super) dt: f64,
+    /// Sprung mass (chassis), kg.
     pub(super) mass: f64,
+    /// Total mass (chassis and wheels), kg.
+    pub(super) total_mass: f64,
+    /// Gravity, world frame, m/s^2 (default `(0, 0, -G)`; tilted for tilt-table scenarios).
+    pub(super) gravity: Vector3<f64>,
     pub(super) inertia: Matrix3<f64>,
     pub(super) inertia_inv: Matrix3<f64>,
     pub(super) unsprung: f64,
@@ -136,6 +188,8 @@ pub struct Simulation {
     /// Total spin inertia of each group (constant).
     pub(super) group_inertia: Vec<f64>,
     pub(super) contacts: Vec<WheelContact>,
+    /// Ground force on each wheel in the last step, world frame (for [`WheelReport`]).
+    pub(super) ground_forces: Vec<Vector3<f64>>,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -146,6 +200,12 @@ pub(super) struct WheelContact {
     pub(super) normal: Vector3<f64>,
     /// Normal force magnitude (tyre deflection force), N.
     pub(super) load: f64,
+    /// Stiffness and damping of the contact force along `normal` with respect to the wheel centre's motion along
+    /// it (tyre deflection or soil), N/m and N s/m: the Jacobian of the wheel's implicit vertical update.
+    pub(super) k_normal: f64,
+    pub(super) c_normal: f64,
+    /// Sinkage below the undeformed soil surface (soil) or tyre deflection (rigid ground), m.
+    pub(super) sinkage: f64,
     pub(super) mu: f64,
     pub(super) tx: Vector3<f64>,
     pub(super) ty: Vector3<f64>,

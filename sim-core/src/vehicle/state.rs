@@ -33,6 +33,53 @@ impl Simulation {
         self.rot
     }
 
+    /// Sets gravity (world frame, m/s^2): a tilt table turns it slowly instead of the ground.
+    pub fn set_gravity(&mut self, g: Vector3<f64>) {
+        self.gravity = g;
+    }
+
+    pub fn gravity(&self) -> Vector3<f64> {
+        self.gravity
+    }
+
+    /// Gear engaged (0 = first).
+    pub fn gear(&self) -> usize {
+        self.gear
+    }
+
+    /// What every wheel (track contact) did in the last step.
+    pub fn wheels(&self) -> impl Iterator<Item = WheelReport> + '_ {
+        let omega_w = self.rot * self.omega;
+        self.wheels
+            .iter()
+            .zip(&self.contacts)
+            .zip(&self.ground_forces)
+            .map(move |((w, c), f)| {
+                let slip = if c.active {
+                    let v = (self.vel + omega_w.cross(&(c.point - self.pos))).dot(&c.tx);
+                    let rim = w.spin * c.r_eff;
+                    let den = rim.abs().max(v.abs());
+                    if den > 1e-9 {
+                        (rim - v) / den
+                    } else {
+                        0.0
+                    }
+                } else {
+                    0.0
+                };
+                WheelReport {
+                    contact: c.active,
+                    soil: c.soil,
+                    sinkage: if c.active { c.sinkage } else { 0.0 },
+                    force: [f.x, f.y, f.z],
+                    normal_load: if c.active { f.dot(&c.normal) } else { 0.0 },
+                    slip,
+                    spin: w.spin,
+                    compression: w.compression,
+                }
+            })
+    }
+
     /// Spin rate of every wheel contact, rad/s.
     pub fn wheel_spins(&self) -> impl Iterator<Item = f64> + '_ {
         self.wheels.iter().map(|w| w.spin)
@@ -45,8 +92,7 @@ impl Simulation {
 
     /// Total kinetic energy (chassis translation and rotation, wheel spin), J.
     pub fn kinetic_energy(&self) -> f64 {
-        let n = self.wheels.len() as f64;
-        0.5 * (self.mass + n * self.unsprung) * self.vel.norm_squared()
+        0.5 * self.total_mass * self.vel.norm_squared()
             + 0.5 * self.omega.dot(&(self.inertia * self.omega))
             + self
                 .wheels

@@ -44,7 +44,7 @@ impl Simulation {
             omega_w: self.rot * self.omega,
         };
         let mut wrench = Wrench {
-            force: Vector3::new(0.0, 0.0, -self.mass * G),
+            force: self.gravity * self.mass,
             torque: Vector3::zeros(),
         };
         self.drive_torque(action);

@@ -1,6 +1,6 @@
 //! Phase 7, wheel forces and suspension: the ground force on each wheel at its new spin (tyre friction and load on
 //! rigid ground, the soil's force on soil), the wheel's vertical DOF along the chassis up axis (spring, damper, bump
-//! stop, unsprung mass), and what reaches the chassis: the strut force at the hard point and the ground force's
+//! stop, unsprung mass; linearly implicit in its stiff terms), and what reaches the chassis: the strut force at the hard point and the ground force's
 //! components across the strut.
 
 use super::simulation::*;
@@ -37,22 +37,37 @@ impl Simulation {
                     ground = c.normal * c.load + c.tx * f[0] + c.ty * f[1];
                 }
             }
-            // Wheel vertical DOF along the chassis up axis.
+            self.ground_forces[k] = ground;
+            // Wheel vertical DOF along the chassis up axis, linearly implicit in the stiff terms (tyre or soil
+            // contact, spring, damper, bump stop), so the soil's elastic stiffness is stable at the vehicle's step.
             let a_rel = self.accel_prev;
+            let gvec = self.gravity * self.unsprung;
+            let along = (ground + gvec - self.unsprung * a_rel).dot(&frame.up);
+            let n_up = c.normal.dot(&frame.up);
+            let (k_ground, c_ground) = if c.active {
+                (c.k_normal * n_up * n_up, c.c_normal * n_up * n_up)
+            } else {
+                (0.0, 0.0)
+            };
             let wm = &mut self.wheels[k];
             let f_spring = wm.spring * wm.compression + wm.damper * wm.compression_rate;
-            let bump = if wm.compression > wm.travel {
-                20.0 * wm.spring * (wm.compression - wm.travel)
-                    + wm.damper * wm.compression_rate.max(0.0)
+            let (bump, k_bump) = if wm.compression > wm.travel {
+                (
+                    BUMP_STOP_STIFFNESS * wm.spring * (wm.compression - wm.travel)
+                        + wm.damper * wm.compression_rate.max(0.0),
+                    BUMP_STOP_STIFFNESS * wm.spring,
+                )
             } else {
-                0.0
+                (0.0, 0.0)
             };
             let f_strut = (f_spring + bump).max(0.0);
-            let gvec = Vector3::new(0.0, 0.0, -G) * self.unsprung;
-            let along = (ground + gvec - self.unsprung * a_rel).dot(&frame.up);
-            let acc = (along - f_strut) / self.unsprung;
-            wm.compression_rate += acc * frame.dt;
-            wm.compression += wm.compression_rate * frame.dt;
+            let stiffness = k_ground + wm.spring + k_bump;
+            let damping = c_ground + wm.damper;
+            let dt = frame.dt;
+            let v = wm.compression_rate;
+            wm.compression_rate += dt * (along - f_strut - dt * stiffness * v)
+                / (self.unsprung + dt * damping + dt * dt * stiffness);
+            wm.compression += wm.compression_rate * dt;
             if wm.compression < 0.0 {
                 wm.compression = 0.0;
                 wm.compression_rate = wm.compression_rate.max(0.0);
