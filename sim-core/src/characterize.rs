@@ -325,3 +325,46 @@ pub fn turning_radius(spec: &VehicleSpec, setup: &Setup, steer: f64) -> Option<f
     let (speed, yaw_rate) = (speed / n, yaw_rate / n);
     (yaw_rate.abs() > 1e-6 && speed > 0.5 * target).then(|| speed / yaw_rate.abs())
 }
+
+/// The datasheets as a text table, one column per sheet.
+pub fn table(sheets: &[Datasheet]) -> String {
+    use std::fmt::Write;
+    let rows: [(&str, fn(&Datasheet) -> String); 16] = [
+        ("surface", |d| d.surface.to_string()),
+        ("time step", |d| format!("{:.2} ms", d.dt * 1e3)),
+        ("settling time", |d| format!("{:.2} s", d.settle_time)),
+        ("static sinkage", |d| format!("{:.1} mm", d.static_sinkage * 1e3)),
+        ("CoG above ground", |d| format!("{:.3} m", d.ride_height)),
+        ("speed at 2 s", |d| format!("{:.2} m/s", d.speed_at[0].1)),
+        ("speed at 5 s", |d| format!("{:.2} m/s", d.speed_at[1].1)),
+        ("speed at 10 s", |d| format!("{:.2} m/s", d.speed_at[2].1)),
+        ("speed at 20 s", |d| format!("{:.2} m/s", d.speed_at[3].1)),
+        ("distance at 20 s", |d| format!("{:.1} m", d.distance_20s)),
+        ("braking from 10 m/s", |d| format!("{:.3} g", d.braking_decel_g)),
+        ("steepest grade", |d| format!("{:.2} deg", d.climb_grade_deg)),
+        ("side slope: slides", |d| opt_deg(d.slide_angle_deg)),
+        ("side slope: tips", |d| opt_deg(d.tip_angle_deg)),
+        ("turn radius, half steer", |d| opt_m(d.turn_radius_half)),
+        ("turn radius, full steer", |d| opt_m(d.turn_radius_full)),
+    ];
+    let mut out = String::new();
+    if let Some(d) = sheets.first() {
+        let _ = writeln!(out, "{} datasheet ({})", d.vehicle, crate::SIM_VERSION);
+    }
+    for (name, cell) in rows {
+        let _ = write!(out, "{name:<26}");
+        for d in sheets {
+            let _ = write!(out, "{:>14}", cell(d));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+fn opt_deg(v: Option<f64>) -> String {
+    v.map_or("none".to_string(), |v| format!("{v:.1} deg"))
+}
+
+fn opt_m(v: Option<f64>) -> String {
+    v.map_or("none".to_string(), |v| format!("{v:.1} m"))
+}

@@ -30,6 +30,21 @@ pub enum SimCmd {
     },
     /// List the vehicle catalogue.
     Vehicles,
+    /// A vehicle's datasheet: static sinkage and ride height, full-throttle speeds and distance, braking, the
+    /// steepest climbable grade, tilt-table slide and tip angles, turning radii (sim_core::characterize).
+    Characterize {
+        #[arg(long, default_value = "hmmwv")]
+        vehicle: String,
+        /// rigid (concrete, mu 0.85), snow, mud, sand or all.
+        #[arg(long, default_value = "all")]
+        surface: String,
+        /// Physics step, s (default: the vehicle's).
+        #[arg(long)]
+        dt: Option<f64>,
+        /// Print JSON (one array) instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
@@ -73,6 +88,37 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
             }))?;
             viz::write_episode(&out, &w, &t, &r, &json)?;
             println!("{}: {} ({}) after {:.1} s, {:.1} m driven; wrote {}/trajectory.csv, episode.png, result.json", t.id(), r.outcome.as_str(), r.reason, r.metrics.time, r.metrics.path_length, out.display());
+        }
+        SimCmd::Characterize {
+            vehicle,
+            surface,
+            dt,
+            json,
+        } => {
+            use sim_core::characterize::{datasheet, Ground, Setup};
+            let spec = sim_core::vehicle::vehicle_by_name(&vehicle)?;
+            if let Some(dt) = dt {
+                anyhow::ensure!(
+                    dt.is_finite() && dt > 0.0 && dt <= 0.02,
+                    "--dt must be in (0, 0.02] s"
+                );
+            }
+            let grounds: Vec<Ground> = if surface == "all" {
+                Ground::ALL.to_vec()
+            } else {
+                vec![Ground::from_name(&surface).ok_or_else(|| {
+                    anyhow::anyhow!("unknown --surface `{surface}` (rigid, snow, mud, sand or all)")
+                })?]
+            };
+            let sheets: Vec<_> = grounds
+                .into_iter()
+                .map(|ground| datasheet(&spec, &Setup { ground, dt }))
+                .collect();
+            if json {
+                println!("{}", serde_json::to_string_pretty(&sheets)?);
+            } else {
+                print!("{}", sim_core::characterize::table(&sheets));
+            }
         }
         SimCmd::Vehicles => {
             for v in sim_core::vehicle::builtin_vehicles() {
