@@ -1,8 +1,8 @@
 //! Soil Contact Model checks through the public API: flat-plate Bekker sinkage, elastic unloading, Janosi shear,
-//! traction and rolling resistance of a wheel on sand / mud / snow, several soils in one world, determinism.
+//! several soils in one world, determinism (the rigid wheel against Bekker and Wong-Reece: `soil_wheel_theory.rs`).
 
 use nalgebra::Vector3;
-use sim_core::soil::{PlateGeometry, PressureDirection, SoilContact, SoilGrid, WheelGeometry};
+use sim_core::soil::{PlateGeometry, SoilContact, SoilGrid, WheelGeometry};
 use sim_core::world::*;
 
 fn soil_world(soil: SoilParams) -> World {
@@ -128,102 +128,6 @@ fn janosi_shear_builds_up_with_slip_distance_and_saturates_at_mohr_coulomb() {
         // After j = 0.04 m >= 3.3 K the shear is within 4% of the Mohr-Coulomb limit.
         assert!(last > 0.96 * tau_max * AREA && last <= tau_max * AREA);
     }
-}
-
-/// How the wheel's spin is set in [`drawbar`].
-#[derive(Clone, Copy)]
-enum Spin {
-    /// Towed: no drive torque, the spin follows from the soil's torque on a wheel of 10 kg m^2.
-    Free,
-    /// Driven at this slip `1 - v / (r omega)`.
-    Slip(f64),
-}
-
-/// A 0.5 m x 0.3 m wheel carrying `load` N, moving forward at 1 m/s, free to sink (vertical dynamics) on fresh
-/// soil, dt 1 ms. Returns the mean longitudinal soil force over the last metre of three.
-fn drawbar(soil: SoilParams, load: f64, spin: Spin, pressure: PressureDirection) -> f64 {
-    let mut grid = SoilGrid::new(&soil_world(soil));
-    grid.set_pressure_direction(pressure);
-    let (r, v, dt, mass, inertia) = (0.5, 1.0, 1e-3, load / 9.81, 10.0);
-    let mut omega = match spin {
-        Spin::Free => v / r,
-        Spin::Slip(s) => v / (r * (1.0 - s)),
-    };
-    let (mut z, mut vz) = (r, 0.0);
-    let mut sum = 0.0;
-    let steps = 3000;
-    for k in 0..steps {
-        grid.begin_step();
-        let w = WheelGeometry {
-            centre: Vector3::new(-1.5 + v * dt * k as f64, 0.05, z),
-            axle: Vector3::y(),
-            radius: r,
-            width: 0.3,
-            velocity: Vector3::new(v, 0.0, vz),
-            angular_velocity: Vector3::new(0.0, omega, 0.0),
-        };
-        let c = grid.wheel_contact(&w, dt);
-        vz += (c.force.z - load) / mass * dt;
-        z += vz * dt;
-        if let Spin::Free = spin {
-            omega += c.torque.y / inertia * dt;
-        }
-        if k >= steps - 1000 {
-            sum += c.force.x;
-        }
-    }
-    sum / 1000.0
-}
-
-#[test]
-fn towed_wheel_meets_rolling_resistance_growing_from_sand_to_mud_to_snow() {
-    let load = 5000.0;
-    for pressure in [
-        PressureDirection::GroundNormal,
-        PressureDirection::WheelRadial,
-    ] {
-        let rr: Vec<f64> = [SoilParams::SAND, SoilParams::MUD, SoilParams::SNOW]
-            .iter()
-            .map(|s| drawbar(*s, load, Spin::Free, pressure))
-            .collect();
-        eprintln!("{pressure:?}: rolling resistance sand/mud/snow, N: {rr:?}");
-        // Opposes motion, is a plausible fraction of the load (0.1% to 80%: the snow wheel sinks ~28 cm) and grows
-        // with the soils' softness.
-        for f in &rr {
-            assert!(
-                *f < -0.001 * load && *f > -0.8 * load,
-                "{pressure:?}: {rr:?}"
-            );
-        }
-        assert!(
-            rr[0] > rr[1] && rr[1] > rr[2],
-            "{pressure:?}: sand > mud > snow: {rr:?}"
-        );
-    }
-}
-
-#[test]
-fn net_traction_at_equal_slip_is_highest_on_sand_and_lowest_on_snow_with_radial_pressure() {
-    // Only with the pressure along the rim (Wong-Reece / Chrono mesh normals) does compaction resistance enter the
-    // pull; with the ground-normal default, mud (2672 N) edges out sand (2596 N) at 30% slip (see the report).
-    let load = 5000.0;
-    let pull: Vec<f64> = [SoilParams::SAND, SoilParams::MUD, SoilParams::SNOW]
-        .iter()
-        .map(|s| drawbar(*s, load, Spin::Slip(0.3), PressureDirection::WheelRadial))
-        .collect();
-    eprintln!("drawbar pull at 30% slip sand/mud/snow, N: {pull:?}");
-    // Pull is bounded by Mohr-Coulomb (c A + W tan phi, with A < 0.3 m^2) and ordered sand > mud > snow.
-    assert!(pull[0] > pull[1] && pull[1] > pull[2], "{pull:?}");
-    for f in &pull {
-        assert!(
-            *f < 1.3e3 * 0.3 + load * 31.1f64.to_radians().tan(),
-            "{pull:?}"
-        );
-    }
-    assert!(
-        pull[2] > 0.0,
-        "a slipping wheel pulls even on snow: {pull:?}"
-    );
 }
 
 #[test]
