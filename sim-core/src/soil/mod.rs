@@ -19,13 +19,14 @@
 //!    `sigma = (k_c / b + k_phi) s^n` holds, the yield pressure rises to it and `s_p = s - sigma / K_e` (so unloading
 //!    and reloading follow the elastic line until the previous yield): ruts persist;
 //! 3. damping `sigma += R |v . N|` while the surface moves into the soil (`v . N < 0`);
-//! 4. shear displacement: the node keeps a vector `j` in the tangent plane of `N` (reset when contact is lost). The
-//!    slip `d = (v - N (v . N)) dt` adds to it; its part against `j` unloads elastically at the initial shear
-//!    stiffness `tau_max / K` (the mobilised fraction `1 - exp(-|j| / K)` falls by `|d . j^| / K`; past zero it loads
-//!    the other way from zero). A body held still keeps its `j`, so the shear holds it like an elastic-plastic
-//!    bristle instead of letting it creep;
-//! 5. Janosi-Hanamoto shear `tau = (c + sigma tan phi) (1 - exp(-|j| / K))` opposing `j`;
-//! 6. force `A (sigma N - tau j^)` with `A = w delta^2 / N_z` the body's surface area over the cell (so the vertical
+//! 4. shear, elastic-plastic in the tangent plane of `N`: the node keeps its mobilised shear `rho = tau / tau_max`
+//!    (a vector) and a hardening displacement `h` (both reset when contact is lost). The slip `d = (v - N (v . N)) dt`
+//!    moves `rho` elastically by `d / K` (Janosi's initial stiffness); beyond the yield circle
+//!    `|rho| <= 1 - exp(-h / K)` the excess hardens `h` and `rho` stays on the circle. Monotonic slip `j` thus gives
+//!    Janosi-Hanamoto exactly; unloading, reversal and reloading up to the previous yield are elastic, so a body at
+//!    rest under a load below its shear capacity is held like an elastic-plastic bristle instead of creeping;
+//! 5. shear stress `tau = (c + sigma tan phi) rho`, opposing the body's slip;
+//! 6. force `A (sigma N - tau)` with `A = w delta^2 / N_z` the body's surface area over the cell (so the vertical
 //!    part is `w delta^2 sigma`, Bekker's load integral, and the horizontal part on a wheel's leading arc
 //!    `w delta^2 sigma tan(theta)`, the compaction resistance `b integral sigma dz`; Chrono's SCM takes
 //!    `A = delta^2`, which differs by `cos(theta)` on the arc). `N_z` is floored at 0.1.
@@ -73,9 +74,9 @@ pub struct SoilContact {
     pub normal_dir: Vector3<f64>,
     /// For implicit spin integration: d(shear force along the rolling direction)/d(slip velocity of the body's
     /// surface along it), summed over nodes, N s/m. Per node `A dt (k_par c^2 + k_perp (1 - c^2))`, `c` the cosine
-    /// between the shear displacement and the rolling direction, `k_par = d tau / d|j|` (Janosi's slope
-    /// `tau_max exp(-|j| / K) / K` while loading, `tau_max / K` while unloading) and `k_perp = tau / |j|` (the
-    /// displacement turning). Slip at speed `v` for one step adds `v dt` to `j`, hence the `dt`. For a wheel the
+    /// between the mobilised shear and the rolling direction, `k_par` the slope of `|tau|` against slip along it
+    /// (`tau_max / K` elastic, Janosi's `tau_max exp(-h / K) / K` on yield) and `k_perp` across it (`tau_max / K`
+    /// elastic, `tau_max |rho| / (K |rho_trial|)` on yield). Slip at speed `v` for one step adds `v dt` to `j`, hence the `dt`. For a wheel the
     /// torque's derivative is `d(torque about the axle)/d(spin) = -r^2 traction_stiffness`.
     pub traction_stiffness: f64,
     /// For implicit vertical integration: `-d(F_z)/d(z_c)`, the derivative of the vertical soil force with respect to

@@ -1,5 +1,5 @@
-//! The per-node SCM law: Bekker pressure with elastic unloading, damping, and Janosi-Hanamoto shear from a vector
-//! shear displacement (steps 2 to 6 of the module's algorithm).
+//! The per-node SCM law: Bekker pressure with elastic unloading, damping, and elastic-plastic Janosi-Hanamoto shear in
+//! the tangent plane (steps 2 to 6 of the module's algorithm).
 
 use super::{SoilContact, SoilGrid};
 use nalgebra::Vector3;
@@ -11,8 +11,10 @@ pub(super) struct Node {
     pub(super) plastic: f64,
     /// Largest pressure the node has carried, Pa.
     pub(super) yield_pressure: f64,
-    /// Shear displacement `j` (world frame, in the contact's tangent plane), m.
+    /// Mobilised shear `tau / tau_max` as a vector (world frame, in the contact's tangent plane), `|.| <= 1`.
     pub(super) shear: Vector3<f64>,
+    /// Janosi shear displacement reached so far (the shear's hardening variable), m.
+    pub(super) hardening: f64,
     /// Step of the last contact.
     pub(super) last_step: u64,
 }
@@ -61,12 +63,12 @@ impl SoilGrid {
         let Some(node) = self.node_mut(i, j) else {
             return;
         };
-        if s - node.plastic <= 0.0 {
+        if s - node.plastic <= 0.0 || node.last_step + 1 < step {
             node.shear = Vector3::zeros();
-            return;
+            node.hardening = 0.0;
         }
-        if node.last_step + 1 < step {
-            node.shear = Vector3::zeros();
+        if s - node.plastic <= 0.0 {
+            return;
         }
         node.last_step = step;
         // 2. Pressure: elastic trial, Bekker on yield. `tangent` is d(sigma)/d(s) on the branch taken.
@@ -91,48 +93,43 @@ impl SoilGrid {
             out.normal_damping += cell * soil.damping * nz;
         }
         out.normal_stiffness += cell * tangent;
-        // 4. Shear displacement: slip of the body over the soil in the tangent plane.
+        // 4. Shear: elastic-plastic in the tangent plane. The slip `d` of the body over the soil moves the mobilised
+        // shear `rho` elastically at Janosi's initial stiffness `1 / K`; where that would leave the yield circle
+        // `|rho| <= 1 - exp(-h / K)` the excess hardens `h` (Janosi loading), so monotonic slip of `j` gives exactly
+        // `|rho| = 1 - exp(-j / K)`, and unloading, reversal and reloading up to the previous yield are elastic.
         let k = soil.janosi_k;
-        let mut jv = node.shear - n * node.shear.dot(&n);
-        let d = (hit.v - n * vn) * dt;
-        let jn = jv.norm();
-        let along = if jn > 0.0 { d.dot(&jv) / jn } else { 0.0 };
-        let unloading = along < 0.0;
-        if unloading {
-            // Slip against the displacement unloads the shear elastically at the initial stiffness tau_max / K (as
-            // the pressure unloads along K_e): the mobilised fraction 1 - exp(-|j| / K) falls by |along| / K, past
-            // zero the rest loads the other way from zero along the Janosi curve.
-            let jhat = jv / jn;
-            let rem = (-jn / k).exp() - along / k;
-            let back = if rem <= 1.0 {
-                -k * rem.ln()
-            } else {
-                -k * (rem - 1.0)
-            };
-            jv = jhat * back + (d - jhat * along);
+        let trial = node.shear - n * node.shear.dot(&n) + (hit.v - n * vn) * (dt / k);
+        let tn = trial.norm();
+        let yield_ratio = 1.0 - (-node.hardening / k).exp();
+        let plastic = tn > yield_ratio;
+        let (rho, ratio) = if plastic {
+            node.hardening += k * (tn - yield_ratio);
+            let ratio = (-node.hardening / k).exp();
+            (trial * ((1.0 - ratio) / tn), ratio)
         } else {
-            jv += d;
-        }
-        node.shear = jv;
-        // 5. Janosi-Hanamoto shear opposing the displacement.
+            (trial, 1.0)
+        };
+        node.shear = rho;
+        // 5. Janosi-Hanamoto shear opposing the body's slip: `tau = tau_max rho`.
         let tau_max = soil.cohesion + sigma * soil.friction_angle_deg.to_radians().tan();
-        let jn = jv.norm();
-        let ratio = (-jn / k).exp();
-        let tau = tau_max * (1.0 - ratio);
-        let jhat = if jn > 1e-12 { jv / jn } else { hit.roll };
+        let rn = rho.norm();
         // 6. Force over the cell's area of body surface.
         let area = cell / nz;
-        let f = (n * sigma - jhat * tau) * area;
+        let f = (n * sigma - rho * tau_max) * area;
         out.force += f;
         out.torque += (p - centre).cross(&f);
         out.normal += sigma * area;
         out.sinkage = out.sinkage.max(s);
         out.nodes += 1;
-        // d|tau|/dj along the displacement (loading: Janosi's slope; unloading: the initial slope), and |tau| / |j|
-        // across it (the displacement turns); weighted by how the rolling direction splits between them.
-        let k_par = tau_max / k * if unloading { 1.0 } else { ratio };
-        let k_perp = if jn > 1e-12 { tau / jn } else { tau_max / k };
-        let c2 = jhat.dot(&hit.roll).powi(2);
+        // d|tau|/dj along the mobilised shear (elastic: tau_max / K; on yield: Janosi's slope) and across it.
+        let k0 = tau_max / k;
+        let k_par = k0 * ratio;
+        let k_perp = if plastic { k0 * rn / tn } else { k0 };
+        let c2 = if rn > 1e-12 {
+            (rho.dot(&hit.roll) / rn).powi(2)
+        } else {
+            1.0
+        };
         out.traction_stiffness += area * dt * (k_par * c2 + k_perp * (1.0 - c2));
     }
 }

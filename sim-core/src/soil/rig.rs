@@ -42,7 +42,9 @@ pub struct RigResult {
     pub vertical_force: f64,
     /// Soil torque about the axle, N m (positive: against the rolling spin; near zero when towed).
     pub torque: f64,
-    /// Slip `1 - v / (omega r)` (set when driven, the free-rolling slip when towed).
+    /// Slip `1 - v / (omega r)` with the mean spin (set when driven; when towed the free-rolling slip, which is
+    /// poorly determined: the soil's torque about the axle changes little with the spin while the elastic shear
+    /// of the arc takes up the difference, so the towed spin wanders).
     pub slip: f64,
 }
 
@@ -132,7 +134,7 @@ impl WheelRig {
                 sum.drawbar_pull += c.force.x;
                 sum.vertical_force += c.force.z;
                 sum.torque -= c.torque.y;
-                sum.slip += 1.0 - v / (omega * r);
+                sum.slip += omega;
             }
         }
         let n = (steps - from).max(1) as f64;
@@ -141,7 +143,7 @@ impl WheelRig {
             drawbar_pull: sum.drawbar_pull / n,
             vertical_force: sum.vertical_force / n,
             torque: sum.torque / n,
-            slip: sum.slip / n,
+            slip: 1.0 - v / (sum.slip / n * r),
         }
     }
 }
