@@ -7,16 +7,34 @@
 //! pool runs out (more than [`TILE_POOL`] tiles touched in one episode, i.e. several kilometres of driving) further
 //! nodes behave as fresh soil at every step (no memory) and [`SoilGrid::exhausted`] says so.
 //!
-//! Per contacting node and step (vertical contact with a rigid wheel cylinder):
-//! 1. total sinkage below the undeformed surface `s = h0 - z_wheel`, penetration of the current surface
-//!    `s - s_p`;
-//! 2. elastic trial `sigma = K_e (s - s_p)`; if it exceeds the node's yield pressure, Bekker
-//!    `sigma = (k_c / b + k_phi) s^n` holds, the yield pressure rises to it and `s_p = s - sigma / K_e`
-//!    (so unloading and reloading follow the elastic line until the previous yield): ruts persist;
-//! 3. damping `sigma += R v_n` while sinking;
-//! 4. Janosi shear `tau = (c + sigma tan phi) (1 - exp(-j / K))` opposing the slip velocity, with `j` the slip
-//!    distance accumulated while the node stays in contact (reset when contact is lost);
-//! 5. force `A (sigma n + tau t)` with `A = delta^2`.
+//! Per step, for each body (a wheel via [`SoilGrid::wheel_contact`], a track shoe or plate via
+//! [`SoilGrid::plate_contact`]) and each node whose vertical ray meets the body (as Chrono's SCM casts rays up
+//! through the body's collision shape):
+//! 1. the hit: the body's surface point `p` above the node, its velocity `v`, the body's unit surface normal `N` there
+//!    (wheel: the rim's inward radial direction; plate: `plate.up`) and the fraction `w` of the node's cell the body
+//!    covers (1 inside; the nodes at a wheel's or plate's side edges count for the part of their cell inside the
+//!    width, so the discrete width equals the body's; see `contact.rs`);
+//! 2. sinkage below the undeformed surface along the ray `s = h0 - p_z`, penetration of the current surface
+//!    `s - s_p`; elastic trial `sigma = K_e (s - s_p)`; if it exceeds the node's yield pressure, Bekker
+//!    `sigma = (k_c / b + k_phi) s^n` holds, the yield pressure rises to it and `s_p = s - sigma / K_e` (so unloading
+//!    and reloading follow the elastic line until the previous yield): ruts persist;
+//! 3. damping `sigma += R |v . N|` while the surface moves into the soil (`v . N < 0`);
+//! 4. shear, elastic-plastic in the tangent plane of `N`: the node keeps its mobilised shear `rho = tau / tau_max`
+//!    (a vector) and a hardening displacement `h` (both reset when contact is lost). The slip `d = (v - N (v . N)) dt`
+//!    moves `rho` elastically by `d / K` (Janosi's initial stiffness); beyond the yield circle
+//!    `|rho| <= 1 - exp(-h / K)` the excess hardens `h` and `rho` stays on the circle. Monotonic slip `j` thus gives
+//!    Janosi-Hanamoto exactly; unloading, reversal and reloading up to the previous yield are elastic, so a body at
+//!    rest under a load below its shear capacity is held like an elastic-plastic bristle instead of creeping;
+//! 5. shear stress `tau = (c + sigma tan phi) rho`, opposing the body's slip;
+//! 6. force `A (sigma N - tau)` with `A = w delta^2 / N_z` the body's surface area over the cell (so the vertical
+//!    part is `w delta^2 sigma`, Bekker's load integral, and the horizontal part on a wheel's leading arc
+//!    `w delta^2 sigma tan(theta)`, the compaction resistance `b integral sigma dz`; Chrono's SCM takes
+//!    `A = delta^2`, which differs by `cos(theta)` on the arc). `N_z` is floored at 0.1.
+//!
+//! Compaction (motion) resistance, sinkage and traction loss are not added by hand: they emerge from this law. The
+//! contact also returns the Jacobians a vehicle needs to integrate a wheel's spin and vertical motion linearly
+//! implicitly ([`SoilContact::traction_stiffness`], [`SoilContact::normal_stiffness`],
+//! [`SoilContact::normal_damping`]). [`rig`] is a single-wheel test rig on this model.
 //!
 //! API (called by the vehicle model once per wheel / track shoe and step, after [`SoilGrid::begin_step`]):
 //! [`SoilGrid::new`] (allocates everything), [`SoilGrid::soil_at`] / [`SoilGrid::has_soil_at`] ("no soil here"
@@ -25,25 +43,20 @@
 //! [`SoilGrid::touched_cells`], [`SoilGrid::reset`] (undeformed again, no reallocation).
 //!
 //! Each cell takes the [`SoilParams`] of the patch it lies in, so one world can hold several soils.
-//! Sinkage, rolling resistance (pressure on the leading arc of a sinking wheel) and traction loss (shear
-//! saturating at `c + sigma tan phi`) are not added by hand: they emerge from the per-node law above.
 
 use crate::world::{SoilParams, Surface, World, PATCHES};
 use nalgebra::Vector3;
+use node::Node;
+
+mod contact;
+mod node;
+pub mod rig;
 
 /// Nodes per tile side.
 const TILE: usize = 8;
 /// Tiles in the pool (each 64 nodes).
 pub const TILE_POOL: usize = 6000;
 const NO_TILE: u32 = u32::MAX;
-
-#[derive(Clone, Copy, Debug, Default)]
-struct Node {
-    plastic: f64,
-    yield_pressure: f64,
-    shear: f64,
-    last_step: u64,
-}
 
 /// Soil force on a contacting body.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -54,12 +67,27 @@ pub struct SoilContact {
     pub torque: Vector3<f64>,
     /// Largest sinkage below the undeformed surface, m.
     pub sinkage: f64,
-    /// Normal part of the force, N.
+    /// Sum of the nodes' normal forces (pressure times body surface area, each along its own surface normal), N.
     pub normal: f64,
-    /// Unit surface normal the pressure acts along.
+    /// Unit normal of the undeformed ground under the body's centre (a reference frame for the caller: the
+    /// pressure itself acts along the body's surface normal at each node).
     pub normal_dir: Vector3<f64>,
-    /// d(traction)/d(slip velocity) estimate for implicit wheel-spin integration, N s/m.
+    /// For implicit spin integration: d(shear force along the rolling direction)/d(slip velocity of the body's
+    /// surface along it), summed over nodes, N s/m. Per node `A dt (k_par c^2 + k_perp (1 - c^2))`, `c` the cosine
+    /// between the mobilised shear and the rolling direction, `k_par` the slope of `|tau|` against slip along it
+    /// (`tau_max / K` elastic, Janosi's `tau_max exp(-h / K) / K` on yield) and `k_perp` across it (`tau_max / K`
+    /// elastic, `tau_max |rho| / (K |rho_trial|)` on yield). Slip at speed `v` for one step adds `v dt` to `j`, hence the `dt`. For a wheel the
+    /// torque's derivative is `d(torque about the axle)/d(spin) = -r^2 traction_stiffness`.
     pub traction_stiffness: f64,
+    /// For implicit vertical integration: `-d(F_z)/d(z_c)`, the derivative of the vertical soil force with respect to
+    /// a vertical displacement `z_c` of the body (all nodes keep their hit, their sinkage changes by `-dz_c`),
+    /// towards the soil, N/m: per node `w delta^2 d(sigma)/d(s)` on the branch the node is on, `K_e` elastic,
+    /// `n sigma / s` (Bekker's tangent) plastic. Moving up, plastic nodes unload along `K_e` instead, a stiffer
+    /// one-sided tangent. Neglects the change of the shear's vertical part.
+    pub normal_stiffness: f64,
+    /// For implicit vertical integration: `-d(F_z)/d(v_z)`, N s/m: `w delta^2 R N_z` over the nodes moving into the
+    /// soil (the damping pressure `R |v . N|`).
+    pub normal_damping: f64,
     /// Nodes in contact.
     pub nodes: usize,
 }
@@ -93,18 +121,6 @@ pub struct PlateGeometry {
     pub angular_velocity: Vector3<f64>,
 }
 
-/// Direction along which a node's pressure pushes a wheel (see [`SoilGrid::set_pressure_direction`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum PressureDirection {
-    /// Normal of the undeformed ground at the wheel (the default; the vehicle model is validated with it). The
-    /// shear acts in the ground's tangent plane; rolling resistance then comes from the shear of the leading arc.
-    #[default]
-    GroundNormal,
-    /// Radial direction of the rim at the node, as Chrono's deformed-mesh normals and Wong-Reece: the pressure
-    /// on the leading arc pushes back (compaction resistance) and the shear acts along the rim.
-    WheelRadial,
-}
-
 /// The soil of a world. A clone keeps the full tile pool capacity, so it never allocates while stepping either.
 #[derive(Debug)]
 pub struct SoilGrid {
@@ -122,7 +138,6 @@ pub struct SoilGrid {
     heights: crate::world::Heightmap,
     step: u64,
     exhausted: bool,
-    pressure: PressureDirection,
 }
 
 impl Clone for SoilGrid {
@@ -146,15 +161,20 @@ impl Clone for SoilGrid {
             heights: self.heights.clone(),
             step: self.step,
             exhausted: self.exhausted,
-            pressure: self.pressure,
         }
     }
 }
 
 impl SoilGrid {
-    /// Builds the soil of a world (allocates everything up front).
+    /// Builds the soil of a world at the benchmark's node spacing, 0.1 m times the world's scale (allocates
+    /// everything up front).
     pub fn new(world: &World) -> SoilGrid {
-        let delta = 0.1 * world.scale;
+        SoilGrid::with_spacing(world, 0.1 * world.scale)
+    }
+
+    /// Builds the soil of a world with nodes `delta` apart (for resolution studies; allocates everything up front).
+    pub fn with_spacing(world: &World, delta: f64) -> SoilGrid {
+        assert!(delta > 0.0, "node spacing must be positive");
         let h = &world.heightmap;
         let (half_x, half_y) = (h.half_x(), h.half_y());
         let nx = (2.0 * half_x / delta).ceil() as usize + 1;
@@ -182,13 +202,12 @@ impl SoilGrid {
             heights: h.clone(),
             step: 0,
             exhausted: false,
-            pressure: PressureDirection::GroundNormal,
         }
     }
 
-    /// Chooses the direction of the pressure on wheels ([`PressureDirection`]); plates always use the ground normal.
-    pub fn set_pressure_direction(&mut self, d: PressureDirection) {
-        self.pressure = d;
+    /// Node spacing, m.
+    pub fn spacing(&self) -> f64 {
+        self.delta
     }
 
     /// Unit normal of the undeformed surface (bilinear heightmap, central differences over one cell).
@@ -257,7 +276,6 @@ impl SoilGrid {
         self.pool_tiles.clear();
         self.step = src.step;
         self.exhausted = src.exhausted;
-        self.pressure = src.pressure;
         if self.tile_index.is_empty() {
             return true;
         }
@@ -366,168 +384,6 @@ impl SoilGrid {
     /// Nodes that have memory (touched tiles times nodes per tile).
     pub fn touched_cells(&self) -> usize {
         self.pool.len() * TILE * TILE
-    }
-
-    /// Node index range covering `[c - reach, c + reach]` along x and y (inclusive).
-    fn node_range(&self, c: &Vector3<f64>, reach: f64) -> (usize, usize, usize, usize) {
-        let i0 = ((c.x - reach + self.half_x) / self.delta).floor().max(0.0) as usize;
-        let i1 =
-            (((c.x + reach + self.half_x) / self.delta).ceil().max(0.0) as usize).min(self.nx - 1);
-        let j0 = ((c.y - reach + self.half_y) / self.delta).floor().max(0.0) as usize;
-        let j1 =
-            (((c.y + reach + self.half_y) / self.delta).ceil().max(0.0) as usize).min(self.ny - 1);
-        (i0, i1, j0, j1)
-    }
-
-    /// SCM update of node `(i, j)` at `(x, y)` pressed by a body whose lowest point above it is at `z_body`, moving
-    /// with velocity `v` there; `b` is the Bekker contact width. Adds the node's force to `out` (torque about
-    /// `centre`). Returns the node's contribution to the traction stiffness.
-    #[allow(clippy::too_many_arguments)]
-    fn press_node(
-        &mut self,
-        (i, j): (usize, usize),
-        p: Vector3<f64>,
-        v: Vector3<f64>,
-        b: f64,
-        up: Vector3<f64>,
-        centre: &Vector3<f64>,
-        dt: f64,
-        out: &mut SoilContact,
-    ) -> f64 {
-        let s = self.heights.height_bilinear(p.x, p.y) - p.z;
-        if s <= 0.0 {
-            return 0.0;
-        }
-        let Some(soil) = self.soil_at(p.x, p.y) else {
-            return 0.0;
-        };
-        let step = self.step;
-        let area = self.delta * self.delta;
-        let Some(node) = self.node_mut(i, j) else {
-            return 0.0;
-        };
-        if s - node.plastic <= 0.0 {
-            node.shear = 0.0;
-            return 0.0;
-        }
-        if node.last_step + 1 < step {
-            node.shear = 0.0;
-        }
-        node.last_step = step;
-        let k_e = soil.elastic_k.max(soil.k_phi);
-        let mut sigma = k_e * (s - node.plastic);
-        if sigma > node.yield_pressure {
-            let bekker = (soil.k_c / b + soil.k_phi) * s.powf(soil.n);
-            sigma = bekker.min(sigma);
-            node.yield_pressure = sigma;
-            node.plastic = s - sigma / k_e;
-        }
-        let vn = v.dot(&up);
-        if vn < 0.0 {
-            sigma -= soil.damping * vn;
-        }
-        let vt = v - up * vn;
-        let slip = vt.norm();
-        node.shear += slip * dt;
-        let tau_max = soil.cohesion + sigma * soil.friction_angle_deg.to_radians().tan();
-        let ratio = (-node.shear / soil.janosi_k).exp();
-        let tau = tau_max * (1.0 - ratio);
-        let t = if slip > 1e-9 {
-            -vt / slip
-        } else {
-            Vector3::zeros()
-        };
-        let f = (up * sigma + t * tau) * area;
-        out.force += f;
-        out.torque += (p - centre).cross(&f);
-        out.normal += sigma * area;
-        out.sinkage = out.sinkage.max(s);
-        out.nodes += 1;
-        area * (tau_max * ratio * dt / soil.janosi_k + tau / slip.max(0.05))
-    }
-
-    /// Soil force on a rigid wheel, updating the soil's memory. Nodes on rigid patches are skipped.
-    pub fn wheel_contact(&mut self, w: &WheelGeometry, dt: f64) -> SoilContact {
-        let mut out = SoilContact::default();
-        if self.tile_index.is_empty() {
-            return out;
-        }
-        // Pressure acts along the local surface normal and shear in the tangent plane (as Chrono's SCM, whose forces
-        // follow the mesh normals), so soft ground on a slope does not hold the vehicle up for free; sinkage is
-        // measured vertically, along the nodes' rays.
-        let up = self.surface_normal(w.centre.x, w.centre.y);
-        out.normal_dir = up;
-        let mut fwd = Vector3::z().cross(&w.axle);
-        let fwd_norm = fwd.norm();
-        if fwd_norm < 1e-9 {
-            return out;
-        }
-        fwd /= fwd_norm;
-        let (i0, i1, j0, j1) = self.node_range(&w.centre, w.radius + 0.5 * w.width);
-        let mut stiffness = 0.0;
-        for j in j0..=j1 {
-            for i in i0..=i1 {
-                let x = i as f64 * self.delta - self.half_x;
-                let y = j as f64 * self.delta - self.half_y;
-                let d = Vector3::new(x - w.centre.x, y - w.centre.y, 0.0);
-                let a = d.dot(&w.axle);
-                let u = d.dot(&fwd);
-                if a.abs() > 0.5 * w.width || u.abs() >= w.radius {
-                    continue;
-                }
-                let z_wheel = w.centre.z - (w.radius * w.radius - u * u).sqrt();
-                let p = Vector3::new(x, y, z_wheel);
-                let v = w.velocity + w.angular_velocity.cross(&(p - w.centre));
-                let up = match self.pressure {
-                    PressureDirection::GroundNormal => up,
-                    PressureDirection::WheelRadial => {
-                        // The deformed surface under a node in contact follows the rim.
-                        let radial = Vector3::new(-u * fwd.x, -u * fwd.y, w.centre.z - z_wheel);
-                        radial / radial.norm()
-                    }
-                };
-                stiffness += self.press_node((i, j), p, v, w.width, up, &w.centre, dt, &mut out);
-            }
-        }
-        out.traction_stiffness = stiffness;
-        out
-    }
-
-    /// Soil force on a flat rectangular plate (a track shoe or belt segment), updating the soil's memory. The
-    /// plate's lower face is the plane through `centre` with normal `plate.up`; nodes whose vertical ray meets the
-    /// face inside the `length x width` rectangle are pressed. The Bekker width is the plate's smaller side.
-    pub fn plate_contact(&mut self, plate: &PlateGeometry, dt: f64) -> SoilContact {
-        let mut out = SoilContact::default();
-        if self.tile_index.is_empty() || plate.up.z < 1e-3 {
-            return out;
-        }
-        let up = self.surface_normal(plate.centre.x, plate.centre.y);
-        out.normal_dir = up;
-        let side = plate.up.cross(&plate.forward);
-        let b = plate.length.min(plate.width);
-        let (i0, i1, j0, j1) =
-            self.node_range(&plate.centre, 0.5 * plate.length.hypot(plate.width));
-        let mut stiffness = 0.0;
-        for j in j0..=j1 {
-            for i in i0..=i1 {
-                let x = i as f64 * self.delta - self.half_x;
-                let y = j as f64 * self.delta - self.half_y;
-                let (dx, dy) = (x - plate.centre.x, y - plate.centre.y);
-                // Height of the face above (x, y): on the plane n . (p - c) = 0.
-                let dz = -(plate.up.x * dx + plate.up.y * dy) / plate.up.z;
-                let d = Vector3::new(dx, dy, dz);
-                if d.dot(&plate.forward).abs() > 0.5 * plate.length
-                    || d.dot(&side).abs() > 0.5 * plate.width
-                {
-                    continue;
-                }
-                let p = plate.centre + d;
-                let v = plate.velocity + plate.angular_velocity.cross(&d);
-                stiffness += self.press_node((i, j), p, v, b, up, &plate.centre, dt, &mut out);
-            }
-        }
-        out.traction_stiffness = stiffness;
-        out
     }
 }
 

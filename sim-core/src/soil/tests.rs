@@ -121,7 +121,7 @@ fn a_towed_wheel_feels_rolling_resistance_and_a_spinning_wheel_traction() {
     for _ in 0..20 {
         grid.begin_step();
         // Free rolling: rim speed equals ground speed, but the wheel keeps sinking ahead: resistance from the
-        // compacted soil in front (vertical pressure on the leading arc).
+        // compacted soil in front (the pressure on the leading arc acts along the rim's normal, which leans back).
         towed = grid.wheel_contact(&wheel(0.45, 1.0, 2.0), 1e-3);
     }
     assert!(

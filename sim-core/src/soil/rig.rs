@@ -1,0 +1,175 @@
+//! A single-wheel test rig on the Soil Contact Model, as the soil-bin rigs of terramechanics (and Chrono's
+//! single-wheel SCM demo): a rigid wheel of radius `r` and width `b` carrying a vertical load `W`, moving forward at
+//! constant speed over fresh flat soil, either towed or driven at a fixed slip. It measures the steady sinkage, the
+//! drawbar pull (longitudinal soil force; negative = motion resistance) and the vertical force.
+//!
+//! The wheel's only free motions are its vertical position and, when towed, its spin. The vertical DOF (mass `W / g`)
+//! is integrated linearly implicitly with the soil's Jacobians ([`SoilContact::normal_stiffness`],
+//! [`SoilContact::normal_damping`]):
+//! `(m + dt C + dt^2 K) (v' - v) = dt (F_z - W - dt K v)`, `z' = z + dt v'`, so it is stable at the vehicle's 4 ms step
+//! although the elastic soil under a wheel is far stiffer than explicit integration of a few hundred kilograms
+//! allows. A towed wheel spins freely (no drive torque; inertia [`WheelRig::inertia`]), its spin integrated
+//! implicitly with [`SoilContact::traction_stiffness`]; at steady state the soil's torque about the axle averages
+//! to zero. A driven wheel spins at `omega = v / (r (1 - i))`.
+//!
+//! Everything is allocated in [`WheelRig::run`] before the first step (one soil grid); the step loop allocates
+//! nothing.
+
+use super::{SoilContact, SoilGrid, WheelGeometry};
+use crate::world::{Heightmap, Semantic, SoilParams, Surface, World};
+use nalgebra::Vector3;
+
+/// Gravity used to turn the load into the wheel's mass, m/s^2.
+const G: f64 = 9.81;
+
+/// How the wheel's spin is set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Drive {
+    /// No drive torque: the spin follows from the soil's torque about the axle.
+    Towed,
+    /// Driven at slip `i = 1 - v / (omega r)` (0 rolling, 1 spinning in place).
+    Slip(f64),
+}
+
+/// Means over the last [`WheelRig::window`] metres of a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RigResult {
+    /// Depth of the wheel's lowest point below the undeformed surface, m.
+    pub sinkage: f64,
+    /// Longitudinal soil force along the direction of travel, N (negative: motion resistance).
+    pub drawbar_pull: f64,
+    /// Vertical soil force, N (equals the load at steady state).
+    pub vertical_force: f64,
+    /// Soil torque about the axle, N m (positive: against the rolling spin; near zero when towed).
+    pub torque: f64,
+    /// Slip `1 - v / (omega r)` with the mean spin (set when driven; when towed the free-rolling slip, which is
+    /// poorly determined: the soil's torque about the axle changes little with the spin while the elastic shear
+    /// of the arc takes up the difference, so the towed spin wanders).
+    pub slip: f64,
+}
+
+/// The rig's settings. [`WheelRig::new`] gives the defaults.
+#[derive(Clone, Copy, Debug)]
+pub struct WheelRig {
+    pub soil: SoilParams,
+    /// Wheel radius and width, m.
+    pub radius: f64,
+    pub width: f64,
+    /// Vertical load, N.
+    pub load: f64,
+    /// Forward speed, m/s (default 0.25: slow enough that the soil's damping `R` adds little to the quasi-static
+    /// pressure, as in the theory the rig is compared with).
+    pub speed: f64,
+    /// Time step, s (default 4 ms, the vehicle's).
+    pub dt: f64,
+    /// Node spacing, m (default 0.1, the benchmark's).
+    pub spacing: f64,
+    /// Distance travelled, m (default 3).
+    pub distance: f64,
+    /// The means are taken over the last `window` metres, m (default 1).
+    pub window: f64,
+    /// Spin inertia of a towed wheel, kg m^2 (default 10, about a HMMWV wheel with its tyre).
+    pub inertia: f64,
+    /// Lateral position of the wheel's centre, m (default 0.037: on no node line nor half-way between).
+    pub lateral: f64,
+}
+
+impl WheelRig {
+    pub fn new(soil: SoilParams, radius: f64, width: f64, load: f64) -> WheelRig {
+        WheelRig {
+            soil,
+            radius,
+            width,
+            load,
+            speed: 0.25,
+            dt: 4e-3,
+            spacing: 0.1,
+            distance: 3.0,
+            window: 1.0,
+            inertia: 10.0,
+            lateral: 0.037,
+        }
+    }
+
+    /// Runs the rig once on fresh soil.
+    pub fn run(&self, drive: Drive) -> RigResult {
+        let world = World::uniform(
+            Heightmap::from_fn(1.0, |_, _| 0.0),
+            Semantic::Mud,
+            Surface::Deformable { soil: self.soil },
+        );
+        let mut grid = SoilGrid::with_spacing(&world, self.spacing);
+        let (r, v, dt) = (self.radius, self.speed, self.dt);
+        let mass = self.load / G;
+        let mut omega = match drive {
+            Drive::Towed => v / r,
+            Drive::Slip(i) => v / (r * (1.0 - i)),
+        };
+        // Start touching the surface at rest vertically.
+        let (x0, y) = (-1.0, self.lateral);
+        let (mut z, mut vz) = (r, 0.0);
+        let steps = (self.distance / (v * dt)).round() as usize;
+        let from = steps.saturating_sub((self.window / (v * dt)).round() as usize);
+        let mut sum = RigResult::default();
+        for k in 0..steps {
+            grid.begin_step();
+            let w = WheelGeometry {
+                centre: Vector3::new(x0 + v * dt * k as f64, y, z),
+                axle: Vector3::y(),
+                radius: r,
+                width: self.width,
+                velocity: Vector3::new(v, 0.0, vz),
+                angular_velocity: Vector3::new(0.0, omega, 0.0),
+            };
+            let c: SoilContact = grid.wheel_contact(&w, dt);
+            let (kz, cz) = (c.normal_stiffness, c.normal_damping);
+            let dv = dt * (c.force.z - self.load - dt * kz * vz) / (mass + dt * cz + dt * dt * kz);
+            vz += dv;
+            z += dt * vz;
+            if drive == Drive::Towed {
+                omega += dt * c.torque.y / (self.inertia + dt * r * r * c.traction_stiffness);
+            }
+            if k >= from {
+                sum.sinkage += r - z;
+                sum.drawbar_pull += c.force.x;
+                sum.vertical_force += c.force.z;
+                sum.torque -= c.torque.y;
+                sum.slip += omega;
+            }
+        }
+        let n = (steps - from).max(1) as f64;
+        RigResult {
+            sinkage: sum.sinkage / n,
+            drawbar_pull: sum.drawbar_pull / n,
+            vertical_force: sum.vertical_force / n,
+            torque: sum.torque / n,
+            slip: 1.0 - v / (sum.slip / n * r),
+        }
+    }
+}
+
+/// Slips at which [`predicted_grade_deg`] runs the driven rig.
+pub const GRADE_SLIPS: [f64; 8] = [0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.75, 0.9];
+
+/// The steepest grade a vehicle with all wheels driven could climb on `soil`, as the rig predicts it:
+/// `atan(max over slip of DP / W)` (Wong, Theory of Ground Vehicles: a vehicle climbs up to the grade whose
+/// resistance `W sin(alpha)` its drawbar pull balances, with `DP / W` taken as independent of the load's
+/// `cos(alpha)`), in degrees, over [`GRADE_SLIPS`]. Wheel radius `r`, width `b`, load per wheel `load` N, time step
+/// `dt`, node spacing `delta`.
+pub fn predicted_grade_deg(
+    soil: SoilParams,
+    r: f64,
+    b: f64,
+    load: f64,
+    dt: f64,
+    delta: f64,
+) -> f64 {
+    let mut rig = WheelRig::new(soil, r, b, load);
+    rig.dt = dt;
+    rig.spacing = delta;
+    let best = GRADE_SLIPS
+        .iter()
+        .map(|&i| rig.run(Drive::Slip(i)).drawbar_pull / load)
+        .fold(f64::NEG_INFINITY, f64::max);
+    best.atan().to_degrees()
+}
