@@ -125,7 +125,7 @@ pub fn datasheet(spec: &VehicleSpec, setup: &Setup) -> Datasheet {
         vehicle: spec.name.clone(),
         surface: setup.ground.name(),
         dt: sim.dt(),
-        settle_time: settle_time(spec, setup),
+        settle_time: sim.settle_time(),
         static_sinkage: mean_sinkage(&sim),
         ride_height: sim.position().z,
         speed_at,
@@ -145,12 +145,6 @@ fn new_sim(world: &World, spec: &VehicleSpec, setup: &Setup, x: f64) -> Simulati
         ..SimOptions::default()
     };
     Simulation::with_options(world, spec, x * spec.scale, 0.0, 0.0, &options)
-}
-
-fn settle_time(spec: &VehicleSpec, setup: &Setup) -> f64 {
-    let flat = test_world(setup.ground, 0.0, spec.scale);
-    let mut sim = new_sim(&flat, spec, setup, 0.0);
-    sim.settle()
 }
 
 /// Mean sinkage (tyre deflection on rigid ground) of the wheels in contact, m.
@@ -238,13 +232,13 @@ pub fn climbs(spec: &VehicleSpec, setup: &Setup, deg: f64) -> bool {
     climbed >= 0.2 * 5.0 * spec.scale
 }
 
-/// The steepest climbable grade, degrees, by bisection to 0.25 degrees between 0 and 60.
+/// The steepest climbable grade, degrees, by bisection to 0.1 degree between 0 and 60.
 pub fn climb_grade(spec: &VehicleSpec, setup: &Setup) -> f64 {
     let (mut lo, mut hi) = (0.0, 60.0);
     if climbs(spec, setup, hi) {
         return hi;
     }
-    while hi - lo > 0.25 {
+    while hi - lo > 0.1 {
         let mid = 0.5 * (lo + hi);
         if climbs(spec, setup, mid) {
             lo = mid;

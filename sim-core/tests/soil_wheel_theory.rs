@@ -194,7 +194,7 @@ fn sand_wheel_matches_bekker_and_wong_reece() {
 fn predicted_grades_rise_from_snow_to_mud_to_sand() {
     let grades: Vec<f64> = SOILS
         .par_iter()
-        .map(|(_, s)| predicted_grade_deg(*s, R, B, W, 4e-3, 0.1))
+        .map(|(_, s)| predicted_grade_deg(*s, R, B, W, 4e-3, 0.1, 1))
         .collect();
     for ((name, _), g) in SOILS.iter().zip(&grades) {
         eprintln!("{name}: predicted steepest grade {g:.1} deg (HMMWV wheel, 0.1 m grid, dt 4 ms)");

@@ -87,16 +87,17 @@ fn a_limited_soil_radius_copies_only_the_ruts_near_the_vehicle_and_a_second_copy
     copy.copy_state_from(&src, 1.5).unwrap();
     assert!(copy.soil().touched_tiles() < src.soil().touched_tiles());
     assert!(copy.soil().touched_tiles() > 0);
-    // The ruts near the start are not copied; those under the vehicle are.
-    let ruts = |s: &Simulation, x: f64| {
-        (0..31)
-            .map(|i| s.soil().rut_depth(x, -1.5 + 0.1 * i as f64).abs())
+    // The ruts near the start are not copied; those under the vehicle are (the rolling terrain steers it off
+    // y = 0, so the ruts are summed across the vehicle's own y, inside the copied square's 1.5 m half side).
+    let ruts = |s: &Simulation, x: f64, y: f64| {
+        (0..25)
+            .map(|i| s.soil().rut_depth(x, y - 1.2 + 0.1 * i as f64).abs())
             .sum::<f64>()
     };
-    assert!(ruts(&src, 4.0) > 0.0);
-    assert_eq!(ruts(&copy, 4.0), 0.0);
-    assert_eq!(ruts(&copy, p.x - 1.0), ruts(&src, p.x - 1.0));
-    assert!(ruts(&copy, p.x - 1.0) > 0.0);
+    assert!(ruts(&src, 4.0, 0.0) > 0.0);
+    assert_eq!(ruts(&copy, 4.0, 0.0), 0.0);
+    assert_eq!(ruts(&copy, p.x - 1.0, p.y), ruts(&src, p.x - 1.0, p.y));
+    assert!(ruts(&copy, p.x - 1.0, p.y) > 0.0);
     copy.copy_state_from(&src, f64::INFINITY).unwrap();
     assert_eq!(copy.soil().touched_tiles(), src.soil().touched_tiles());
     copy.copy_state_from(&src, 0.0).unwrap();

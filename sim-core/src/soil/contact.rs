@@ -63,6 +63,10 @@ impl SoilGrid {
             fwd.x.abs() * w.radius + side.x.abs() * reach_b,
             fwd.y.abs() * w.radius + side.y.abs() * reach_b,
         );
+        // How far the wheel moved along its heading in this step: a node the lowest rim point passed over
+        // (0 between its offsets `u` now and `u + advance` before) is yielded as deep as the rim bottom went, so the
+        // ruts do not depend on which of the node's positions under the wheel the steps happen to catch.
+        let advance = w.velocity.dot(&fwd) * dt;
         for j in j0..=j1 {
             for i in i0..=i1 {
                 let x = i as f64 * self.delta - self.half_x;
@@ -73,6 +77,9 @@ impl SoilGrid {
                 let weight = coverage(a, half_b, self.delta);
                 if weight == 0.0 || u.abs() >= w.radius {
                     continue;
+                }
+                if (u < 0.0) != (u + advance < 0.0) {
+                    self.yield_node((i, j), x, y, w.centre.z - w.radius, w.width);
                 }
                 let h = (w.radius * w.radius - u * u).sqrt();
                 let p = Vector3::new(x, y, w.centre.z - h);

@@ -85,6 +85,10 @@ pub struct SoilContact {
     /// `n sigma / s` (Bekker's tangent) plastic. Moving up, plastic nodes unload along `K_e` instead, a stiffer
     /// one-sided tangent. Neglects the change of the shear's vertical part.
     pub normal_stiffness: f64,
+    /// The same derivative for a body moving out of the soil: every pressed node on its elastic line,
+    /// `w delta^2 K_e` (plastic nodes unload elastically). A body at rest or rising is integrated with this one,
+    /// so a node at its yield point does not chatter between the soft plastic and the stiff elastic branch.
+    pub unloading_stiffness: f64,
     /// For implicit vertical integration: `-d(F_z)/d(v_z)`, N s/m: `w delta^2 R N_z` over the nodes moving into the
     /// soil (the damping pressure `R |v . N|`).
     pub normal_damping: f64,

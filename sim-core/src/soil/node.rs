@@ -39,6 +39,29 @@ pub(super) struct Hit {
 const MIN_NZ: f64 = 0.1;
 
 impl SoilGrid {
+    /// Yields node `(i, j)` as a body surface at height `z` above it would (the pressure law of step 2, without a
+    /// force): the swept contact of a wheel whose lowest point passed over the node during the step
+    /// ([`SoilGrid::wheel_contact`]).
+    pub(super) fn yield_node(&mut self, (i, j): (usize, usize), x: f64, y: f64, z: f64, b: f64) {
+        let s = self.heights.height_bilinear(x, y) - z;
+        let Some(soil) = self.soil_at(x, y) else {
+            return;
+        };
+        if s <= 0.0 {
+            return;
+        }
+        let Some(node) = self.node_mut(i, j) else {
+            return;
+        };
+        let k_e = soil.elastic_k.max(soil.k_phi);
+        let trial = k_e * (s - node.plastic);
+        if trial > node.yield_pressure {
+            let sigma = ((soil.k_c / b + soil.k_phi) * s.powf(soil.n)).min(trial);
+            node.yield_pressure = sigma;
+            node.plastic = s - sigma / k_e;
+        }
+    }
+
     /// SCM update of node `(i, j)` pressed by a body surface at `hit`; `b` is the Bekker contact width. Adds the
     /// node's force to `out` (torque about `centre`) together with its share of the Jacobians.
     pub(super) fn press_node(
@@ -93,6 +116,7 @@ impl SoilGrid {
             out.normal_damping += cell * soil.damping * nz;
         }
         out.normal_stiffness += cell * tangent;
+        out.unloading_stiffness += cell * k_e;
         // 4. Shear: elastic-plastic in the tangent plane. The slip `d` of the body over the soil moves the mobilised
         // shear `rho` elastically at Janosi's initial stiffness `1 / K`; where that would leave the yield circle
         // `|rho| <= 1 - exp(-h / K)` the excess hardens `h` (Janosi loading), so monotonic slip of `j` gives exactly

@@ -72,6 +72,10 @@ pub struct WheelRig {
     pub inertia: f64,
     /// Lateral position of the wheel's centre, m (default 0.037: on no node line nor half-way between).
     pub lateral: f64,
+    /// Wheels running one behind the other in the same track (default 1): each pass runs over the ruts the
+    /// previous ones left (multi-pass, as a vehicle's rear wheels follow its front wheels); the results are the
+    /// means over all passes, i.e. per wheel of such a vehicle.
+    pub passes: usize,
 }
 
 impl WheelRig {
@@ -88,10 +92,11 @@ impl WheelRig {
             window: 1.0,
             inertia: 10.0,
             lateral: 0.037,
+            passes: 1,
         }
     }
 
-    /// Runs the rig once on fresh soil.
+    /// Runs the rig on fresh soil, [`WheelRig::passes`] times over the same track.
     pub fn run(&self, drive: Drive) -> RigResult {
         let world = World::uniform(
             Heightmap::from_fn(1.0, |_, _| 0.0),
@@ -101,17 +106,21 @@ impl WheelRig {
         let mut grid = SoilGrid::with_spacing(&world, self.spacing);
         let (r, v, dt) = (self.radius, self.speed, self.dt);
         let mass = self.load / G;
-        let mut omega = match drive {
-            Drive::Towed => v / r,
-            Drive::Slip(i) => v / (r * (1.0 - i)),
-        };
-        // Start touching the surface at rest vertically.
+        let (mut z, mut vz, mut omega) = (r, 0.0, 0.0);
         let (x0, y) = (-1.0, self.lateral);
-        let (mut z, mut vz) = (r, 0.0);
         let steps = (self.distance / (v * dt)).round() as usize;
         let from = steps.saturating_sub((self.window / (v * dt)).round() as usize);
         let mut sum = RigResult::default();
-        for k in 0..steps {
+        for k in (0..self.passes.max(1)).flat_map(|_| 0..steps) {
+            if k == 0 {
+                // Each pass starts touching the (possibly rutted) surface at rest vertically.
+                let start = grid.surface_height(x0, y) + r;
+                (z, vz) = (start, 0.0);
+                omega = match drive {
+                    Drive::Towed => v / r,
+                    Drive::Slip(i) => v / (r * (1.0 - i)),
+                };
+            }
             grid.begin_step();
             let w = WheelGeometry {
                 centre: Vector3::new(x0 + v * dt * k as f64, y, z),
@@ -137,7 +146,7 @@ impl WheelRig {
                 sum.slip += omega;
             }
         }
-        let n = (steps - from).max(1) as f64;
+        let n = ((steps - from) * self.passes.max(1)).max(1) as f64;
         RigResult {
             sinkage: sum.sinkage / n,
             drawbar_pull: sum.drawbar_pull / n,
@@ -155,7 +164,8 @@ pub const GRADE_SLIPS: [f64; 8] = [0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.75, 0.9];
 /// `atan(max over slip of DP / W)` (Wong, Theory of Ground Vehicles: a vehicle climbs up to the grade whose
 /// resistance `W sin(alpha)` its drawbar pull balances, with `DP / W` taken as independent of the load's
 /// `cos(alpha)`), in degrees, over [`GRADE_SLIPS`]. Wheel radius `r`, width `b`, load per wheel `load` N, time step
-/// `dt`, node spacing `delta`.
+/// `dt`, node spacing `delta`, `passes` wheels per track ([`WheelRig::passes`]: 2 for a two-axle vehicle, whose
+/// rear wheels run in the front wheels' ruts).
 pub fn predicted_grade_deg(
     soil: SoilParams,
     r: f64,
@@ -163,10 +173,12 @@ pub fn predicted_grade_deg(
     load: f64,
     dt: f64,
     delta: f64,
+    passes: usize,
 ) -> f64 {
     let mut rig = WheelRig::new(soil, r, b, load);
     rig.dt = dt;
     rig.spacing = delta;
+    rig.passes = passes;
     let best = GRADE_SLIPS
         .iter()
         .map(|&i| rig.run(Drive::Slip(i)).drawbar_pull / load)

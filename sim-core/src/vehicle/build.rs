@@ -196,6 +196,7 @@ impl Simulation {
                 .collect(),
             contacts: vec![WheelContact::default(); wheels.len()],
             ground_forces: vec![Vector3::zeros(); wheels.len()],
+            settle_time: 0.0,
             wheels,
             time: 0.0,
             pos: Vector3::zeros(),
@@ -213,40 +214,40 @@ impl Simulation {
 
     /// Puts the vehicle at rest on the ground at `(x, y)` with heading `yaw`: its pose comes from a plane fitted
     /// over the footprint ([`Simulation::footprint_plane`]; never from single samples, so one pit does not start a
-    /// task tilted), the wheels rest on it at static tyre deflection with no spin, raised where a rim sample would
-    /// start deeper in rough ground, and the vehicle then settles with its brakes on ([`Simulation::settle`]), as
+    /// task tilted), the wheels touch it with no spin, raised where a rim sample would start inside rough
+    /// ground, and the vehicle then settles with its brakes on ([`Simulation::settle`]), as
     /// the release drops its vehicle onto the ground. Time and step count start at zero afterwards.
     pub fn place(&mut self, x: f64, y: f64, yaw: f64) {
         let h = &self.world_patches.heightmap;
         let (centre_z, rot) = self.footprint_plane(x, y, yaw);
         self.rot = rot;
         let (up, fwd) = (rot * Vector3::z(), rot * Vector3::x());
-        let deflection = TYRE_STATIC_DEFLECTION * self.spec.scale;
-        let lift = self.radius - deflection + self.spec.chassis.com_height;
-        self.pos = Vector3::new(x, y, centre_z) + up * lift;
-        // On rough ground no wheel may start deeper in the terrain than its static deflection.
-        let mut raise: f64 = 0.0;
+        // The wheels hang at full droop (springs unloaded: the weight is ramped up in `settle`) and the lowest rim
+        // sample of all just touches the ground.
+        self.pos = Vector3::new(x, y, centre_z) + up * (self.radius + self.spec.chassis.com_height);
+        let axle = up.cross(&fwd);
+        let mut raise = f64::NEG_INFINITY;
         for wh in &self.wheels {
-            let centre = self.pos + self.rot * wh.hard;
-            let axle = up.cross(&fwd);
+            let centre =
+                self.pos + self.rot * (wh.hard - Vector3::new(0.0, 0.0, wh.static_compression.min(wh.travel)));
             for &(sin, cos) in &RIM_SIN_COS {
                 for lat in RIM_LATERAL {
-                    let p = centre
-                        + (fwd * sin - up * cos) * self.radius
-                        + axle * (lat * 0.5 * self.width);
-                    raise = raise.max((h.height_bilinear(p.x, p.y) - p.z) * cos - deflection);
+                    let p = centre + (fwd * sin - up * cos) * self.radius + axle * (lat * 0.5 * self.width);
+                    raise = raise.max((h.height_bilinear(p.x, p.y) - p.z) * cos);
                 }
             }
         }
-        self.pos += up * raise.max(0.0);
+        if raise.is_finite() {
+            self.pos += up * raise;
+        }
         self.vel = Vector3::zeros();
         self.omega = Vector3::zeros();
         for wh in &mut self.wheels {
-            wh.compression = wh.static_compression.min(wh.travel);
+            wh.compression = 0.0;
             wh.compression_rate = 0.0;
             wh.spin = 0.0;
             wh.bristle = [0.0; 2];
-            wh.deflection = deflection;
+            wh.deflection = 0.0;
             wh.from_soil = false;
             wh.rut_offset = 0.0;
         }
@@ -293,23 +294,36 @@ impl Simulation {
         (a, rot)
     }
 
-    /// Lets the vehicle come to rest on the ground with its brakes on and no throttle: steps until the chassis and
-    /// wheels have been still (speed below [`SETTLED_SPEED`]) for [`SETTLED_FOR`] seconds, at most [`SETTLE_MAX`]
-    /// seconds (all times scaled by sqrt(scale)); the soil sinks under the wheels meanwhile. Then time and step
-    /// count are set back to zero, so an episode starts at rest. Returns the settling time, s.
+    /// Lets the vehicle come to rest on the ground with its brakes on and no throttle: its weight is applied
+    /// gradually (gravity ramped up from zero over [`LOAD_RAMP`], so soft soil yields quasi-statically to its
+    /// static sinkage rather than the deeper one of an impact), then it steps until chassis and wheels have been
+    /// still (speed below [`SETTLED_SPEED`]) for [`SETTLED_FOR`] seconds, at most [`SETTLE_MAX`] seconds in all
+    /// (times scaled by sqrt(scale)). Then time and step count are set back to zero, so an episode starts at rest.
+    /// Returns the settling time, s.
     pub fn settle(&mut self) -> f64 {
         let brake = crate::planner::Action {
             steering: 0.0,
             throttle: 0.0,
             brake: 1.0,
         };
+        let free = crate::planner::Action {
+            brake: 0.0,
+            ..brake
+        };
         let time_scale = self.spec.scale.sqrt();
         let speed_scale = self.spec.scale.sqrt();
         let mut still = 0.0;
         self.time = 0.0;
         self.steps = 0;
-        while self.time < SETTLE_MAX * time_scale && still < SETTLED_FOR * time_scale {
-            self.step(&brake);
+        let gravity = self.gravity;
+        let ramp = LOAD_RAMP * time_scale;
+        while self.time < SETTLE_MAX * time_scale && (still < SETTLED_FOR * time_scale || self.time < ramp) {
+            // Smoothly (zero rate at both ends), so the ramp's end excites no rocking.
+            let t = (self.time / ramp).min(1.0);
+            self.gravity = gravity * (t * t * (3.0 - 2.0 * t));
+            // Brakes off while the weight comes on, so the wheels roll freely as the struts compress instead of
+            // winding up the soil's shear (which would rock the vehicle for seconds afterwards).
+            self.step(if t < 1.0 { &free } else { &brake });
             let moving = self.vel.norm().max(self.omega.norm() * self.radius).max(
                 self.wheels
                     .iter()
@@ -322,7 +336,9 @@ impl Simulation {
                 0.0
             };
         }
+        self.gravity = gravity;
         let settled = self.time;
+        self.settle_time = settled;
         self.time = 0.0;
         self.steps = 0;
         self.gear = 0;

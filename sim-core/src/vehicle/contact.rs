@@ -81,8 +81,11 @@ impl Simulation {
                 normal: n,
                 load: sc.normal,
                 sinkage: sc.sinkage,
-                k_normal: 0.0,
-                c_normal: 0.0,
+                // The soil's vertical Jacobians (elastic or Bekker tangent, damping R): the wheel's vertical DOF is
+                // implicit in them, so the soil's elastic stiffness is stable at the vehicle's step.
+                k_normal: sc.normal_stiffness,
+                c_normal: sc.normal_damping,
+                k_unload: sc.unloading_stiffness,
                 mu: 0.0,
                 tx,
                 ty,
@@ -157,6 +160,7 @@ impl Simulation {
             sinkage: depth,
             k_normal: self.tyre_k,
             c_normal: self.tyre_c,
+            k_unload: self.tyre_k,
             mu,
             tx,
             ty,

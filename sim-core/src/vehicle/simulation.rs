@@ -38,11 +38,15 @@ pub(super) const UNSPRUNG_FRACTION: f64 = 0.04;
 /// Samples per side of the grid over the footprint to which the start pose's plane is fitted.
 pub(super) const FOOTPRINT_SAMPLES: usize = 5;
 /// Settling at the start (scaled by sqrt(scale)): at most this long, s ...
-pub const SETTLE_MAX: f64 = 3.0;
+pub const SETTLE_MAX: f64 = 10.0;
 /// ... until every part moved slower than this for [`SETTLED_FOR`], m/s ...
 pub const SETTLED_SPEED: f64 = 2e-3;
 /// ... seconds.
 pub const SETTLED_FOR: f64 = 0.25;
+/// Time over which [`Simulation::settle`] ramps gravity up from zero, s (times sqrt(scale)): more than twice the
+/// longest heave period on soft soil (about 0.9 s on snow), so the soil yields quasi-statically to its static
+/// sinkage rather than the deeper one of an impact.
+pub const LOAD_RAMP: f64 = 2.0;
 /// Bump-stop stiffness as a multiple of the suspension spring rate.
 pub(super) const BUMP_STOP_STIFFNESS: f64 = 20.0;
 /// Steps between refreshes of the obstacle near list (its radius has 15 m of slack at full scale: 80 ms at 30 m/s
@@ -190,6 +194,8 @@ pub struct Simulation {
     pub(super) contacts: Vec<WheelContact>,
     /// Ground force on each wheel in the last step, world frame (for [`WheelReport`]).
     pub(super) ground_forces: Vec<Vector3<f64>>,
+    /// How long the last [`Simulation::settle`] took, s.
+    pub(super) settle_time: f64,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -204,6 +210,8 @@ pub(super) struct WheelContact {
     /// it (tyre deflection or soil), N/m and N s/m: the Jacobian of the wheel's implicit vertical update.
     pub(super) k_normal: f64,
     pub(super) c_normal: f64,
+    /// Stiffness for a wheel moving out of the ground (soil: elastic unloading; tyre: `k_normal`), N/m.
+    pub(super) k_unload: f64,
     /// Sinkage below the undeformed soil surface (soil) or tyre deflection (rigid ground), m.
     pub(super) sinkage: f64,
     pub(super) mu: f64,

@@ -42,6 +42,11 @@ impl Simulation {
         self.gravity
     }
 
+    /// How long the vehicle took to settle when it was last placed ([`Simulation::settle`]), s.
+    pub fn settle_time(&self) -> f64 {
+        self.settle_time
+    }
+
     /// Gear engaged (0 = first).
     pub fn gear(&self) -> usize {
         self.gear

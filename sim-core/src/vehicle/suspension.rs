@@ -44,12 +44,17 @@ impl Simulation {
             let gvec = self.gravity * self.unsprung;
             let along = (ground + gvec - self.unsprung * a_rel).dot(&frame.up);
             let n_up = c.normal.dot(&frame.up);
+            let wm = &mut self.wheels[k];
+            // Sinking into soil, the soil yields along its soft plastic tangent; at rest or rising its pressed nodes
+            // unload along the stiff elastic line: the Jacobian of the branch the wheel is moving along.
+            let hard_velocity = self.vel + frame.omega_w.cross(&(hard_world - self.pos));
+            let sinking = (hard_velocity + frame.up * wm.compression_rate).dot(&c.normal) < 0.0;
+            let k_contact = if sinking { c.k_normal } else { c.k_unload };
             let (k_ground, c_ground) = if c.active {
-                (c.k_normal * n_up * n_up, c.c_normal * n_up * n_up)
+                (k_contact * n_up * n_up, c.c_normal * n_up * n_up)
             } else {
                 (0.0, 0.0)
             };
-            let wm = &mut self.wheels[k];
             let f_spring = wm.spring * wm.compression + wm.damper * wm.compression_rate;
             let (bump, k_bump) = if wm.compression > wm.travel {
                 (
