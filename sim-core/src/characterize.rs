@@ -220,16 +220,23 @@ pub fn braking(spec: &VehicleSpec, setup: &Setup) -> f64 {
     (v0 * v0 - v * v) / (2.0 * d) / G
 }
 
-/// Whether the vehicle climbs a grade of `deg` from rest at full throttle: still climbing at least 0.2 m/s (times
-/// sqrt(scale)) on average over the last 5 s of 20 s.
+/// Whether the vehicle climbs a grade of `deg` from rest at full throttle: after 20 s it is upright on the slope
+/// (its up axis within 30 degrees of the slope's normal), has gained at least 3 m (times scale) along the slope
+/// from its settled start, and is still climbing at least 0.2 m/s (times sqrt(scale)) on average over the last 5 s.
 pub fn climbs(spec: &VehicleSpec, setup: &Setup, deg: f64) -> bool {
     let world = test_world(setup.ground, deg, spec.scale);
     let mut sim = new_sim(&world, spec, setup, -100.0);
+    let along = |s: &Simulation| s.position().x / deg.to_radians().cos();
+    let start = along(&sim);
     drive(&mut sim, 15.0, |s| act(hold_heading(s), 1.0, 0.0));
-    let x = sim.position().x;
+    let x = along(&sim);
     drive(&mut sim, 5.0, |s| act(hold_heading(s), 1.0, 0.0));
-    let climbed = (sim.position().x - x) / deg.to_radians().cos();
-    climbed >= 0.2 * 5.0 * spec.scale
+    let a = deg.to_radians();
+    let slope_normal = Vector3::new(-a.sin(), 0.0, a.cos());
+    let upright = (sim.orientation() * Vector3::z()).dot(&slope_normal) > 30f64.to_radians().cos();
+    let end = along(&sim);
+    // 0.2 m/s for 5 s, both scaled by sqrt(scale): 1 m times scale.
+    upright && end - start >= 3.0 * spec.scale && end - x >= 1.0 * spec.scale
 }
 
 /// The steepest climbable grade, degrees, by bisection to 0.1 degree between 0 and 60.
@@ -320,22 +327,31 @@ pub fn turning_radius(spec: &VehicleSpec, setup: &Setup, steer: f64) -> Option<f
     (yaw_rate.abs() > 1e-6 && speed > 0.5 * target).then(|| speed / yaw_rate.abs())
 }
 
+/// How a table row formats one datasheet.
+type Cell = fn(&Datasheet) -> String;
+
 /// The datasheets as a text table, one column per sheet.
 pub fn table(sheets: &[Datasheet]) -> String {
     use std::fmt::Write;
-    let rows: [(&str, fn(&Datasheet) -> String); 16] = [
+    let rows: [(&str, Cell); 16] = [
         ("surface", |d| d.surface.to_string()),
         ("time step", |d| format!("{:.2} ms", d.dt * 1e3)),
         ("settling time", |d| format!("{:.2} s", d.settle_time)),
-        ("static sinkage", |d| format!("{:.1} mm", d.static_sinkage * 1e3)),
+        ("static sinkage", |d| {
+            format!("{:.1} mm", d.static_sinkage * 1e3)
+        }),
         ("CoG above ground", |d| format!("{:.3} m", d.ride_height)),
         ("speed at 2 s", |d| format!("{:.2} m/s", d.speed_at[0].1)),
         ("speed at 5 s", |d| format!("{:.2} m/s", d.speed_at[1].1)),
         ("speed at 10 s", |d| format!("{:.2} m/s", d.speed_at[2].1)),
         ("speed at 20 s", |d| format!("{:.2} m/s", d.speed_at[3].1)),
         ("distance at 20 s", |d| format!("{:.1} m", d.distance_20s)),
-        ("braking from 10 m/s", |d| format!("{:.3} g", d.braking_decel_g)),
-        ("steepest grade", |d| format!("{:.2} deg", d.climb_grade_deg)),
+        ("braking from 10 m/s", |d| {
+            format!("{:.3} g", d.braking_decel_g)
+        }),
+        ("steepest grade", |d| {
+            format!("{:.2} deg", d.climb_grade_deg)
+        }),
         ("side slope: slides", |d| opt_deg(d.slide_angle_deg)),
         ("side slope: tips", |d| opt_deg(d.tip_angle_deg)),
         ("turn radius, half steer", |d| opt_m(d.turn_radius_half)),

@@ -115,9 +115,15 @@ fn a_mirrored_world_gives_the_mirrored_trajectory_under_mirrored_actions() {
                 }
             }
             let soil = a.soil().touched_tiles();
-            eprintln!("{vehicle}, {seconds} s, {soil} soil tiles: largest mirror difference {worst:e}");
+            eprintln!(
+                "{vehicle}, {seconds} s, {soil} soil tiles: largest mirror difference {worst:e}"
+            );
             assert!(worst < 1e-9, "{vehicle}: mirror difference {worst:e}");
-            assert!(a.position().x > x0 + 5.0, "{vehicle} drove: {:?}", a.position());
+            assert!(
+                a.position().x > x0 + 5.0,
+                "{vehicle} drove: {:?}",
+                a.position()
+            );
         }
     }
     // The soil run did drive on soil.

@@ -6,10 +6,22 @@ use std::process::Command;
 #[test]
 fn characterize_prints_a_datasheet_whose_braking_is_mu_g() {
     let out = Command::new(common::vb())
-        .args(["sim", "characterize", "--vehicle", "hmmwv", "--surface", "rigid", "--json"])
+        .args([
+            "sim",
+            "characterize",
+            "--vehicle",
+            "hmmwv",
+            "--surface",
+            "rigid",
+            "--json",
+        ])
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let sheets: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let d = &sheets[0];
     assert_eq!(d["vehicle"], "hmmwv");
@@ -22,9 +34,14 @@ fn characterize_prints_a_datasheet_whose_braking_is_mu_g() {
     let grade = d["climb_grade_deg"].as_f64().unwrap();
     assert!(grade <= 40.7 && grade > 30.0, "grade {grade}");
     // Speeds rise with time under full throttle; the full-steer circle is tighter than the half-steer one.
-    let speeds: Vec<f64> = (0..4).map(|k| d["speed_at"][k][1].as_f64().unwrap()).collect();
+    let speeds: Vec<f64> = (0..4)
+        .map(|k| d["speed_at"][k][1].as_f64().unwrap())
+        .collect();
     assert!(speeds.windows(2).all(|w| w[1] > w[0]), "{speeds:?}");
-    let (half, full) = (d["turn_radius_half"].as_f64().unwrap(), d["turn_radius_full"].as_f64().unwrap());
+    let (half, full) = (
+        d["turn_radius_half"].as_f64().unwrap(),
+        d["turn_radius_full"].as_f64().unwrap(),
+    );
     assert!(full < half, "radius half {half} full {full}");
     // The table form names every scenario.
     let out = Command::new(common::vb())
@@ -32,7 +49,13 @@ fn characterize_prints_a_datasheet_whose_braking_is_mu_g() {
         .output()
         .unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
-    for row in ["static sinkage", "distance at 20 s", "steepest grade", "side slope: tips", "turn radius, full steer"] {
+    for row in [
+        "static sinkage",
+        "distance at 20 s",
+        "steepest grade",
+        "side slope: tips",
+        "turn radius, full steer",
+    ] {
         assert!(text.contains(row), "{row} missing:\n{text}");
     }
 }

@@ -79,6 +79,8 @@ pub struct SoilContact {
     /// elastic, `tau_max |rho| / (K |rho_trial|)` on yield). Slip at speed `v` for one step adds `v dt` to `j`, hence the `dt`. For a wheel the
     /// torque's derivative is `d(torque about the axle)/d(spin) = -r^2 traction_stiffness`.
     pub traction_stiffness: f64,
+    /// Mohr-Coulomb shear capacity of the contact, `sum (c + sigma tan phi) A` over the pressed nodes, N.
+    pub shear_capacity: f64,
     /// For implicit vertical integration: `-d(F_z)/d(z_c)`, the derivative of the vertical soil force with respect to
     /// a vertical displacement `z_c` of the body (all nodes keep their hit, their sinkage changes by `-dz_c`),
     /// towards the soil, N/m: per node `w delta^2 d(sigma)/d(s)` on the branch the node is on, `K_e` elastic,

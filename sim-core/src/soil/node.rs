@@ -143,6 +143,7 @@ impl SoilGrid {
         out.force += f;
         out.torque += (p - centre).cross(&f);
         out.normal += sigma * area;
+        out.shear_capacity += tau_max * area;
         out.sinkage = out.sinkage.max(s);
         out.nodes += 1;
         // d|tau|/dj along the mobilised shear (elastic: tau_max / K; on yield: Janosi's slope) and across it.

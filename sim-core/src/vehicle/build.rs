@@ -175,7 +175,7 @@ impl Simulation {
             wheel_inertia: spec.wheels.inertia,
             tyre_mu: spec.wheels.mu,
             bristle_k,
-            bristle_c: 2.0 * 0.7 * (bristle_k * total / n).sqrt(),
+            bristle_c: 2.0 * BRISTLE_DAMPING_RATIO * (bristle_k * total / n).sqrt(),
             tyre_k,
             tyre_c: 2.0 * 0.5 * (tyre_k * unsprung).sqrt(),
             body_points,
@@ -197,6 +197,7 @@ impl Simulation {
             contacts: vec![WheelContact::default(); wheels.len()],
             ground_forces: vec![Vector3::zeros(); wheels.len()],
             settle_time: 0.0,
+            spin_before: vec![0.0; wheels.len()],
             wheels,
             time: 0.0,
             pos: Vector3::zeros(),
@@ -228,11 +229,14 @@ impl Simulation {
         let axle = up.cross(&fwd);
         let mut raise = f64::NEG_INFINITY;
         for wh in &self.wheels {
-            let centre =
-                self.pos + self.rot * (wh.hard - Vector3::new(0.0, 0.0, wh.static_compression.min(wh.travel)));
+            let centre = self.pos
+                + self.rot
+                    * (wh.hard - Vector3::new(0.0, 0.0, wh.static_compression.min(wh.travel)));
             for &(sin, cos) in &RIM_SIN_COS {
                 for lat in RIM_LATERAL {
-                    let p = centre + (fwd * sin - up * cos) * self.radius + axle * (lat * 0.5 * self.width);
+                    let p = centre
+                        + (fwd * sin - up * cos) * self.radius
+                        + axle * (lat * 0.5 * self.width);
                     raise = raise.max((h.height_bilinear(p.x, p.y) - p.z) * cos);
                 }
             }
@@ -298,17 +302,15 @@ impl Simulation {
     /// gradually (gravity ramped up from zero over [`LOAD_RAMP`], so soft soil yields quasi-statically to its
     /// static sinkage rather than the deeper one of an impact), then it steps until chassis and wheels have been
     /// still (speed below [`SETTLED_SPEED`]) for [`SETTLED_FOR`] seconds, at most [`SETTLE_MAX`] seconds in all
-    /// (times scaled by sqrt(scale)). Then time and step count are set back to zero, so an episode starts at rest.
+    /// (times scaled by sqrt(scale)). Meanwhile the chassis moves only vertically (pose and horizontal position
+    /// held; the wheels follow the ground on their suspension). Then time and step count are set back to zero, so an episode starts at rest.
     /// Returns the settling time, s.
     pub fn settle(&mut self) -> f64 {
+        let (x, y) = (self.pos.x, self.pos.y);
         let brake = crate::planner::Action {
             steering: 0.0,
             throttle: 0.0,
             brake: 1.0,
-        };
-        let free = crate::planner::Action {
-            brake: 0.0,
-            ..brake
         };
         let time_scale = self.spec.scale.sqrt();
         let speed_scale = self.spec.scale.sqrt();
@@ -317,13 +319,22 @@ impl Simulation {
         self.steps = 0;
         let gravity = self.gravity;
         let ramp = LOAD_RAMP * time_scale;
-        while self.time < SETTLE_MAX * time_scale && (still < SETTLED_FOR * time_scale || self.time < ramp) {
+        while self.time < SETTLE_MAX * time_scale
+            && (still < SETTLED_FOR * time_scale || self.time < ramp)
+        {
             // Smoothly (zero rate at both ends), so the ramp's end excites no rocking.
             let t = (self.time / ramp).min(1.0);
             self.gravity = gravity * (t * t * (3.0 - 2.0 * t));
-            // Brakes off while the weight comes on, so the wheels roll freely as the struts compress instead of
-            // winding up the soil's shear (which would rock the vehicle for seconds afterwards).
-            self.step(if t < 1.0 { &free } else { &brake });
+            self.step(&brake);
+            // Held as a crane holds a load: the chassis only moves vertically (its pose stays the footprint
+            // plane's; the wheels follow the ground on their suspension), so a vehicle placed where it cannot stand
+            // (a slope steeper than its friction or tipping angle) is put down there and slides or tips in the
+            // episode, not before it.
+            self.pos.x = x;
+            self.pos.y = y;
+            self.vel.x = 0.0;
+            self.vel.y = 0.0;
+            self.omega = Vector3::zeros();
             let moving = self.vel.norm().max(self.omega.norm() * self.radius).max(
                 self.wheels
                     .iter()

@@ -49,7 +49,8 @@ impl Simulation {
         let axle = up.cross(&heading).normalize();
         let h = &self.world_patches.heightmap;
         if let Some(_soil) = self.soil.soil_at(centre.x, centre.y) {
-            let vel = self.vel + omega_w.cross(&(centre - self.pos));
+            // The wheel centre moves with the chassis and along the strut (its own vertical DOF).
+            let vel = self.vel + omega_w.cross(&(centre - self.pos)) + up * w.compression_rate;
             let spin_vec = axle * w.spin + omega_w;
             let sc = self.soil.wheel_contact(
                 &WheelGeometry {
@@ -93,6 +94,7 @@ impl Simulation {
                 // torque about the axle is approximated that way).
                 soil_force: sc.force,
                 soil_stiffness: sc.traction_stiffness,
+                shear_capacity: sc.shear_capacity,
                 r_eff: self.radius,
             };
         }
@@ -166,6 +168,7 @@ impl Simulation {
             ty,
             soil_force: Vector3::zeros(),
             soil_stiffness: 0.0,
+            shear_capacity: 0.0,
             r_eff: (self.radius - depth).max(0.5 * self.radius),
         }
     }

@@ -78,6 +78,9 @@ impl Simulation {
     /// stiffness (linearly implicit, so stiff friction is stable), then the brakes' Coulomb torque (which stops a
     /// wheel exactly instead of reversing it). Returns the drive power, W.
     pub(super) fn update_spins(&mut self, dt: f64) -> f64 {
+        for (before, w) in self.spin_before.iter_mut().zip(&self.wheels) {
+            *before = w.spin;
+        }
         let mut power = 0.0;
         for g in 0..self.groups {
             let den = self.group_den[g];

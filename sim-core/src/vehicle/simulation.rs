@@ -42,11 +42,16 @@ pub const SETTLE_MAX: f64 = 10.0;
 /// ... until every part moved slower than this for [`SETTLED_FOR`], m/s ...
 pub const SETTLED_SPEED: f64 = 2e-3;
 /// ... seconds.
-pub const SETTLED_FOR: f64 = 0.25;
+pub const SETTLED_FOR: f64 = 1.0;
 /// Time over which [`Simulation::settle`] ramps gravity up from zero, s (times sqrt(scale)): more than twice the
 /// longest heave period on soft soil (about 0.9 s on snow), so the soil yields quasi-statically to its static
 /// sinkage rather than the deeper one of an impact.
 pub const LOAD_RAMP: f64 = 2.0;
+/// Damping ratio of the tyre's bristle on rigid ground and of the soil's elastic shear (of critical, for the
+/// wheel's share of the vehicle's mass).
+pub(super) const BRISTLE_DAMPING_RATIO: f64 = 0.7;
+/// Slip speed above which the soil's shear damping fades out, m/s (times sqrt(scale)).
+pub(super) const SHEAR_DAMPING_SPEED: f64 = 0.05;
 /// Bump-stop stiffness as a multiple of the suspension spring rate.
 pub(super) const BUMP_STOP_STIFFNESS: f64 = 20.0;
 /// Steps between refreshes of the obstacle near list (its radius has 15 m of slack at full scale: 80 ms at 30 m/s
@@ -194,6 +199,8 @@ pub struct Simulation {
     pub(super) contacts: Vec<WheelContact>,
     /// Ground force on each wheel in the last step, world frame (for [`WheelReport`]).
     pub(super) ground_forces: Vec<Vector3<f64>>,
+    /// Each wheel's spin before this step's spin update (scratch).
+    pub(super) spin_before: Vec<f64>,
     /// How long the last [`Simulation::settle`] took, s.
     pub(super) settle_time: f64,
 }
@@ -220,6 +227,8 @@ pub(super) struct WheelContact {
     /// Force on the wheel from the ground (soil: complete), world.
     pub(super) soil_force: Vector3<f64>,
     pub(super) soil_stiffness: f64,
+    /// The soil's Mohr-Coulomb shear capacity over the contact, N.
+    pub(super) shear_capacity: f64,
     pub(super) r_eff: f64,
 }
 

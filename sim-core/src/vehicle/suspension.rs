@@ -25,7 +25,17 @@ impl Simulation {
             let mut ground = Vector3::zeros();
             if c.active {
                 if c.soil {
-                    ground = c.soil_force;
+                    // The soil's force at the new spin, linearised as in the implicit spin update (the wheel felt
+                    // this reaction; the chassis must get the same force, or momentum leaks between them).
+                    let w = &self.wheels[k];
+                    let spin_change = w.spin - self.spin_before[k];
+                    let v_p = self.vel + frame.omega_w.cross(&(c.point - self.pos));
+                    let vsx = v_p.dot(&c.tx) - w.spin * c.r_eff;
+                    let vsy = v_p.dot(&c.ty);
+                    let (damping, _) = self.soil_shear_damping(&c, vsx, vsy, frame.dt);
+                    ground = c.soil_force
+                        + c.tx * (c.soil_stiffness * c.r_eff * spin_change + damping[0])
+                        + c.ty * damping[1];
                 } else {
                     let w = &self.wheels[k];
                     let v_p = self.vel + frame.omega_w.cross(&(c.point - self.pos));

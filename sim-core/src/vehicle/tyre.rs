@@ -31,16 +31,52 @@ impl Simulation {
                 continue;
             }
             let v_p = self.vel + frame.omega_w.cross(&(c.point - self.pos));
+            let vsx = v_p.dot(&c.tx) - w.spin * c.r_eff;
+            let vsy = v_p.dot(&c.ty);
             let (fx0, kx) = if c.soil {
-                (c.soil_force.dot(&c.tx), c.soil_stiffness)
+                let (damping, c_t) = self.soil_shear_damping(&c, vsx, vsy, dt);
+                (c.soil_force.dot(&c.tx) + damping[0], c.soil_stiffness + c_t)
             } else {
-                let vsx = v_p.dot(&c.tx) - w.spin * c.r_eff;
-                let vsy = v_p.dot(&c.ty);
                 let t = self.tyre_force(w, &c, vsx, vsy, dt);
                 (t.force[0], t.stiffness)
             };
             self.group_num[g] -= fx0 * c.r_eff;
             self.group_den[g] += dt * kx * c.r_eff * c.r_eff;
+        }
+    }
+
+    /// Damping of the soil's elastic shear, as the rigid tyre's bristle damping (LuGre's sigma_1): the pressed
+    /// nodes' shear acts as a bristle of stiffness `k = traction_stiffness / dt` (Janosi's initial slope
+    /// `tau_max / K` over the contact); its slip velocity `(vsx, vsy)` is damped at [`BRISTLE_DAMPING_RATIO`] of
+    /// critical for the wheel's share of the vehicle's mass, and the damped shear stays within the contact's
+    /// Mohr-Coulomb capacity. Without it the elastic shear is undamped and a parked vehicle rocks on it (3 Hz for
+    /// the HMMWV on mud) and ratchets into the soil. The damping fades out above creep speeds. Returns the force `[fx, fy]` in the contact frame and its
+    /// derivative with respect to `vsx` (0 where capped).
+    pub(super) fn soil_shear_damping(
+        &self,
+        c: &WheelContact,
+        vsx: f64,
+        vsy: f64,
+        dt: f64,
+    ) -> ([f64; 2], f64) {
+        // Rounding can leave a saturated contact's stiffness a hair below zero.
+        let k = (c.soil_stiffness / dt).max(0.0);
+        let share = self.total_mass / self.wheels.len() as f64;
+        // Damping only at creep speeds: it fades as exp(-(v / v_d)^2) (the velocity-dependent bristle damping of
+        // Olsson et al., Friction models and friction compensation, Eur. J. Control 4, 1998, eq. 24), so a sliding
+        // or spinning wheel gets the soil's Janosi shear alone.
+        let v_d = SHEAR_DAMPING_SPEED * self.spec.scale.sqrt();
+        let fade = (-(vsx * vsx + vsy * vsy) / (v_d * v_d)).exp();
+        let coefficient = 2.0 * BRISTLE_DAMPING_RATIO * (k * share).sqrt() * fade;
+        let f = [-coefficient * vsx, -coefficient * vsy];
+        let shear = c.soil_force - c.normal * c.soil_force.dot(&c.normal);
+        let room = (c.shear_capacity - shear.norm()).max(0.0);
+        let norm = f[0].hypot(f[1]);
+        if norm > room {
+            let s = if norm > 0.0 { room / norm } else { 0.0 };
+            ([f[0] * s, f[1] * s], 0.0)
+        } else {
+            (f, coefficient)
         }
     }
 
