@@ -31,10 +31,16 @@
 //!    `w delta^2 sigma tan(theta)`, the compaction resistance `b integral sigma dz`; Chrono's SCM takes
 //!    `A = delta^2`, which differs by `cos(theta)` on the arc). `N_z` is floored at 0.1.
 //!
+//! A wheel's contact is also swept over the step: a node that the rim's lowest point passed over between the wheel's
+//! previous and current position is yielded as deep as that point went (`SoilGrid::yield_node`), so the ruts of a
+//! fast wheel do not depend on which of the node's positions under the wheel the steps happen to catch (at 30 m/s
+//! the wheel moves 12 cm per 4 ms step, more than a node spacing).
+//!
 //! Compaction (motion) resistance, sinkage and traction loss are not added by hand: they emerge from this law. The
 //! contact also returns the Jacobians a vehicle needs to integrate a wheel's spin and vertical motion linearly
 //! implicitly ([`SoilContact::traction_stiffness`], [`SoilContact::normal_stiffness`],
-//! [`SoilContact::normal_damping`]). [`rig`] is a single-wheel test rig on this model.
+//! [`SoilContact::normal_damping`], [`SoilContact::unloading_stiffness`]) and the shear capacity the vehicle's shear
+//! damping respects ([`SoilContact::shear_capacity`]). [`rig`] is a single-wheel test rig on this model.
 //!
 //! API (called by the vehicle model once per wheel / track shoe and step, after [`SoilGrid::begin_step`]):
 //! [`SoilGrid::new`] (allocates everything), [`SoilGrid::soil_at`] / [`SoilGrid::has_soil_at`] ("no soil here"
