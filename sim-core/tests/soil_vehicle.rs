@@ -4,7 +4,7 @@
 
 use sim_core::characterize::{self, Ground, Setup};
 use sim_core::planner::Action;
-use sim_core::soil::rig::predicted_grade_deg;
+use sim_core::soil::rig::{bekker_static_sinkage, predicted_grade_deg};
 use sim_core::vehicle::{default_dt, vehicle_by_name, SimOptions};
 use sim_core::world::SoilParams;
 use sim_core::Simulation;
@@ -138,33 +138,6 @@ fn a_braked_vehicle_settles_on_soil_and_then_stays_put() {
             }
         }
     }
-}
-
-/// Static sinkage of a rigid wheel (radius r, width b) carrying `load` on Bekker soil: the z0 at which
-/// `b (k_c / b + k_phi) integral over the chord of (z0 - (r - sqrt(r^2 - x^2)))^n dx` equals the load (bisection).
-fn bekker_static_sinkage(soil: SoilParams, r: f64, b: f64, load: f64) -> f64 {
-    let k = soil.k_c / b + soil.k_phi;
-    let carried = |z0: f64| {
-        let half = (r * r - (r - z0).powi(2)).sqrt();
-        let n = 4000;
-        (0..n)
-            .map(|i| {
-                let x = -half + (i as f64 + 0.5) * 2.0 * half / n as f64;
-                let z = z0 - (r - (r * r - x * x).sqrt());
-                b * k * z.max(0.0).powf(soil.n) * 2.0 * half / n as f64
-            })
-            .sum::<f64>()
-    };
-    let (mut lo, mut hi) = (0.0, r);
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if carried(mid) < load {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    lo
 }
 
 #[test]

@@ -185,3 +185,33 @@ pub fn predicted_grade_deg(
         .fold(f64::NEG_INFINITY, f64::max);
     best.atan().to_degrees()
 }
+
+/// Load carried by a rigid wheel (radius `r`, width `b`) pressed statically to sinkage `z0` into Bekker soil: the
+/// pressure-sinkage law `p = (k_c / b + k_phi) z^n` integrated over the whole contact chord (Bekker; Wong, Theory
+/// of Ground Vehicles, the static rigid wheel), by the midpoint rule on 20 000 intervals.
+pub fn bekker_static_load(soil: SoilParams, r: f64, b: f64, z0: f64) -> f64 {
+    let k = soil.k_c / b + soil.k_phi;
+    let half = (r * r - (r - z0).powi(2)).max(0.0).sqrt();
+    let n = 20_000;
+    (0..n)
+        .map(|i| {
+            let x = -half + (i as f64 + 0.5) * 2.0 * half / n as f64;
+            let z = z0 - (r - (r * r - x * x).sqrt());
+            b * k * z.max(0.0).powf(soil.n) * 2.0 * half / n as f64
+        })
+        .sum()
+}
+
+/// The static sinkage under which [`bekker_static_load`] carries `load`, m (bisection to 1e-12 m).
+pub fn bekker_static_sinkage(soil: SoilParams, r: f64, b: f64, load: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0, r);
+    while hi - lo > 1e-12 {
+        let mid = 0.5 * (lo + hi);
+        if bekker_static_load(soil, r, b, mid) < load {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}

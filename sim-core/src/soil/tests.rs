@@ -39,20 +39,7 @@ fn static_sinkage(soil: SoilParams, load: f64) -> f64 {
     sink
 }
 
-/// Load carried by a rigid wheel (radius r, width b) pressed statically to sinkage z0 into Bekker soil: the
-/// pressure-sinkage law `p = (k_c / b + k_phi) z^n` integrated over the whole contact chord (continuous formula).
-fn bekker_static_load(soil: SoilParams, r: f64, b: f64, z0: f64) -> f64 {
-    let k = soil.k_c / b + soil.k_phi;
-    let half = (r * r - (r - z0).powi(2)).sqrt();
-    let n = 20_000;
-    (0..n)
-        .map(|i| {
-            let x = -half + (i as f64 + 0.5) * 2.0 * half / n as f64;
-            let z = z0 - (r - (r * r - x * x).sqrt());
-            b * k * z.max(0.0).powf(soil.n) * 2.0 * half / n as f64
-        })
-        .sum()
-}
+use super::rig::bekker_static_load;
 
 #[test]
 fn static_sinkage_of_a_loaded_wheel_matches_bekker_within_10_percent() {

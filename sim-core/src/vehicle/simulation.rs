@@ -52,6 +52,10 @@ pub const LOAD_RAMP: f64 = 2.0;
 pub(super) const BRISTLE_DAMPING_RATIO: f64 = 0.7;
 /// Slip speed above which the soil's shear damping fades out, m/s (times sqrt(scale)).
 pub(super) const SHEAR_DAMPING_SPEED: f64 = 0.05;
+/// Magic-Formula coefficients of the handling tyre (Pacejka's dry-tarmac set: stiffness, shape, curvature).
+pub(super) const MF_B: f64 = 10.0;
+pub(super) const MF_C: f64 = 1.9;
+pub(super) const MF_E: f64 = 0.97;
 /// Bump-stop stiffness as a multiple of the suspension spring rate.
 pub(super) const BUMP_STOP_STIFFNESS: f64 = 20.0;
 /// Steps between refreshes of the obstacle near list (its radius has 15 m of slack at full scale: 80 ms at 30 m/s
