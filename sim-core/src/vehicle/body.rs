@@ -41,7 +41,7 @@ impl Simulation {
                 let vt = v - n * vn;
                 let vtn = vt.norm();
                 let ft = if vtn > 1e-9 {
-                    -vt / vtn.max(0.05 * self.spec.scale.sqrt()) * ground_mu * fnrm
+                    -vt / vtn.max(BODY_FRICTION_SPEED * self.spec.scale.sqrt()) * ground_mu * fnrm
                 } else {
                     Vector3::zeros()
                 };
@@ -55,12 +55,15 @@ impl Simulation {
             {
                 let vn = v.dot(&oc.normal);
                 let fnrm = (self.obstacle_k * oc.depth
-                    - 2.0 * 0.5 * (self.obstacle_k * self.mass).sqrt() * vn.min(0.0))
+                    - 2.0
+                        * OBSTACLE_DAMPING_RATIO
+                        * (self.obstacle_k * self.mass).sqrt()
+                        * vn.min(0.0))
                 .max(0.0);
                 let vt = v - oc.normal * vn;
                 let vtn = vt.norm();
                 let ft = if vtn > 1e-9 {
-                    -vt / vtn.max(0.05) * 0.5 * fnrm
+                    -vt / vtn.max(BODY_FRICTION_SPEED) * OBSTACLE_FRICTION * fnrm
                 } else {
                     Vector3::zeros()
                 };
@@ -87,7 +90,10 @@ impl Simulation {
                 let v = self.vel + frame.omega_w.cross(&(centre - self.pos));
                 let vn = v.dot(&oc.normal);
                 let fnrm = (self.obstacle_k * oc.depth
-                    - 2.0 * 0.5 * (self.obstacle_k * self.mass).sqrt() * vn.min(0.0))
+                    - 2.0
+                        * OBSTACLE_DAMPING_RATIO
+                        * (self.obstacle_k * self.mass).sqrt()
+                        * vn.min(0.0))
                 .max(0.0);
                 let f = oc.normal * fnrm;
                 wrench.force += f;

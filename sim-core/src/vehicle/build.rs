@@ -125,8 +125,8 @@ impl Simulation {
         let inertia = Matrix3::from_diagonal(&Vector3::new(i[0], i[1], i[2]));
         let static_load = total * G / n;
         let tyre_k = static_load / (TYRE_STATIC_DEFLECTION * scale);
-        let bristle_k = static_load / (0.005 * scale);
-        let body_k = total * G / (0.02 * scale) / 4.0;
+        let bristle_k = static_load / (BRISTLE_STATIC_DEFLECTION * scale);
+        let body_k = total * G / (BODY_CONTACT_DEFLECTION * scale) / 4.0;
         let [l, w, h] = spec.chassis.size;
         let bottom = -spec.chassis.com_height - spec.wheels.radius + spec.chassis.ground_clearance;
         let mut body_points = Vec::new();
@@ -177,11 +177,11 @@ impl Simulation {
             bristle_k,
             bristle_c: 2.0 * BRISTLE_DAMPING_RATIO * (bristle_k * total / n).sqrt(),
             tyre_k,
-            tyre_c: 2.0 * 0.5 * (tyre_k * unsprung).sqrt(),
+            tyre_c: 2.0 * TYRE_DAMPING_RATIO * (tyre_k * unsprung).sqrt(),
             body_points,
             body_k,
-            body_c: 2.0 * 0.7 * (body_k * total / 4.0).sqrt(),
-            obstacle_k: total * G / (0.002 * scale),
+            body_c: 2.0 * BODY_DAMPING_RATIO * (body_k * total / 4.0).sqrt(),
+            obstacle_k: total * G / (OBSTACLE_CONTACT_DEFLECTION * scale),
             groups,
             group_torque: vec![0.0; groups],
             group_num: vec![0.0; groups],
@@ -360,6 +360,6 @@ impl Simulation {
     pub(super) fn reach(&self) -> f64 {
         0.5 * self.spec.chassis.size[0].hypot(self.spec.chassis.size[1])
             + self.radius
-            + 15.0 * self.spec.scale
+            + OBSTACLE_NEAR_SLACK * self.spec.scale
     }
 }

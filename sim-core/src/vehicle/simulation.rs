@@ -56,6 +56,23 @@ pub(super) const SHEAR_DAMPING_SPEED: f64 = 0.05;
 pub(super) const MF_B: f64 = 10.0;
 pub(super) const MF_C: f64 = 1.9;
 pub(super) const MF_E: f64 = 0.97;
+/// Deflection under the static load per wheel (times scale) that sets the rigid tyre's bristle stiffness, m.
+pub(super) const BRISTLE_STATIC_DEFLECTION: f64 = 0.005;
+/// Penetration under the whole weight on four points (times scale) that sets the body-ground contact stiffness, m.
+pub(super) const BODY_CONTACT_DEFLECTION: f64 = 0.02;
+/// Penetration under the whole weight (times scale) that sets the obstacle contact stiffness, m.
+pub(super) const OBSTACLE_CONTACT_DEFLECTION: f64 = 0.002;
+/// Damping ratios (of critical) of the tyre's vertical deflection, the body-ground and the obstacle contacts.
+pub(super) const TYRE_DAMPING_RATIO: f64 = 0.5;
+pub(super) const BODY_DAMPING_RATIO: f64 = 0.7;
+pub(super) const OBSTACLE_DAMPING_RATIO: f64 = 0.5;
+/// Sliding speed (times sqrt(scale)) below which the body's Coulomb friction is regularised (linear in speed), m/s.
+pub(super) const BODY_FRICTION_SPEED: f64 = 0.05;
+/// Coulomb friction between the body and rocks or trees (regularised below [`BODY_FRICTION_SPEED`], unscaled).
+pub(super) const OBSTACLE_FRICTION: f64 = 0.5;
+/// Slack of the obstacle near list beyond the vehicle's reach (times scale), m: at 30 m/s the vehicle covers 2.4 m
+/// between refreshes.
+pub(super) const OBSTACLE_NEAR_SLACK: f64 = 15.0;
 /// Bump-stop stiffness as a multiple of the suspension spring rate.
 pub(super) const BUMP_STOP_STIFFNESS: f64 = 20.0;
 /// Steps between refreshes of the obstacle near list (its radius has 15 m of slack at full scale: 80 ms at 30 m/s
