@@ -302,8 +302,8 @@ impl Simulation {
     /// gradually (gravity ramped up from zero over [`LOAD_RAMP`], so soft soil yields quasi-statically to its
     /// static sinkage rather than the deeper one of an impact), then it steps until chassis and wheels have been
     /// still (speed below [`SETTLED_SPEED`]) for [`SETTLED_FOR`] seconds, at most [`SETTLE_MAX`] seconds in all
-    /// (times scaled by sqrt(scale)). Meanwhile the chassis moves only vertically (pose and horizontal position
-    /// held; the wheels follow the ground on their suspension). Then time and step count are set back to zero, so an episode starts at rest.
+    /// (times scaled by sqrt(scale)). Meanwhile the chassis is held horizontally and its rotation is over-damped
+    /// (angular velocity cleared every step), so it sinks vertically and tilts quasi-statically onto the ground. Then time and step count are set back to zero, so an episode starts at rest.
     /// Returns the settling time, s.
     pub fn settle(&mut self) -> f64 {
         let (x, y) = (self.pos.x, self.pos.y);
@@ -326,10 +326,10 @@ impl Simulation {
             let t = (self.time / ramp).min(1.0);
             self.gravity = gravity * (t * t * (3.0 - 2.0 * t));
             self.step(&brake);
-            // Held as a crane holds a load: the chassis only moves vertically (its pose stays the footprint
-            // plane's; the wheels follow the ground on their suspension), so a vehicle placed where it cannot stand
-            // (a slope steeper than its friction or tipping angle) is put down there and slides or tips in the
-            // episode, not before it.
+            // Held as a crane holds a load: the chassis does not move horizontally, and its angular velocity is
+            // cleared every step, so it only tilts quasi-statically (one step's rotation at a time) onto the wheels'
+            // support. A vehicle placed where it cannot stand (a slope steeper than its friction or tipping angle)
+            // is put down there and slides or tips in the episode, not before it.
             self.pos.x = x;
             self.pos.y = y;
             self.vel.x = 0.0;
