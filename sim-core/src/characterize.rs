@@ -91,6 +91,8 @@ pub fn test_world(ground: Ground, grade_deg: f64, scale: f64) -> World {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Datasheet {
     pub vehicle: String,
+    /// The vehicle's scale: the scenarios' lengths scale with it, their times and speeds with its square root.
+    pub scale: f64,
     pub surface: &'static str,
     pub dt: f64,
     /// Time the vehicle took to settle at the start, s.
@@ -123,6 +125,7 @@ pub fn datasheet(spec: &VehicleSpec, setup: &Setup) -> Datasheet {
     let (slide, tip) = tilt_table(spec, setup);
     Datasheet {
         vehicle: spec.name.clone(),
+        scale: spec.scale,
         surface: setup.ground.name(),
         dt: sim.dt(),
         settle_time: sim.settle_time(),
@@ -360,6 +363,15 @@ pub fn table(sheets: &[Datasheet]) -> String {
     let mut out = String::new();
     if let Some(d) = sheets.first() {
         let _ = writeln!(out, "{} datasheet ({})", d.vehicle, crate::SIM_VERSION);
+        if d.scale != 1.0 {
+            let _ = writeln!(
+                out,
+                "scale {}: the scenarios' times and speeds are x{:.3} (Froude), lengths x{}",
+                d.scale,
+                d.scale.sqrt(),
+                d.scale
+            );
+        }
     }
     for (name, cell) in rows {
         let _ = write!(out, "{name:<26}");
