@@ -78,9 +78,6 @@ impl SoilGrid {
                 if weight == 0.0 || u.abs() >= w.radius {
                     continue;
                 }
-                if (u < 0.0) != (u + advance < 0.0) {
-                    self.yield_node((i, j), x, y, w.centre.z - w.radius, w.width);
-                }
                 let h = (w.radius * w.radius - u * u).sqrt();
                 let p = Vector3::new(x, y, w.centre.z - h);
                 let normal = Vector3::new(-u * fwd.x, -u * fwd.y, h) / w.radius;
@@ -90,6 +87,8 @@ impl SoilGrid {
                     normal,
                     roll: w.axle.cross(&normal).normalize(),
                     weight,
+                    swept_bottom: ((u < 0.0) != (u + advance < 0.0))
+                        .then_some(w.centre.z - w.radius),
                 };
                 self.press_node((i, j), &hit, w.width, &w.centre, dt, &mut out);
             }
@@ -132,6 +131,7 @@ impl SoilGrid {
                     normal: plate.up,
                     roll: plate.forward,
                     weight,
+                    swept_bottom: None,
                 };
                 self.press_node((i, j), &hit, b, &plate.centre, dt, &mut out);
             }

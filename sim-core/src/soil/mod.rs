@@ -32,7 +32,7 @@
 //!    `A = delta^2`, which differs by `cos(theta)` on the arc). `N_z` is floored at 0.1.
 //!
 //! A wheel's contact is also swept over the step: a node that the rim's lowest point passed over between the wheel's
-//! previous and current position is yielded as deep as that point went (`SoilGrid::yield_node`), so the ruts of a
+//! previous and current position is yielded as deep as that point went (`Hit::swept_bottom`), so the ruts of a
 //! fast wheel do not depend on which of the node's positions under the wheel the steps happen to catch (at 30 m/s
 //! the wheel moves 12 cm per 4 ms step, more than a node spacing).
 //!

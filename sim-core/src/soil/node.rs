@@ -2,6 +2,7 @@
 //! the tangent plane (steps 2 to 6 of the module's algorithm).
 
 use super::{SoilContact, SoilGrid};
+use crate::world::SoilParams;
 use nalgebra::Vector3;
 
 /// Memory of one grid node.
@@ -19,6 +20,27 @@ pub(super) struct Node {
     pub(super) last_step: u64,
 }
 
+impl Node {
+    /// Step 2 of the node law for a body surface `s` below the undeformed surface: the elastic trial
+    /// `K_e (s - s_p)`; past the node's yield pressure, Bekker's `(k_c / b + k_phi) s^n` where it is lower, the yield
+    /// pressure rises to it and the plastic sinkage follows. Returns the pressure and `d(sigma)/d(s)` on the branch
+    /// taken.
+    fn load(&mut self, soil: &SoilParams, k_e: f64, s: f64, b: f64) -> (f64, f64) {
+        let mut sigma = k_e * (s - self.plastic);
+        let mut tangent = k_e;
+        if sigma > self.yield_pressure {
+            let bekker = (soil.k_c / b + soil.k_phi) * s.powf(soil.n);
+            if bekker < sigma {
+                sigma = bekker;
+                tangent = soil.n * bekker / s;
+            }
+            self.yield_pressure = sigma;
+            self.plastic = s - sigma / k_e;
+        }
+        (sigma, tangent)
+    }
+}
+
 /// Where a body meets the vertical ray of a node.
 pub(super) struct Hit {
     /// Point of the body's surface above the node (world).
@@ -32,6 +54,9 @@ pub(super) struct Hit {
     pub(super) roll: Vector3<f64>,
     /// Fraction of the node's cell covered by the body (edge nodes of a wheel or plate), in (0, 1].
     pub(super) weight: f64,
+    /// Height of the body's lowest point where it passed over the node during the step, if it did (a wheel's rim
+    /// bottom): the node is first yielded as deep as that ([`SoilGrid::wheel_contact`]'s swept contact).
+    pub(super) swept_bottom: Option<f64>,
 }
 
 /// The normal's vertical component below which the surface area of a cell is no longer taken as `delta^2 / n_z`
@@ -39,29 +64,6 @@ pub(super) struct Hit {
 const MIN_NZ: f64 = 0.1;
 
 impl SoilGrid {
-    /// Yields node `(i, j)` as a body surface at height `z` above it would (the pressure law of step 2, without a
-    /// force): the swept contact of a wheel whose lowest point passed over the node during the step
-    /// ([`SoilGrid::wheel_contact`]).
-    pub(super) fn yield_node(&mut self, (i, j): (usize, usize), x: f64, y: f64, z: f64, b: f64) {
-        let s = self.heights.height_bilinear(x, y) - z;
-        let Some(soil) = self.soil_at(x, y) else {
-            return;
-        };
-        if s <= 0.0 {
-            return;
-        }
-        let Some(node) = self.node_mut(i, j) else {
-            return;
-        };
-        let k_e = soil.elastic_k.max(soil.k_phi);
-        let trial = k_e * (s - node.plastic);
-        if trial > node.yield_pressure {
-            let sigma = ((soil.k_c / b + soil.k_phi) * s.powf(soil.n)).min(trial);
-            node.yield_pressure = sigma;
-            node.plastic = s - sigma / k_e;
-        }
-    }
-
     /// SCM update of node `(i, j)` pressed by a body surface at `hit`; `b` is the Bekker contact width. Adds the
     /// node's force to `out` (torque about `centre`) together with its share of the Jacobians.
     pub(super) fn press_node(
@@ -74,18 +76,27 @@ impl SoilGrid {
         out: &mut SoilContact,
     ) {
         let p = hit.p;
-        let s = self.heights.height_bilinear(p.x, p.y) - p.z;
-        if s <= 0.0 {
+        let h0 = self.heights.height_bilinear(p.x, p.y);
+        let s = h0 - p.z;
+        let swept = hit.swept_bottom.map(|z| h0 - z).filter(|s| *s > 0.0);
+        if s <= 0.0 && swept.is_none() {
             return;
         }
         let Some(soil) = self.soil_at(p.x, p.y) else {
             return;
         };
+        let k_e = soil.elastic_k.max(soil.k_phi);
         let step = self.step;
         let cell = hit.weight * self.delta * self.delta;
         let Some(node) = self.node_mut(i, j) else {
             return;
         };
+        if let Some(s_swept) = swept {
+            node.load(&soil, k_e, s_swept, b);
+        }
+        if s <= 0.0 {
+            return;
+        }
         if s - node.plastic <= 0.0 || node.last_step + 1 < step {
             node.shear = Vector3::zeros();
             node.hardening = 0.0;
@@ -94,19 +105,8 @@ impl SoilGrid {
             return;
         }
         node.last_step = step;
-        // 2. Pressure: elastic trial, Bekker on yield. `tangent` is d(sigma)/d(s) on the branch taken.
-        let k_e = soil.elastic_k.max(soil.k_phi);
-        let mut sigma = k_e * (s - node.plastic);
-        let mut tangent = k_e;
-        if sigma > node.yield_pressure {
-            let bekker = (soil.k_c / b + soil.k_phi) * s.powf(soil.n);
-            if bekker < sigma {
-                sigma = bekker;
-                tangent = soil.n * bekker / s;
-            }
-            node.yield_pressure = sigma;
-            node.plastic = s - sigma / k_e;
-        }
+        // 2. Pressure: elastic trial, Bekker on yield.
+        let (mut sigma, tangent) = node.load(&soil, k_e, s, b);
         // 3. Damping while the surface moves into the soil.
         let n = hit.normal;
         let vn = hit.v.dot(&n);
