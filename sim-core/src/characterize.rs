@@ -278,27 +278,20 @@ pub fn tilt_table(spec: &VehicleSpec, setup: &Setup) -> (Option<f64>, Option<f64
         }
         let uphill: f64 = sim
             .wheels()
-            .zip(spec_sides(&sim))
-            .filter(|(_, left)| *left)
-            .map(|(w, _)| w.normal_load.max(0.0))
+            .filter(|w| w.left)
+            .map(|w| w.normal_load.max(0.0))
             .sum();
         if tip.is_none() && uphill < 0.02 * weight {
             tip = Some(deg);
         }
-        if slide.is_some() && tip.is_some() {
-            break;
-        }
-        if slide.is_some() && sim.time() * rate > slide.unwrap_or(0.0) + 5.0 {
-            // Sliding away: the tilt no longer means anything.
-            break;
+        // Done once it has tipped too, or 5 degrees after it started sliding away (the tilt means nothing then).
+        if let Some(slid_at) = slide {
+            if tip.is_some() || sim.time() * rate > slid_at + 5.0 {
+                break;
+            }
         }
     }
     (slide, tip)
-}
-
-/// Whether each wheel is on the vehicle's left (the catalogue lays wheels out left, right per axle position).
-fn spec_sides(sim: &Simulation) -> impl Iterator<Item = bool> + '_ {
-    (0..sim.wheels().count()).map(|k| k % 2 == 0)
 }
 
 /// Steady turning radius at 3 m/s (times sqrt(scale)) with constant steering `steer`: speed held by a

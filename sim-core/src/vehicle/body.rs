@@ -74,15 +74,7 @@ impl Simulation {
             }
         }
         for k in 0..self.wheels.len() {
-            let w = &self.wheels[k];
-            let centre = self.pos
-                + self.rot
-                    * (w.hard
-                        + Vector3::new(
-                            0.0,
-                            0.0,
-                            w.compression - w.static_compression.min(w.travel),
-                        ));
+            let centre = self.pos + self.rot * self.wheels[k].centre_offset();
             if let Some(oc) = obstacles_close
                 .then(|| self.obstacles.sphere_contact(&centre, self.radius))
                 .flatten()

@@ -226,12 +226,19 @@ impl Simulation {
         // The wheels hang at full droop (springs unloaded: the weight is ramped up in `settle`) and the lowest rim
         // sample of all just touches the ground.
         self.pos = Vector3::new(x, y, centre_z) + up * (self.radius + self.spec.chassis.com_height);
+        for wh in &mut self.wheels {
+            wh.compression = 0.0;
+            wh.compression_rate = 0.0;
+            wh.spin = 0.0;
+            wh.bristle = [0.0; 2];
+            wh.deflection = 0.0;
+            wh.from_soil = false;
+            wh.rut_offset = 0.0;
+        }
         let axle = up.cross(&fwd);
         let mut raise = f64::NEG_INFINITY;
         for wh in &self.wheels {
-            let centre = self.pos
-                + self.rot
-                    * (wh.hard - Vector3::new(0.0, 0.0, wh.static_compression.min(wh.travel)));
+            let centre = self.pos + self.rot * wh.centre_offset();
             for &(sin, cos) in &RIM_SIN_COS {
                 for lat in RIM_LATERAL {
                     let p = centre
@@ -246,15 +253,6 @@ impl Simulation {
         }
         self.vel = Vector3::zeros();
         self.omega = Vector3::zeros();
-        for wh in &mut self.wheels {
-            wh.compression = 0.0;
-            wh.compression_rate = 0.0;
-            wh.spin = 0.0;
-            wh.bristle = [0.0; 2];
-            wh.deflection = 0.0;
-            wh.from_soil = false;
-            wh.rut_offset = 0.0;
-        }
         self.gear = 0;
         self.steering = 0.0;
         self.accel_prev = Vector3::zeros();
@@ -312,8 +310,8 @@ impl Simulation {
             throttle: 0.0,
             brake: 1.0,
         };
+        // Froude similitude: times and speeds scale with sqrt(scale).
         let time_scale = self.spec.scale.sqrt();
-        let speed_scale = self.spec.scale.sqrt();
         let mut still = 0.0;
         self.time = 0.0;
         self.steps = 0;
@@ -341,7 +339,7 @@ impl Simulation {
                     .map(|w| w.compression_rate.abs())
                     .fold(0.0, f64::max),
             );
-            still = if moving < SETTLED_SPEED * speed_scale {
+            still = if moving < SETTLED_SPEED * time_scale {
                 still + self.dt
             } else {
                 0.0

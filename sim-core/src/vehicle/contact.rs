@@ -34,10 +34,7 @@ impl Simulation {
         omega_w: &Vector3<f64>,
     ) -> WheelContact {
         let w = &self.wheels[k];
-        let centre = self.pos
-            + self.rot
-                * (w.hard
-                    + Vector3::new(0.0, 0.0, w.compression - w.static_compression.min(w.travel)));
+        let centre = self.pos + self.rot * w.centre_offset();
         // Rotate the body's forward axis about its up axis by the steering angle (Rodrigues; up is a unit vector
         // perpendicular to fwd).
         let heading = if w.steer_angle == 0.0 {

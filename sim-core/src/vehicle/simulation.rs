@@ -109,6 +109,19 @@ pub(super) struct Wheel {
     pub(super) rut_offset: f64,
 }
 
+impl Wheel {
+    /// The wheel centre in the chassis frame: the hard point moved along the chassis up axis by the compression
+    /// relative to the static one.
+    pub(super) fn centre_offset(&self) -> Vector3<f64> {
+        self.hard
+            + Vector3::new(
+                0.0,
+                0.0,
+                self.compression - self.static_compression.min(self.travel),
+            )
+    }
+}
+
 /// What one step produced (for metrics).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct StepInfo {
@@ -132,6 +145,8 @@ pub struct WheelReport {
     pub normal_load: f64,
     /// Longitudinal slip `(omega r - v) / max(|omega r|, |v|)`: positive when driving, -1 locked while moving.
     pub slip: f64,
+    /// Whether the wheel is on the vehicle's left.
+    pub left: bool,
     /// Spin, rad/s; suspension compression from full droop, m.
     pub spin: f64,
     pub compression: f64,

@@ -79,6 +79,7 @@ impl Simulation {
                     force: [f.x, f.y, f.z],
                     normal_load: if c.active { f.dot(&c.normal) } else { 0.0 },
                     slip,
+                    left: w.side > 0.0,
                     spin: w.spin,
                     compression: w.compression,
                 }

@@ -13,6 +13,8 @@ impl Simulation {
         // Apply contact forces with the new spins.
         for k in 0..self.wheels.len() {
             let c = self.contacts[k];
+            // The wheel centre, as `Wheel::centre_offset` but summed in another order (kept: changing it would move
+            // every r3 trajectory by rounding).
             let hard_world = self.pos
                 + self.rot
                     * (self.wheels[k].hard
@@ -27,20 +29,16 @@ impl Simulation {
                 if c.soil {
                     // The soil's force at the new spin, linearised as in the implicit spin update (the wheel felt
                     // this reaction; the chassis must get the same force, or momentum leaks between them).
-                    let w = &self.wheels[k];
-                    let spin_change = w.spin - self.spin_before[k];
-                    let v_p = self.vel + frame.omega_w.cross(&(c.point - self.pos));
-                    let vsx = v_p.dot(&c.tx) - w.spin * c.r_eff;
-                    let vsy = v_p.dot(&c.ty);
+                    let spin = self.wheels[k].spin;
+                    let spin_change = spin - self.spin_before[k];
+                    let (vsx, vsy) = self.slip_velocity(&c, spin, frame);
                     let (damping, _) = self.soil_shear_damping(&c, vsx, vsy, frame.dt);
                     ground = c.soil_force
                         + c.tx * (c.soil_stiffness * c.r_eff * spin_change + damping[0])
                         + c.ty * damping[1];
                 } else {
                     let w = &self.wheels[k];
-                    let v_p = self.vel + frame.omega_w.cross(&(c.point - self.pos));
-                    let vsx = v_p.dot(&c.tx) - w.spin * c.r_eff;
-                    let vsy = v_p.dot(&c.ty);
+                    let (vsx, vsy) = self.slip_velocity(&c, w.spin, frame);
                     let t = self.tyre_force(w, &c, vsx, vsy, frame.dt);
                     self.wheels[k].bristle = t.bristle;
                     let f = t.force;
@@ -55,12 +53,22 @@ impl Simulation {
             let along = (ground + gvec - self.unsprung * a_rel).dot(&frame.up);
             let n_up = c.normal.dot(&frame.up);
             let wm = &mut self.wheels[k];
-            // Sinking into soil, the soil yields along its soft plastic tangent; at rest or rising its pressed nodes
-            // unload along the stiff elastic line: the Jacobian of the branch the wheel is moving along.
-            let hard_velocity = self.vel + frame.omega_w.cross(&(hard_world - self.pos));
-            let sinking = (hard_velocity + frame.up * wm.compression_rate).dot(&c.normal) < 0.0;
-            let k_contact = if sinking { c.k_normal } else { c.k_unload };
             let (k_ground, c_ground) = if c.active {
+                // Sinking into soil, the soil yields along its soft plastic tangent; at rest or rising its pressed
+                // nodes unload along the stiff elastic line: the Jacobian of the branch the wheel moves along. (A
+                // tyre has one stiffness: `k_unload == k_normal`.)
+                let k_contact = if c.soil {
+                    let hard_velocity = self.vel + frame.omega_w.cross(&(hard_world - self.pos));
+                    let sinking =
+                        (hard_velocity + frame.up * wm.compression_rate).dot(&c.normal) < 0.0;
+                    if sinking {
+                        c.k_normal
+                    } else {
+                        c.k_unload
+                    }
+                } else {
+                    c.k_normal
+                };
                 (k_contact * n_up * n_up, c.c_normal * n_up * n_up)
             } else {
                 (0.0, 0.0)

@@ -30,9 +30,7 @@ impl Simulation {
             if !c.active {
                 continue;
             }
-            let v_p = self.vel + frame.omega_w.cross(&(c.point - self.pos));
-            let vsx = v_p.dot(&c.tx) - w.spin * c.r_eff;
-            let vsy = v_p.dot(&c.ty);
+            let (vsx, vsy) = self.slip_velocity(&c, w.spin, frame);
             let (fx0, kx) = if c.soil {
                 let (damping, c_t) = self.soil_shear_damping(&c, vsx, vsy, dt);
                 (c.soil_force.dot(&c.tx) + damping[0], c.soil_stiffness + c_t)
@@ -43,6 +41,13 @@ impl Simulation {
             self.group_num[g] -= fx0 * c.r_eff;
             self.group_den[g] += dt * kx * c.r_eff * c.r_eff;
         }
+    }
+
+    /// Slip velocity of a wheel spinning at `spin` at its contact `c`, in the contact frame: the ground point's
+    /// velocity less the rim speed along `tx`, and across it along `ty`.
+    pub(super) fn slip_velocity(&self, c: &WheelContact, spin: f64, frame: &Frame) -> (f64, f64) {
+        let v_p = self.vel + frame.omega_w.cross(&(c.point - self.pos));
+        (v_p.dot(&c.tx) - spin * c.r_eff, v_p.dot(&c.ty))
     }
 
     /// Damping of the soil's elastic shear, as the rigid tyre's bristle damping (LuGre's sigma_1): the pressed
