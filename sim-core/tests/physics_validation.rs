@@ -8,12 +8,6 @@ use sim_core::vehicle::{vehicle_by_name, VehicleSpec};
 use sim_core::world::{Obstacle, ObstacleKind, Surface};
 use sim_core::Simulation;
 
-fn run(sim: &mut Simulation, seconds: f64, a: sim_core::planner::Action) {
-    for _ in 0..(seconds / sim.dt()).round() as usize {
-        sim.step(&a);
-    }
-}
-
 fn hmmwv() -> VehicleSpec {
     vehicle_by_name("hmmwv").unwrap()
 }

@@ -2,8 +2,9 @@
 //! static equilibrium (settling, sinkage, no creep), contact stability while parked, convergence in the time step.
 //! Each test states its source and tolerance.
 
+mod common;
+use common::action;
 use sim_core::characterize::{self, Ground, Setup};
-use sim_core::planner::Action;
 use sim_core::soil::rig::{bekker_static_sinkage, predicted_grade_deg};
 use sim_core::vehicle::{default_dt, vehicle_by_name, SimOptions};
 use sim_core::world::SoilParams;
@@ -14,14 +15,6 @@ const SOILS: [(Ground, SoilParams); 3] = [
     (Ground::Mud, SoilParams::MUD),
     (Ground::Sand, SoilParams::SAND),
 ];
-
-fn parked() -> Action {
-    Action {
-        steering: 0.0,
-        throttle: 0.0,
-        brake: 1.0,
-    }
-}
 
 #[test]
 fn the_steepest_climbable_grade_is_the_single_wheel_prediction() {
@@ -80,7 +73,7 @@ fn a_braked_vehicle_settles_on_soil_and_then_stays_put() {
             let (p0, z0) = (sim.position(), characterize::mean_sinkage(&sim));
             let (mut lost, mut wheel_steps) = (0usize, 0usize);
             for _ in 0..(30.0 / sim.dt()).round() as usize {
-                sim.step(&parked());
+                sim.step(&action(0.0, 0.0, 1.0));
                 lost += sim.wheels().filter(|w| !w.contact).count();
                 wheel_steps += sim.wheels().count();
             }

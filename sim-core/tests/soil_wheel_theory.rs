@@ -83,12 +83,9 @@ fn wong_reece_forces(s: SoilParams, t1: f64, i: f64, (c1, c2): (f64, f64)) -> (f
     (R * B * wz, R * B * dp)
 }
 
-/// Wong-Reece drawbar pull and sinkage at slip `i` (theta1 from W by bisection).
-fn wong_reece(s: SoilParams, i: f64) -> (f64, f64) {
-    wong_reece_c(s, i, (0.4, 0.3))
-}
-
-fn wong_reece_c(s: SoilParams, i: f64, c: (f64, f64)) -> (f64, f64) {
+/// Wong-Reece drawbar pull and sinkage at slip `i` with the peak-stress coefficients `c` = (c1, c2) (theta1 from W
+/// by bisection).
+fn wong_reece(s: SoilParams, i: f64, c: (f64, f64)) -> (f64, f64) {
     let (mut lo, mut hi) = (1e-4, 1.5);
     for _ in 0..60 {
         let mid = 0.5 * (lo + hi);
@@ -128,7 +125,7 @@ fn check_soil(name: &str, s: SoilParams) {
     let (z0, rc) = bekker_towed(s);
     let theory: Vec<f64> = SLIPS
         .iter()
-        .map(|&i| wong_reece_c(s, i, (0.0, 0.0)).0)
+        .map(|&i| wong_reece(s, i, (0.0, 0.0)).0)
         .collect();
     let mut failures = Vec::new();
     for delta in [0.1, 0.05] {
@@ -224,6 +221,12 @@ fn the_result_does_not_depend_on_the_lateral_position_on_the_grid() {
 #[test]
 #[ignore = "prints the full table (about 10 s in release): cargo test --release --test soil_wheel_theory -- --ignored --nocapture"]
 fn print_the_rig_table() {
+    // (drawbar pull, sinkage) pairs as DP / W to 3 decimals and sinkage to 0.1 mm.
+    let rounded = |xs: &[(f64, f64)]| -> (Vec<f64>, Vec<f64>) {
+        xs.iter()
+            .map(|x| ((x.0 / W * 1e3).round() / 1e3, (x.1 * 1e4).round() / 1e4))
+            .unzip()
+    };
     for (name, s) in SOILS {
         let (z0, rc) = bekker_towed(s);
         eprintln!(
@@ -232,44 +235,16 @@ fn print_the_rig_table() {
             rc,
             rc / W
         );
-        let wr: Vec<_> = SLIPS.iter().map(|&i| wong_reece(s, i)).collect();
-        eprintln!(
-            "{name}: Wong-Reece DP/W at slips {SLIPS:?}: {:?} (sinkage {:?})",
-            wr.iter()
-                .map(|x| (x.0 / W * 1e3).round() / 1e3)
-                .collect::<Vec<_>>(),
-            wr.iter()
-                .map(|x| (x.1 * 1e4).round() / 1e4)
-                .collect::<Vec<_>>()
-        );
-        let wr0: Vec<_> = SLIPS
-            .iter()
-            .map(|&i| wong_reece_c(s, i, (0.0, 0.0)))
-            .collect();
-        eprintln!(
-            "{name}: Wong-Reece with theta_m = 0 DP/W: {:?} (sinkage {:?})",
-            wr0.iter()
-                .map(|x| (x.0 / W * 1e3).round() / 1e3)
-                .collect::<Vec<_>>(),
-            wr0.iter()
-                .map(|x| (x.1 * 1e4).round() / 1e4)
-                .collect::<Vec<_>>()
-        );
+        for (label, c) in [("", (0.4, 0.3)), (" with theta_m = 0", (0.0, 0.0))] {
+            let wr: Vec<_> = SLIPS.iter().map(|&i| wong_reece(s, i, c)).collect();
+            let (dp, zs) = rounded(&wr);
+            eprintln!("{name}: Wong-Reece{label} DP/W at slips {SLIPS:?}: {dp:?} (sinkage {zs:?})");
+        }
         for delta in [0.1, 0.05, 0.025] {
             for dt in [4e-3, 1e-3] {
-                let t: RigResult = rig(s, dt, delta).run(Drive::Towed);
-                let runs: Vec<RigResult> = SLIPS
-                    .iter()
-                    .map(|&i| rig(s, dt, delta).run(Drive::Slip(i)))
-                    .collect();
-                let dp: Vec<f64> = runs
-                    .iter()
-                    .map(|x| (x.drawbar_pull / W * 1e3).round() / 1e3)
-                    .collect();
-                let zs: Vec<f64> = runs
-                    .iter()
-                    .map(|x| (x.sinkage * 1e4).round() / 1e4)
-                    .collect();
+                let (t, driven) = runs(s, dt, delta);
+                let pairs: Vec<_> = driven.iter().map(|x| (x.drawbar_pull, x.sinkage)).collect();
+                let (dp, zs) = rounded(&pairs);
                 eprintln!(
                     "{name} grid {delta} dt {dt}: towed sinkage {:.4} m, R {:.0} N ({:.3} W), Fz/W {:.3}, slip {:.3}; DP/W {dp:?} sinkage {zs:?}",
                     t.sinkage,

@@ -4,16 +4,20 @@
 mod common;
 use common::*;
 use nalgebra::Vector3;
-use sim_core::planner::Action;
+use sim_core::characterize::{self, Ground, Setup};
 use sim_core::vehicle::spec::TyreModel;
 use sim_core::vehicle::vehicle_by_name;
 use sim_core::world::{Heightmap, Patch, Semantic, SoilParams, Surface, World};
 use sim_core::Simulation;
 
-fn steps(sim: &mut Simulation, seconds: f64, a: Action) {
-    for _ in 0..(seconds / sim.dt()).round() as usize {
-        sim.step(&a);
-    }
+/// Mean deceleration in g braking fully from 10 m/s (times sqrt(scale)) on flat rigid ground of friction `mu`:
+/// the datasheet's scenario (`characterize::braking`).
+fn braking(spec: &sim_core::VehicleSpec, mu: f64) -> f64 {
+    let setup = Setup {
+        ground: Ground::Rigid { friction: mu },
+        dt: None,
+    };
+    characterize::braking(spec, &setup)
 }
 
 #[test]
@@ -24,21 +28,13 @@ fn braking_and_traction_limited_acceleration_equal_mu_g() {
     // (wheels included). Tolerance 3% (issue 13).
     let spec = vehicle_by_name("hmmwv").unwrap();
     for mu in [0.3, 0.6, 0.9] {
-        let w = flat(mu);
-        // Braking from 10 m/s to 2 m/s.
-        let mut sim = Simulation::new(&w, &spec, -40.0, 0.0, 0.0);
-        sim.set_velocity(Vector3::new(10.0, 0.0, 0.0));
-        let x0 = sim.position().x;
-        while sim.state().speed > 2.0 {
-            sim.step(&action(0.0, 0.0, 1.0));
-        }
-        let v = sim.state().speed;
-        let braking = (100.0 - v * v) / (2.0 * (sim.position().x - x0)) / 9.81;
+        // Braking from 10 m/s to 1 m/s.
+        let braking = braking(&spec, mu);
         // Full throttle from rest, 0.2 s to 1.0 s (the wheels spin from the first instants).
-        let mut sim = Simulation::new(&w, &spec, -40.0, 0.0, 0.0);
-        steps(&mut sim, 0.2, action(1.0, 0.0, 0.0));
+        let mut sim = Simulation::new(&flat(mu), &spec, -40.0, 0.0, 0.0);
+        run(&mut sim, 0.2, action(1.0, 0.0, 0.0));
         let v0 = sim.state().speed;
-        steps(&mut sim, 0.8, action(1.0, 0.0, 0.0));
+        run(&mut sim, 0.8, action(1.0, 0.0, 0.0));
         let accel = (sim.state().speed - v0) / 0.8 / 9.81;
         eprintln!("mu {mu}: braking {braking:.4} g, acceleration {accel:.4} g");
         for (what, got) in [("braking", braking), ("acceleration", accel)] {
@@ -234,27 +230,15 @@ fn every_vehicle_brakes_at_mu_g_and_rests_at_its_centre_of_gravity_height() {
     // suspension's settling above the ground: within 2 cm (times scale) of com_height + radius.
     for spec in sim_core::vehicle::builtin_vehicles() {
         let s = spec.scale;
-        let w = World::uniform(
-            Heightmap::from_fn(s, |_, _| 0.0),
-            Semantic::Concrete,
-            Surface::Rigid { friction: 0.3 },
-        );
-        let mut sim = Simulation::new(&w, &spec, -40.0 * s, 0.0, 0.0);
-        let rest = sim.position().z;
+        let w = characterize::test_world(Ground::Rigid { friction: 0.3 }, 0.0, s);
+        let rest = Simulation::new(&w, &spec, 0.0, 0.0, 0.0).position().z;
         let want = spec.chassis.com_height + spec.wheels.radius;
         assert!(
             (rest - want).abs() < 0.02 * s,
             "{}: centre of mass {rest:.4} m above the ground at rest, com_height + radius {want:.4}",
             spec.name
         );
-        let v0 = 10.0 * s.sqrt();
-        sim.set_velocity(Vector3::new(v0, 0.0, 0.0));
-        let x0 = sim.position().x;
-        while sim.state().speed > 0.2 * v0 {
-            sim.step(&action(0.0, 0.0, 1.0));
-        }
-        let v = sim.state().speed;
-        let decel = (v0 * v0 - v * v) / (2.0 * (sim.position().x - x0)) / 9.81;
+        let decel = braking(&spec, 0.3);
         eprintln!(
             "{}: braking {decel:.4} g, rest height {rest:.4} (com_height + r {want:.4})",
             spec.name

@@ -41,3 +41,10 @@ pub fn action(throttle: f64, steering: f64, brake: f64) -> sim_core::planner::Ac
         brake,
     }
 }
+
+/// Steps `sim` for `seconds` with the action `a`.
+pub fn run(sim: &mut sim_core::Simulation, seconds: f64, a: sim_core::planner::Action) {
+    for _ in 0..(seconds / sim.dt()).round() as usize {
+        sim.step(&a);
+    }
+}
