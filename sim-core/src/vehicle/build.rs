@@ -270,9 +270,10 @@ impl Simulation {
         let half_w = 0.5 * (self.spec.track() + self.width);
         let (c, s) = (yaw.cos(), yaw.sin());
         let (mut sum, mut su, mut sv, mut suu, mut svv) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        // Sample k of FOOTPRINT_SAMPLES at -1 .. 1 across the footprint.
+        let t = |k: usize| 2.0 * k as f64 / (FOOTPRINT_SAMPLES - 1) as f64 - 1.0;
         for i in 0..FOOTPRINT_SAMPLES {
             for j in 0..FOOTPRINT_SAMPLES {
-                let t = |k: usize| 2.0 * k as f64 / (FOOTPRINT_SAMPLES - 1) as f64 - 1.0;
                 let (u, v) = (t(i) * half_l, t(j) * half_w);
                 let z = h.height_bilinear(x + u * c - v * s, y + u * s + v * c);
                 sum += z;
@@ -333,7 +334,8 @@ impl Simulation {
             self.vel.x = 0.0;
             self.vel.y = 0.0;
             self.omega = Vector3::zeros();
-            let moving = self.vel.norm().max(self.omega.norm() * self.radius).max(
+            // Held horizontally and in rotation, the chassis can only move vertically; the wheels along their struts.
+            let moving = self.vel.z.abs().max(
                 self.wheels
                     .iter()
                     .map(|w| w.compression_rate.abs())
@@ -346,12 +348,11 @@ impl Simulation {
             };
         }
         self.gravity = gravity;
-        let settled = self.time;
-        self.settle_time = settled;
+        self.settle_time = self.time;
         self.time = 0.0;
         self.steps = 0;
         self.gear = 0;
-        settled
+        self.settle_time
     }
 
     /// Radius of the obstacle near list around the chassis.
