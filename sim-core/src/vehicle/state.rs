@@ -60,12 +60,13 @@ impl Simulation {
             .zip(&self.contacts)
             .zip(&self.ground_forces)
             .map(move |((w, c), f)| {
+                // Inactive contacts are all zeros (no force, no sinkage).
                 let slip = if c.active {
-                    let v = (self.vel + omega_w.cross(&(c.point - self.pos))).dot(&c.tx);
+                    let (vsx, _) = self.slip_velocity(c, w.spin, &omega_w);
                     let rim = w.spin * c.r_eff;
-                    let den = rim.abs().max(v.abs());
+                    let den = rim.abs().max((vsx + rim).abs());
                     if den > 1e-9 {
-                        (rim - v) / den
+                        -vsx / den
                     } else {
                         0.0
                     }
@@ -75,9 +76,9 @@ impl Simulation {
                 WheelReport {
                     contact: c.active,
                     soil: c.soil,
-                    sinkage: if c.active { c.sinkage } else { 0.0 },
+                    sinkage: c.sinkage,
                     force: [f.x, f.y, f.z],
-                    normal_load: if c.active { f.dot(&c.normal) } else { 0.0 },
+                    normal_load: f.dot(&c.normal),
                     slip,
                     left: w.side > 0.0,
                     spin: w.spin,

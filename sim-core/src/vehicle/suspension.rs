@@ -31,14 +31,14 @@ impl Simulation {
                     // this reaction; the chassis must get the same force, or momentum leaks between them).
                     let spin = self.wheels[k].spin;
                     let spin_change = spin - self.spin_before[k];
-                    let (vsx, vsy) = self.slip_velocity(&c, spin, frame);
+                    let (vsx, vsy) = self.slip_velocity(&c, spin, &frame.omega_w);
                     let (damping, _) = self.soil_shear_damping(&c, vsx, vsy, frame.dt);
                     ground = c.soil_force
                         + c.tx * (c.soil_stiffness * c.r_eff * spin_change + damping[0])
                         + c.ty * damping[1];
                 } else {
                     let w = &self.wheels[k];
-                    let (vsx, vsy) = self.slip_velocity(&c, w.spin, frame);
+                    let (vsx, vsy) = self.slip_velocity(&c, w.spin, &frame.omega_w);
                     let t = self.tyre_force(w, &c, vsx, vsy, frame.dt);
                     self.wheels[k].bristle = t.bristle;
                     let f = t.force;

@@ -6,6 +6,7 @@ use super::simulation::*;
 use super::step::Frame;
 use crate::planner::Action;
 use crate::vehicle::spec::TyreModel;
+use nalgebra::Vector3;
 
 /// Tyre friction at one contact: the force `[fx, fy]` in the contact frame, `d fx / d(rim speed)` for the implicit
 /// spin update, and the tyre's bristle deflection after this step (unchanged for the handling tyre).
@@ -30,7 +31,7 @@ impl Simulation {
             if !c.active {
                 continue;
             }
-            let (vsx, vsy) = self.slip_velocity(&c, w.spin, frame);
+            let (vsx, vsy) = self.slip_velocity(&c, w.spin, &frame.omega_w);
             let (fx0, kx) = if c.soil {
                 let (damping, c_t) = self.soil_shear_damping(&c, vsx, vsy, dt);
                 (c.soil_force.dot(&c.tx) + damping[0], c.soil_stiffness + c_t)
@@ -45,8 +46,13 @@ impl Simulation {
 
     /// Slip velocity of a wheel spinning at `spin` at its contact `c`, in the contact frame: the ground point's
     /// velocity less the rim speed along `tx`, and across it along `ty`.
-    pub(super) fn slip_velocity(&self, c: &WheelContact, spin: f64, frame: &Frame) -> (f64, f64) {
-        let v_p = self.vel + frame.omega_w.cross(&(c.point - self.pos));
+    pub(super) fn slip_velocity(
+        &self,
+        c: &WheelContact,
+        spin: f64,
+        omega_w: &Vector3<f64>,
+    ) -> (f64, f64) {
+        let v_p = self.vel + omega_w.cross(&(c.point - self.pos));
         (v_p.dot(&c.tx) - spin * c.r_eff, v_p.dot(&c.ty))
     }
 
