@@ -71,6 +71,22 @@ impl Default for EpisodeConfig {
     }
 }
 
+impl EpisodeConfig {
+    /// The original release's rules: 8 m goal radius, speed-based stuck (below 2 m/s for 10 s) and its post-hoc
+    /// rollover classification (a failed trial whose |roll| or |pitch| ever exceeded 30 degrees).
+    pub fn release() -> Self {
+        EpisodeConfig {
+            goal_radius: 8.0,
+            rollover: RolloverRule::MaxDuringFailure,
+            stuck: StuckRule::Speed {
+                speed: 2.0,
+                window: 10.0,
+            },
+            ..EpisodeConfig::default()
+        }
+    }
+}
+
 /// How an episode ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

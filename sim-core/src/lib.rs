@@ -8,12 +8,14 @@
 //! - [`world`]: the world data model (heightmap, semantic patches, obstacles, tasks) and its frames.
 //! - [`planner`]: the interface every mobility system implements.
 //! - [`episode`]: termination rules, outcomes and metrics.
+//! - [`episode_run`]: one episode as a state machine its caller steps (the runner, the Python SDK's environments).
 //! - [`terrain_stats`]: relief, slope and roughness statistics of heightmaps.
 
 pub mod characterize;
 pub mod collide;
 pub mod control;
 pub mod episode;
+pub mod episode_run;
 pub mod observe;
 pub mod planner;
 pub mod runner;
@@ -21,6 +23,7 @@ pub mod soil;
 pub mod terrain_stats;
 pub mod vehicle;
 
+pub use episode_run::EpisodeRun;
 pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
 
 /// Identifies the physics that produced a result: the crate version and a revision bumped with every change that

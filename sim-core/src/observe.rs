@@ -9,7 +9,7 @@
 
 use crate::collide::sphere_obstacle;
 use crate::planner::VehicleState;
-use crate::world::World;
+use crate::world::{Surface, World};
 use nalgebra::Vector3;
 
 /// Shape of a crop.
@@ -78,17 +78,35 @@ pub fn obstacle_crop(world: &World, state: &VehicleState, spec: &CropSpec, out: 
     });
 }
 
-/// Obstacle occupancy of every heightmap sample, `grid[iy * nx + ix]`.
-pub fn occupancy_grid(world: &World) -> Vec<u8> {
+/// Semantic label id of every heightmap sample, `grid[iy * nx + ix]`.
+pub fn semantics_grid(world: &World) -> Vec<u8> {
+    sample_grid(world, |x, y| world.patch_at(x, y).semantic.id())
+}
+
+/// Coulomb friction of every heightmap sample on rigid ground (0 where the ground is deformable),
+/// `grid[iy * nx + ix]`.
+pub fn friction_grid(world: &World) -> Vec<f32> {
+    sample_grid(world, |x, y| match world.patch_at(x, y).surface {
+        Surface::Rigid { friction } => friction as f32,
+        Surface::Deformable { .. } => 0.0,
+    })
+}
+
+fn sample_grid<T>(world: &World, mut f: impl FnMut(f64, f64) -> T) -> Vec<T> {
     let h = &world.heightmap;
-    let mut grid = vec![0u8; h.nx * h.ny];
+    let mut grid = Vec::with_capacity(h.nx * h.ny);
     for iy in 0..h.ny {
         for ix in 0..h.nx {
             let (x, y) = h.sample_position(ix, iy);
-            grid[iy * h.nx + ix] = u8::from(occupied(world, x, y));
+            grid.push(f(x, y));
         }
     }
     grid
+}
+
+/// Obstacle occupancy of every heightmap sample, `grid[iy * nx + ix]`.
+pub fn occupancy_grid(world: &World) -> Vec<u8> {
+    sample_grid(world, |x, y| u8::from(occupied(world, x, y)))
 }
 
 #[cfg(test)]

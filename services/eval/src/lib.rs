@@ -16,7 +16,7 @@ pub mod report;
 pub mod run;
 pub mod summary;
 
-pub use run::{run, EpisodeRow, EvalConfig, SIM_VERSION};
+pub use run::{run, run_with, EpisodeRow, EvalConfig, PlannerFactory, SIM_VERSION};
 
 /// Errors of the evaluator; each names the file or the parameter.
 #[derive(Debug, thiserror::Error)]

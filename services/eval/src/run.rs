@@ -4,10 +4,11 @@ use crate::{io_err, EvalError};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sim_core::episode::{EpisodeConfig, EpisodeMetrics};
+use sim_core::planner::Planner;
 use std::collections::BTreeSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 use tasks::TaskSet;
@@ -190,7 +191,10 @@ pub fn read_results(path: &Path) -> Result<Vec<EpisodeRow>, EvalError> {
 /// Progress callback: (done, total, seconds elapsed).
 pub type Progress<'a> = &'a (dyn Fn(usize, usize, f64) + Sync);
 
-/// Runs (or resumes) an evaluation and returns every row of it.
+/// Makes a fresh planner for one episode.
+pub type PlannerFactory<'a> = &'a (dyn Fn() -> Box<dyn Planner> + Sync);
+
+/// Runs (or resumes) an evaluation of the built-in planner `cfg.planner` and returns every row of it.
 pub fn run(cfg: &EvalConfig, progress: Progress<'_>) -> Result<Vec<EpisodeRow>, EvalError> {
     if baselines::by_name(&cfg.planner).is_none() {
         return Err(EvalError::Param {
@@ -202,6 +206,19 @@ pub fn run(cfg: &EvalConfig, progress: Progress<'_>) -> Result<Vec<EpisodeRow>, 
             ),
         });
     }
+    let make = || baselines::by_name(&cfg.planner).expect("checked above");
+    run_with(cfg, &make, &AtomicBool::new(false), progress)
+}
+
+/// Runs (or resumes) an evaluation of the planners `make` returns (one per episode; the rows are labelled
+/// `cfg.planner`), in parallel on the current rayon pool. Once `cancel` is set no new episode starts and the ones
+/// that finish are not recorded, so a resumed evaluation runs them again; the rows recorded so far are returned.
+pub fn run_with(
+    cfg: &EvalConfig,
+    make: PlannerFactory<'_>,
+    cancel: &AtomicBool,
+    progress: Progress<'_>,
+) -> Result<Vec<EpisodeRow>, EvalError> {
     let vehicle = sim_core::vehicle::vehicle_by_name(&cfg.vehicle)?;
     let scale = cfg.scale.unwrap_or(vehicle.scale);
     if !(scale.is_finite() && scale > 0.0) {
@@ -251,18 +268,24 @@ pub fn run(cfg: &EvalConfig, progress: Progress<'_>) -> Result<Vec<EpisodeRow>, 
     let total = selected.len();
     let finished = AtomicUsize::new(total - todo.len());
     let start = Instant::now();
-    let new_rows: Vec<Result<EpisodeRow, EvalError>> = todo
+    let new_rows: Vec<Result<Option<EpisodeRow>, EvalError>> = todo
         .par_iter()
         .map(|&(w, t)| {
+            if cancel.load(Ordering::SeqCst) {
+                return Ok(None);
+            }
             let world = set.world(w, scale)?;
             let task = set
                 .tasks(w, scale)?
                 .into_iter()
                 .nth(t as usize)
                 .ok_or(tasks::TasksError::UnknownWorld(w))?;
-            let mut planner = baselines::by_name(&cfg.planner).expect("checked above");
+            let mut planner = make();
             let t0 = Instant::now();
             let r = sim_core::run_episode(&world, &task, &vehicle, planner.as_mut(), &cfg.episode);
+            if cancel.load(Ordering::SeqCst) {
+                return Ok(None);
+            }
             let row = EpisodeRow {
                 task_id: task.id(),
                 world_id: w,
@@ -294,11 +317,11 @@ pub fn run(cfg: &EvalConfig, progress: Progress<'_>) -> Result<Vec<EpisodeRow>, 
             }
             let n = finished.fetch_add(1, Ordering::SeqCst) + 1;
             progress(n, total, start.elapsed().as_secs_f64());
-            Ok(row)
+            Ok(Some(row))
         })
         .collect();
     for r in new_rows {
-        rows.push(r?);
+        rows.extend(r?);
     }
     let keep: BTreeSet<String> = selected
         .iter()

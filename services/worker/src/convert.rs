@@ -1,7 +1,7 @@
 //! Conversions between sim-core's types and the protocol's messages (protobuf stays at the service edge).
 
 use sim_core::planner::{Action, Observation, VehicleInfo, VehicleState};
-use sim_core::world::{Surface, Task, World};
+use sim_core::world::{Task, World};
 use vb_proto::v1 as pb;
 
 pub fn vehicle_state(s: &VehicleState) -> pb::VehicleState {
@@ -92,20 +92,6 @@ pub fn task_info(task: &Task, world: &World, task_set_version: &str) -> pb::Task
 /// The ground-truth maps of a world, sampled on its heightmap grid.
 pub fn world_maps(world: &World) -> pb::WorldMaps {
     let h = &world.heightmap;
-    let n = h.nx * h.ny;
-    let mut semantics = Vec::with_capacity(n);
-    let mut friction = Vec::with_capacity(n);
-    for iy in 0..h.ny {
-        for ix in 0..h.nx {
-            let (x, y) = h.sample_position(ix, iy);
-            let p = world.patch_at(x, y);
-            semantics.push(p.semantic.id());
-            friction.push(match p.surface {
-                Surface::Rigid { friction } => friction as f32,
-                Surface::Deformable { .. } => 0.0,
-            });
-        }
-    }
     let grid_f = |data: Vec<f32>| pb::GridF32 {
         nx: h.nx as u32,
         ny: h.ny as u32,
@@ -120,9 +106,9 @@ pub fn world_maps(world: &World) -> pb::WorldMaps {
     };
     pb::WorldMaps {
         elevation: Some(grid_f(h.heights.clone())),
-        semantics: Some(grid_u(semantics)),
+        semantics: Some(grid_u(sim_core::observe::semantics_grid(world))),
         obstacles: Some(grid_u(sim_core::observe::occupancy_grid(world))),
-        friction: Some(grid_f(friction)),
+        friction: Some(grid_f(sim_core::observe::friction_grid(world))),
     }
 }
 

@@ -1,6 +1,6 @@
 //! `vb eval`: evaluate a planner on the task set, locally and in parallel.
 
-use sim_core::episode::{EpisodeConfig, RolloverRule, StuckRule};
+use sim_core::episode::EpisodeConfig;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -40,15 +40,11 @@ pub fn run(a: EvalArgs) -> anyhow::Result<()> {
             .num_threads(t.max(1))
             .build_global()?;
     }
-    let mut episode = EpisodeConfig::default();
-    if a.release_rules {
-        episode.goal_radius = 8.0;
-        episode.rollover = RolloverRule::MaxDuringFailure;
-        episode.stuck = StuckRule::Speed {
-            speed: 2.0,
-            window: 10.0,
-        };
-    }
+    let episode = if a.release_rules {
+        EpisodeConfig::release()
+    } else {
+        EpisodeConfig::default()
+    };
     let cfg = eval::EvalConfig {
         planner: a.planner,
         task_dir: a.task_dir.unwrap_or_else(tasks::TaskSet::default_dir),

@@ -1,0 +1,39 @@
+//! The native core of the `vertibench` Python package (`vertibench._core`): vector environments stepped in Rust
+//! threads ([`py_vec::VecCore`]), in-process evaluation ([`py_eval::evaluate`]) and the facts Python needs about the simulator and the task set.
+
+mod convert;
+mod obs;
+mod py_eval;
+mod py_vec;
+mod slot;
+mod source;
+
+use pyo3::prelude::*;
+
+/// The committed task set's directory, as built into this package.
+#[pyfunction]
+fn default_task_dir() -> String {
+    tasks::TaskSet::default_dir().display().to_string()
+}
+
+/// Names of the vehicles in the catalogue.
+#[pyfunction]
+fn vehicles() -> Vec<String> {
+    sim_core::vehicle::builtin_vehicles()
+        .into_iter()
+        .map(|v| v.name)
+        .collect()
+}
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("SIM_VERSION", sim_core::SIM_VERSION)?;
+    m.add("STATE_FIELDS", obs::STATE_FIELDS.to_vec())?;
+    m.add("GOAL_FIELDS", obs::GOAL_FIELDS.to_vec())?;
+    m.add("SPLITS", eval::run::SPLITS.to_vec())?;
+    m.add_function(wrap_pyfunction!(default_task_dir, m)?)?;
+    m.add_function(wrap_pyfunction!(vehicles, m)?)?;
+    m.add_class::<py_vec::VecCore>()?;
+    m.add_function(wrap_pyfunction!(py_eval::evaluate, m)?)?;
+    Ok(())
+}

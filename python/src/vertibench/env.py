@@ -1,0 +1,124 @@
+"""``VertibenchEnv``: one vertibench environment as a ``gymnasium.Env``."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from . import _core
+from .planner import make_task
+from ._spaces import REWARD_TERMS, action_space, core_kwargs, observation_space
+
+
+class VertibenchEnv(gym.Env):
+    """One environment (see :func:`vertibench.make` for the options).
+
+    An episode is one benchmark task: the vehicle starts at rest at the task's start facing the goal and the episode
+    follows ``vb eval``'s rules. ``terminated`` is true when the episode reached an end of the task (success,
+    rollover, stuck, off the map, or an invalid action); ``truncated`` when it hit the time limit (``max_time``,
+    60 s by default). ``info`` has the reward terms at every step and, at the end, ``outcome`` (``success``,
+    ``rollover``, ``stuck``, ``timeout``, ``off_map``, ``planner_failure``), ``success``, ``reason``, ``detail`` and
+    ``metrics`` (traversal time, roll and pitch, path length, energy, ...).
+    """
+
+    metadata = {"render_modes": []}
+
+    def __init__(
+        self,
+        task: str | None = None,
+        *,
+        tasks="all",
+        task_set=None,
+        vehicle: str = "hmmwv",
+        scale: float | None = None,
+        control_rate_hz: float = 20.0,
+        crop_size: int = 0,
+        crop_resolution: float | None = None,
+        rules: str = "paper",
+        max_time: float | None = None,
+        reward: dict | None = None,
+        clip_actions: bool = False,
+    ):
+        self._core = _core.VecCore(
+            1,
+            autoreset="disabled",
+            task_order="random",
+            num_threads=1,
+            **core_kwargs(
+                task_set,
+                task if task is not None else tasks,
+                vehicle,
+                scale,
+                control_rate_hz,
+                crop_size,
+                crop_resolution,
+                rules,
+                max_time,
+                reward,
+            ),
+        )
+        self.observation_space = observation_space(self._core.crop_size)
+        self.action_space = action_space()
+        self.clip_actions = clip_actions
+        self.task_ids: list[str] = self._core.task_ids
+        self.task_id: str | None = None
+        self._lo = self.action_space.low.astype(np.float64)
+        self._hi = self.action_space.high.astype(np.float64)
+        self._seeded = False
+
+    @property
+    def vehicle(self) -> dict:
+        """The vehicle's facts (name, scale, wheelbase, track, length, width, max_steer, ...)."""
+        return self._core.vehicle
+
+    @property
+    def task(self):
+        """The current episode's :class:`vertibench.planner.Task` (start, goal, global path, factors)."""
+        if self.task_id is None:
+            raise RuntimeError("call reset() first")
+        return make_task(self._core.task(self.task_ids.index(self.task_id)))
+
+    @property
+    def control_period(self) -> float:
+        """Simulated seconds per step."""
+        return self._core.control_period
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        """Starts an episode on a task drawn from the selection (``seed`` restarts the draws), or on
+        ``options["task"]`` (a task id)."""
+        super().reset(seed=seed)
+        if seed is None and not self._seeded:
+            seed = int(self.np_random.integers(0, 2**63 - 1))
+        self._seeded = True
+        task = (options or {}).get("task")
+        pick = None if task is None else [self._task_index(task)]
+        obs, tasks = self._core.reset(seed=seed, tasks=pick)
+        self.task_id = self.task_ids[tasks[0]]
+        return {k: v[0] for k, v in obs.items()}, {"task_id": self.task_id}
+
+    def step(self, action):
+        a = np.asarray(action, dtype=np.float64).reshape(1, 3)
+        if self.clip_actions:
+            a = np.clip(a, self._lo, self._hi)
+        obs, terms, terminated, truncated, _, _, ended = self._core.step(a)
+        info: dict[str, Any] = {
+            "task_id": self.task_id,
+            "reward_terms": {name: float(terms[0, k]) for k, name in enumerate(REWARD_TERMS)},
+        }
+        for _, e in ended:
+            info.update(e)
+        return (
+            {k: v[0] for k, v in obs.items()},
+            float(terms[0].sum()),
+            bool(terminated[0]),
+            bool(truncated[0]),
+            info,
+        )
+
+    def _task_index(self, task_id: str) -> int:
+        try:
+            return self.task_ids.index(task_id)
+        except ValueError:
+            raise ValueError(f"task {task_id!r} is not among this environment's tasks") from None

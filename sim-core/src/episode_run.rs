@@ -1,0 +1,408 @@
+//! One benchmark episode as a state machine that its caller steps: the episode runner drives it with a planner
+//! ([`crate::run_episode`]), the Python SDK's environments with an agent's actions. Both therefore follow exactly
+//! the same rules (start, action checks, termination, failure classification, metrics).
+//!
+//! The cycle is: [`EpisodeRun::observation`] → [`EpisodeRun::control`] (the action for the next control period) →
+//! [`EpisodeRun::advance`] (physics up to the next control step, or to the end) → ..., and [`EpisodeRun::finish`]
+//! once [`EpisodeRun::end`] is set. Nothing in the cycle allocates.
+
+use crate::episode::*;
+use crate::planner::{Action, Observation, VehicleState};
+use crate::vehicle::{Simulation, VehicleSpec};
+use crate::world::{Task, World};
+use nalgebra::Vector3;
+
+/// Running mean / variance / max (Welford).
+#[derive(Clone, Copy, Debug, Default)]
+struct Running {
+    n: f64,
+    mean: f64,
+    m2: f64,
+    max: f64,
+}
+
+impl Running {
+    fn push(&mut self, v: f64) {
+        if self.n == 0.0 {
+            self.max = v;
+        }
+        self.n += 1.0;
+        let d = v - self.mean;
+        self.mean += d / self.n;
+        self.m2 += d * (v - self.mean);
+        self.max = self.max.max(v);
+    }
+    fn stats(&self) -> SignalStats {
+        SignalStats {
+            mean: self.mean,
+            var: if self.n > 0.0 { self.m2 / self.n } else { 0.0 },
+            max: self.max,
+        }
+    }
+}
+
+/// How an episode ended, before the rollover rule classified a failed trial (`reason` is machine-readable, e.g.
+/// `timeout`, `off_map`, `invalid_action`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EpisodeEnd {
+    pub outcome: Outcome,
+    pub reason: &'static str,
+    pub detail: String,
+}
+
+impl EpisodeEnd {
+    fn new(outcome: Outcome, reason: &'static str, detail: impl Into<String>) -> EpisodeEnd {
+        EpisodeEnd {
+            outcome,
+            reason,
+            detail: detail.into(),
+        }
+    }
+}
+
+/// Where and how an episode starts: the task's start, facing the goal: `(x, y, yaw)`.
+pub fn start_pose(task: &Task) -> (f64, f64, f64) {
+    let yaw = (task.goal[1] - task.start[1]).atan2(task.goal[0] - task.start[0]);
+    (task.start[0], task.start[1], yaw)
+}
+
+/// Physics steps between two planner actions at `rate_hz` for a physics step `dt` (at least 1).
+pub fn control_every(rate_hz: f64, dt: f64) -> u64 {
+    ((1.0 / rate_hz) / dt).round().max(1.0) as u64
+}
+
+/// Stuck bookkeeping: positions sampled every [`STUCK_SAMPLE_DT`] in a ring covering the rule's window.
+const STUCK_SAMPLE_DT: f64 = 0.5;
+
+/// A running episode (see the module documentation).
+pub struct EpisodeRun {
+    sim: Simulation,
+    cfg: EpisodeConfig,
+    goal: [f64; 2],
+    goal_radius: f64,
+    half: [f64; 2],
+    control_every: u64,
+    record_every: Option<u64>,
+    trajectory: Vec<TrajectorySample>,
+    metrics: EpisodeMetrics,
+    sample_every: u64,
+    window: f64,
+    stuck_distance: f64,
+    stuck_speed: f64,
+    ring: Vec<[f64; 2]>,
+    ring_count: usize,
+    slow_since: f64,
+    roll: Running,
+    roll_abs: Running,
+    pitch: Running,
+    pitch_abs: Running,
+    throttle: Running,
+    steering: Running,
+    action: Action,
+    /// The previous action's throttle and steering (their total variation).
+    prev: [f64; 2],
+    last_pos: Vector3<f64>,
+    in_contact: bool,
+    step: u64,
+    end: Option<EpisodeEnd>,
+}
+
+impl EpisodeRun {
+    /// Places the vehicle at the task's start facing the goal, settled at rest, with a control rate of 20 Hz
+    /// until [`EpisodeRun::set_control_rate`] says otherwise.
+    pub fn new(world: &World, task: &Task, vehicle: &VehicleSpec, cfg: &EpisodeConfig) -> Self {
+        let (x0, y0, yaw) = start_pose(task);
+        let sim = Simulation::new(world, vehicle, x0, y0, yaw);
+        let dt = sim.dt();
+        let scale = world.scale;
+        let record_every = cfg
+            .record_hz
+            .map(|hz| ((1.0 / hz) / dt).round().max(1.0) as u64);
+        let capacity = cfg
+            .record_hz
+            .map_or(0, |hz| (cfg.max_time * hz).ceil() as usize + 2);
+        let (window, stuck_distance, stuck_speed) = match cfg.stuck {
+            StuckRule::Displacement { distance, window } => (window, distance * scale, f64::NAN),
+            StuckRule::Speed { speed, window } => (window, f64::NAN, speed),
+        };
+        let ring_len = (window / STUCK_SAMPLE_DT).round() as usize + 1;
+        let last_pos = sim.position();
+        EpisodeRun {
+            control_every: control_every(20.0, dt),
+            record_every,
+            trajectory: Vec::with_capacity(capacity),
+            metrics: EpisodeMetrics::default(),
+            sample_every: (STUCK_SAMPLE_DT / dt).round().max(1.0) as u64,
+            window,
+            stuck_distance,
+            stuck_speed,
+            ring: vec![[0.0; 2]; ring_len.max(2)],
+            ring_count: 0,
+            slow_since: 0.0,
+            roll: Running::default(),
+            roll_abs: Running::default(),
+            pitch: Running::default(),
+            pitch_abs: Running::default(),
+            throttle: Running::default(),
+            steering: Running::default(),
+            action: Action::default(),
+            prev: [0.0; 2],
+            last_pos,
+            in_contact: false,
+            step: 0,
+            end: None,
+            goal: task.goal,
+            goal_radius: cfg.goal_radius * scale,
+            half: [world.heightmap.half_x(), world.heightmap.half_y()],
+            cfg: cfg.clone(),
+            sim,
+        }
+    }
+
+    /// Physics step, s.
+    pub fn dt(&self) -> f64 {
+        self.sim.dt()
+    }
+
+    /// Sets how often the vehicle takes a new action (before the first [`EpisodeRun::advance`]); a rate that is
+    /// not positive and finite is refused with the reason.
+    pub fn set_control_rate(&mut self, rate_hz: f64) -> Result<(), String> {
+        if !(rate_hz.is_finite() && rate_hz > 0.0) {
+            return Err(format!("control rate {rate_hz} Hz is not positive"));
+        }
+        self.control_every = control_every(rate_hz, self.sim.dt());
+        Ok(())
+    }
+
+    /// Simulated seconds between two actions.
+    pub fn control_period(&self) -> f64 {
+        self.control_every as f64 * self.sim.dt()
+    }
+
+    /// The vehicle's state now.
+    pub fn state(&self) -> VehicleState {
+        self.sim.state()
+    }
+
+    /// What a planner observes now.
+    pub fn observation(&self) -> Observation {
+        Observation {
+            state: self.sim.state(),
+        }
+    }
+
+    /// Horizontal distance from the chassis reference point to the goal, m.
+    pub fn goal_distance(&self) -> f64 {
+        let p = self.sim.position();
+        (p.x - self.goal[0]).hypot(p.y - self.goal[1])
+    }
+
+    /// How the episode ended, once it has.
+    pub fn end(&self) -> Option<&EpisodeEnd> {
+        self.end.as_ref()
+    }
+
+    /// The simulation (read-only: wheel reports, soil).
+    pub fn simulation(&self) -> &Simulation {
+        &self.sim
+    }
+
+    /// Takes the action for the next control period. An invalid action (NaN, out of range) ends the episode as a
+    /// planner failure with reason `invalid_action`.
+    pub fn control(&mut self, action: Action) -> Result<(), &EpisodeEnd> {
+        if let Err(msg) = action.validate() {
+            return Err(self.stop(Outcome::PlannerFailure, "invalid_action", msg));
+        }
+        self.action = action;
+        if self.step > 0 {
+            self.metrics.throttle_tv += (action.throttle - self.prev[0]).abs();
+            self.metrics.steering_tv += (action.steering - self.prev[1]).abs();
+        }
+        self.prev = [action.throttle, action.steering];
+        self.throttle.push(action.throttle);
+        self.steering.push(action.steering);
+        Ok(())
+    }
+
+    /// Ends the episode from outside (a planner failure, a cancellation); an episode that has ended keeps its end.
+    pub fn stop(&mut self, outcome: Outcome, reason: &'static str, detail: String) -> &EpisodeEnd {
+        self.end
+            .get_or_insert_with(|| EpisodeEnd::new(outcome, reason, detail))
+    }
+
+    /// Runs the physics with the current action up to the next control step, or until the episode ends; returns
+    /// whether it has ended.
+    pub fn advance(&mut self) -> bool {
+        while self.end.is_none() {
+            self.physics_step();
+            if self.step.is_multiple_of(self.control_every) {
+                break;
+            }
+        }
+        self.end.is_some()
+    }
+
+    fn physics_step(&mut self) {
+        let dt = self.sim.dt();
+        if let Some(every) = self.record_every {
+            if self.step.is_multiple_of(every) && self.trajectory.len() < self.trajectory.capacity()
+            {
+                let state = self.sim.state();
+                let a = &self.action;
+                self.trajectory.push(TrajectorySample {
+                    time: state.time,
+                    x: state.position[0],
+                    y: state.position[1],
+                    z: state.position[2],
+                    roll: state.roll,
+                    pitch: state.pitch,
+                    yaw: state.yaw,
+                    speed: state.speed,
+                    throttle: a.throttle,
+                    steering: a.steering,
+                    brake: a.brake,
+                });
+            }
+        }
+        let info = self.sim.step(&self.action);
+        self.step += 1;
+        self.metrics.energy += info.drive_power.max(0.0) * dt;
+        if info.obstacle_contact && !self.in_contact {
+            self.metrics.obstacle_contacts += 1;
+        }
+        self.in_contact = info.obstacle_contact;
+        let s = self.sim.state();
+        let (r, p) = (s.roll.to_degrees(), s.pitch.to_degrees());
+        self.roll.push(r);
+        self.roll_abs.push(r.abs());
+        self.pitch.push(p);
+        self.pitch_abs.push(p.abs());
+        let pos = self.sim.position();
+        self.metrics.path_length += (pos - self.last_pos).xy().norm();
+        self.last_pos = pos;
+        self.end = self.check(&s, pos, r, p);
+    }
+
+    /// The termination rules, in order, after a physics step.
+    fn check(&mut self, s: &VehicleState, pos: Vector3<f64>, r: f64, p: f64) -> Option<EpisodeEnd> {
+        use Outcome::*;
+        if !(pos.x.is_finite() && pos.y.is_finite() && pos.z.is_finite()) {
+            return Some(EpisodeEnd::new(
+                Rollover,
+                "numerical_failure",
+                "the simulation diverged",
+            ));
+        }
+        if (pos.x - self.goal[0]).hypot(pos.y - self.goal[1]) < self.goal_radius {
+            return Some(EpisodeEnd::new(Success, "success", ""));
+        }
+        if self.cfg.rollover == RolloverRule::Immediate && r.abs() > self.cfg.rollover_deg {
+            let d = format!("|roll| = {:.1} deg", r.abs());
+            return Some(EpisodeEnd::new(Rollover, "rollover", d));
+        }
+        // Body z-axis in the world (R = Rz(yaw) Ry(pitch) Rx(roll)): its vertical component is cos(pitch) cos(roll).
+        let up_z = s.pitch.cos() * s.roll.cos();
+        if up_z < 0.0 {
+            let tilt = up_z.acos().to_degrees();
+            let d = format!("overturned: chassis tilted {tilt:.0} deg (roll {r:.0}, pitch {p:.0})");
+            return Some(EpisodeEnd::new(Rollover, "rollover", d));
+        }
+        if pos.x.abs() > self.half[0] || pos.y.abs() > self.half[1] {
+            return Some(EpisodeEnd::new(OffMap, "off_map", ""));
+        }
+        if self.step.is_multiple_of(self.sample_every) {
+            let len = self.ring.len();
+            self.ring[self.ring_count % len] = [pos.x, pos.y];
+            self.ring_count += 1;
+            if self.stuck_distance.is_finite() && self.ring_count >= len {
+                let old = self.ring[self.ring_count % len];
+                if (pos.x - old[0]).hypot(pos.y - old[1]) < self.stuck_distance {
+                    let d = format!(
+                        "moved less than {:.2} m in {} s",
+                        self.stuck_distance, self.window
+                    );
+                    return Some(EpisodeEnd::new(Stuck, "stuck", d));
+                }
+            }
+        }
+        if self.stuck_speed.is_finite() {
+            if s.speed.abs() >= self.stuck_speed {
+                self.slow_since = s.time;
+            } else if s.time - self.slow_since >= self.window {
+                let d = format!("speed below {} m/s for {} s", self.stuck_speed, self.window);
+                return Some(EpisodeEnd::new(Stuck, "stuck", d));
+            }
+        }
+        if s.time >= self.cfg.max_time {
+            return Some(EpisodeEnd::new(Timeout, "timeout", ""));
+        }
+        None
+    }
+
+    /// The episode's result: its end classified by the rollover rule, its metrics and trajectory (moved out). An
+    /// episode that has not ended is reported as cancelled.
+    pub fn finish(&mut self) -> EpisodeResult {
+        let end = self.end.clone().unwrap_or_else(|| {
+            EpisodeEnd::new(Outcome::Timeout, "cancelled", "cancelled by the caller")
+        });
+        let (outcome, reason, detail) = self.classify(end);
+        let m = &mut self.metrics;
+        let pos = self.sim.position();
+        m.time = self.sim.time();
+        m.steps = self.sim.steps();
+        m.final_goal_distance = (pos.x - self.goal[0]).hypot(pos.y - self.goal[1]);
+        m.roll = self.roll.stats();
+        m.roll_abs = self.roll_abs.stats();
+        m.pitch = self.pitch.stats();
+        m.pitch_abs = self.pitch_abs.stats();
+        let (t, st) = (self.throttle.stats(), self.steering.stats());
+        m.throttle_mean = t.mean;
+        m.throttle_var = t.var;
+        m.steering_mean = st.mean;
+        m.steering_var = st.var;
+        EpisodeResult {
+            outcome,
+            reason: reason.into(),
+            detail,
+            metrics: m.clone(),
+            trajectory: std::mem::take(&mut self.trajectory),
+        }
+    }
+
+    /// Applies the rollover rule to a failed trial: a stuck or timed-out episode whose roll (final, or maximum roll
+    /// or pitch under the release's rule) exceeds the threshold is a rollover; everything else is unchanged.
+    fn classify(&self, end: EpisodeEnd) -> (Outcome, &'static str, String) {
+        let EpisodeEnd {
+            outcome,
+            reason,
+            detail,
+        } = end;
+        let failed = matches!(outcome, Outcome::Stuck | Outcome::Timeout) && reason != "cancelled";
+        if !failed {
+            return (outcome, reason, detail);
+        }
+        let what = if detail.is_empty() {
+            reason.to_string()
+        } else {
+            format!("{reason}: {detail}")
+        };
+        let thr = self.cfg.rollover_deg;
+        let end_roll = self.sim.state().roll.to_degrees().abs();
+        let (roll_max, pitch_max) = (self.roll_abs.max, self.pitch_abs.max);
+        match self.cfg.rollover {
+            RolloverRule::AtFailure if end_roll > thr => (
+                Outcome::Rollover,
+                "rollover",
+                format!("|roll| = {end_roll:.1} deg at the end of a failed trial ({what})"),
+            ),
+            RolloverRule::MaxDuringFailure if roll_max.max(pitch_max) > thr => (
+                Outcome::Rollover,
+                "rollover",
+                format!(
+                    "max |roll| {roll_max:.1} deg, max |pitch| {pitch_max:.1} deg during a failed trial ({what})"
+                ),
+            ),
+            _ => (outcome, reason, detail),
+        }
+    }
+}
