@@ -1,6 +1,7 @@
 //! The native core of the `vertibench` Python package (`vertibench._core`): vector environments stepped in Rust
 //! threads ([`py_vec::VecCore`]), in-process evaluation ([`py_eval::evaluate`]) and the facts Python needs about the simulator and the task set.
 
+mod bench;
 mod convert;
 mod obs;
 mod py_eval;
@@ -25,9 +26,16 @@ fn vehicles() -> Vec<String> {
         .collect()
 }
 
+/// The protocol's `.proto` files compiled at build time: a serialized `google.protobuf.FileDescriptorSet`.
+const PROTO_DESCRIPTOR_SET: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/vertibench.fds"));
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SIM_VERSION", sim_core::SIM_VERSION)?;
+    m.add(
+        "PROTO_DESCRIPTOR_SET",
+        pyo3::types::PyBytes::new(m.py(), PROTO_DESCRIPTOR_SET),
+    )?;
     m.add("STATE_FIELDS", obs::STATE_FIELDS.to_vec())?;
     m.add("GOAL_FIELDS", obs::GOAL_FIELDS.to_vec())?;
     m.add("SPLITS", eval::run::SPLITS.to_vec())?;
@@ -35,5 +43,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(vehicles, m)?)?;
     m.add_class::<py_vec::VecCore>()?;
     m.add_function(wrap_pyfunction!(py_eval::evaluate, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::raw_throughput, m)?)?;
     Ok(())
 }

@@ -2,7 +2,7 @@
 //! NumPy arrays for the whole batch, so no per-environment Python work happens except for episodes that end.
 
 use crate::obs::{ObsBuf, GOAL_FIELDS, STATE_FIELDS};
-use crate::slot::{Autoreset, RewardWeights, Settings, Slot, TaskOrder};
+use crate::slot::{Autoreset, Settings, Slot, TaskOrder};
 use crate::source::Source;
 use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use sim_core::episode::EpisodeConfig;
 use sim_core::observe::CropSpec;
 use sim_core::planner::Action;
+use sim_core::reward::RewardWeights;
 use std::path::PathBuf;
 
 fn bad(msg: impl Into<String>) -> PyErr {
@@ -305,6 +306,12 @@ impl VecCore {
     #[getter]
     fn vehicle<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         crate::convert::vehicle_info(py, &self.src.vehicle.info())
+    }
+
+    /// The physics step, s.
+    #[getter]
+    fn physics_dt(&self) -> f64 {
+        sim_core::vehicle::default_dt(self.src.vehicle.scale)
     }
 
     /// Simulated seconds per step of an environment.

@@ -8,33 +8,8 @@ use rand_chacha::ChaCha8Rng;
 use sim_core::episode::{EpisodeMetrics, Outcome};
 use sim_core::observe::CropSpec;
 use sim_core::planner::Action;
+use sim_core::reward::{is_time_limit, RewardWeights};
 use sim_core::EpisodeRun;
-
-/// Weights of the reward terms; `reward = progress + roll + pitch + terminal` with
-/// - `progress = w_progress * (decrease of the horizontal goal distance over the step, m / world scale)`,
-/// - `roll = -w_roll * (roll / rollover threshold)^2`, `pitch = -w_pitch * (pitch / rollover threshold)^2`
-///   at the step's end (penalties, so never positive),
-/// - `terminal = +success_bonus` on success, `-failure_penalty` on every other end except the time limit.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RewardWeights {
-    pub progress: f64,
-    pub roll: f64,
-    pub pitch: f64,
-    pub success_bonus: f64,
-    pub failure_penalty: f64,
-}
-
-impl Default for RewardWeights {
-    fn default() -> Self {
-        RewardWeights {
-            progress: 1.0,
-            roll: 0.1,
-            pitch: 0.1,
-            success_bonus: 10.0,
-            failure_penalty: 10.0,
-        }
-    }
-}
 
 /// How an environment that ended comes back (gymnasium's `AutoresetMode`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -169,31 +144,23 @@ impl Slot {
         }
         let (lw, t) = src.get(self.task);
         let d = run.goal_distance();
-        let w = &set.weights;
-        let limit = src.episode.rollover_deg.to_radians();
         let s = run.state();
-        let mut terms = [
-            w.progress * (self.prev_distance - d) / src.scale,
-            -w.roll * (s.roll / limit).powi(2),
-            -w.pitch * (s.pitch / limit).powi(2),
-            0.0,
-        ];
-        self.prev_distance = d;
         self.obs.write(&s, &lw.world, t.goal, set.crop.as_ref());
-        let Some(end) = run.end() else {
-            self.out.terms = terms;
+        let (before, cfg) = (self.prev_distance, &src.episode);
+        self.prev_distance = d;
+        let terms = |end| {
+            set.weights
+                .terms(before, d, s.roll, s.pitch, cfg.rollover_deg, src.scale, end)
+                .as_array()
+        };
+        let Some(end) = run.end().cloned() else {
+            self.out.terms = terms(None);
             return Ok(());
         };
-        let timeout = end.reason == "timeout";
         let r = run.finish();
-        terms[3] = match r.outcome {
-            Outcome::Success => w.success_bonus,
-            _ if timeout => 0.0,
-            _ => -w.failure_penalty,
-        };
-        self.out.terms = terms;
-        self.out.terminated = !timeout;
-        self.out.truncated = timeout;
+        self.out.terms = terms(Some((&end, r.outcome)));
+        self.out.truncated = is_time_limit(&end);
+        self.out.terminated = !self.out.truncated;
         self.out.ended = Some(Box::new(Ended {
             task: self.task,
             outcome: r.outcome,

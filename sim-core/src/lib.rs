@@ -18,6 +18,7 @@ pub mod episode;
 pub mod episode_run;
 pub mod observe;
 pub mod planner;
+pub mod reward;
 pub mod runner;
 pub mod soil;
 pub mod terrain_stats;

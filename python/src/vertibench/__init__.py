@@ -1,7 +1,8 @@
 """vertibench: the off-road mobility benchmark on vertically challenging terrain, from Python.
 
 - :func:`make` and :func:`make_vec`: gymnasium environments (one, or a vector stepped in Rust threads).
-- :mod:`vertibench.planner`: a base class for planners, ``serve`` for the benchmark service.
+- :mod:`vertibench.planner`: a base class for planners; :func:`vertibench.serve.serve` runs one for the benchmark
+  service.
 - :func:`evaluate`: run a Python planner on the benchmark in-process, writing ``vb eval``'s files.
 """
 

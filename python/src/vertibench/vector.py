@@ -85,6 +85,11 @@ class VertibenchVectorEnv(VectorEnv):
         return self._core.control_period
 
     @property
+    def physics_dt(self) -> float:
+        """The simulator's fixed step, s (``control_period`` is a whole number of them)."""
+        return self._core.physics_dt
+
+    @property
     def task_set_version(self) -> str:
         return self._core.task_set_version
 

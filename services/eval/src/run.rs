@@ -85,7 +85,7 @@ impl EpisodeRow {
 }
 
 /// Named splits of the task set for `--tasks`: every task of the worlds with one factor level. An item list is a
-/// union (`low,dense` = the low worlds and the dense worlds).
+/// union (`low,dense` = the low worlds and the dense worlds); `+` intersects (`low+rigid` = the low rigid worlds).
 pub const SPLITS: [&str; 9] = [
     "low",
     "medium",
@@ -121,16 +121,21 @@ pub fn select(set: &TaskSet, spec: &str) -> Result<Vec<(u32, u32)>, EvalError> {
     }
     let mut out = BTreeSet::new();
     for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let bad = || EvalError::Param {
+        let bad = || {
+            EvalError::Param {
             field: "tasks".into(),
             message: format!(
-                "`{item}` is not `all`, a world id, a task id like w017-t3 or a split ({})",
+                "`{item}` is not `all`, a world id, a task id like w017-t3, a split ({}) or splits joined by `+` (low+rigid: both)",
                 SPLITS.join(", ")
             ),
+        }
         };
-        if SPLITS.contains(&item) {
+        let parts: Vec<&str> = item.split('+').map(str::trim).collect();
+        if parts.iter().all(|p| SPLITS.contains(p)) {
+            // `low+rigid`: the worlds in every one of the splits.
             for &w in &ids {
-                if in_split(set.world_meta(w)?, item) {
+                let meta = set.world_meta(w)?;
+                if parts.iter().all(|p| in_split(meta, p)) {
                     out.extend((0..10).map(|t| (w, t)));
                 }
             }

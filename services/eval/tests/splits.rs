@@ -38,3 +38,16 @@ fn named_splits_select_every_task_of_the_worlds_with_that_factor() {
     let err = select(&set, "steep").unwrap_err().to_string();
     assert!(err.contains("medium-density"), "{err}");
 }
+
+#[test]
+fn splits_joined_by_plus_intersect() {
+    let set = TaskSet::load(&TaskSet::default_dir()).unwrap();
+    let (low, rigid) = (select(&set, "low").unwrap(), select(&set, "rigid").unwrap());
+    let both = select(&set, "low+rigid").unwrap();
+    let expected: Vec<_> = low.iter().filter(|t| rigid.contains(t)).copied().collect();
+    assert!(!both.is_empty() && both.len() < low.len());
+    assert_eq!(both, expected);
+    assert_eq!(select(&set, "rigid + low").unwrap(), both);
+    let err = select(&set, "low+steep").unwrap_err().to_string();
+    assert!(err.contains("joined by `+`"), "{err}");
+}

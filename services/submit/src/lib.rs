@@ -262,6 +262,7 @@ pub struct Validation {
     pub detail: String,
     pub control_steps: usize,
     pub round_trip_p50_ms: f64,
+    pub round_trip_p99_ms: f64,
     pub round_trip_max_ms: f64,
     pub planner_log: String,
 }
@@ -308,6 +309,7 @@ pub async fn validate(
         detail: r.detail.clone(),
         control_steps: rt.len(),
         round_trip_p50_ms: rt.get(rt.len() / 2).copied().unwrap_or(0.0) * 1e3,
+        round_trip_p99_ms: rt.get(rt.len() * 99 / 100).copied().unwrap_or(0.0) * 1e3,
         round_trip_max_ms: rt.last().copied().unwrap_or(0.0) * 1e3,
         planner_log: run.planner_log,
     })

@@ -292,8 +292,8 @@ async fn main() -> anyhow::Result<()> {
             )
             .await?;
             println!(
-                "task {}: outcome {} ({}) after {} control steps; round trip p50 {:.2} ms, max {:.2} ms",
-                v.task, r.outcome, r.reason, r.control_steps, r.round_trip_p50_ms, r.round_trip_max_ms
+                "task {}: outcome {} ({}) after {} control steps; round trip p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
+                v.task, r.outcome, r.reason, r.control_steps, r.round_trip_p50_ms, r.round_trip_p99_ms, r.round_trip_max_ms
             );
             if !r.detail.is_empty() {
                 println!("detail: {}", r.detail);

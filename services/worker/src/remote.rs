@@ -219,10 +219,10 @@ impl RemotePlanner {
         }
     }
 
-    /// Sends one message and waits for the answer within `deadline`.
+    /// Sends one message (unless it was queued already) and waits for the answer within `deadline`.
     fn exchange(
         &mut self,
-        msg: pb::WorkerMessage,
+        msg: Option<pb::WorkerMessage>,
         deadline: Duration,
         what: &str,
     ) -> Result<pb::PlannerMessage, PlannerError> {
@@ -230,8 +230,10 @@ impl RemotePlanner {
             PlannerError::Protocol("no episode session (reset was not called)".into())
         })?;
         let res = self.rt.block_on(tokio::time::timeout(deadline, async {
-            if session.tx.send(msg).await.is_err() {
-                return Err(None);
+            if let Some(msg) = msg {
+                if session.tx.send(msg).await.is_err() {
+                    return Err(None);
+                }
             }
             session.rx.message().await.map_err(Some)
         }));
@@ -293,24 +295,6 @@ impl Planner for RemotePlanner {
 
     fn reset(&mut self, ctx: &PlannerContext<'_>) -> Result<(), PlannerError> {
         self.finish("aborted", "reset");
-        let (tx, rx) = mpsc::channel::<pb::WorkerMessage>(2);
-        let mut client = self.client.clone();
-        let opened = self.rt.block_on(tokio::time::timeout(
-            self.start_deadline,
-            client.plan_episode(tokio_stream::wrappers::ReceiverStream::new(rx)),
-        ));
-        let stream = match opened {
-            Err(_) => {
-                return Err(PlannerError::Timeout(format!(
-                    "planner did not open the episode stream within {:.1} s",
-                    self.start_deadline.as_secs_f64()
-                )))
-            }
-            Ok(Err(s)) => return Err(status_error("PlanEpisode", &s)),
-            Ok(Ok(r)) => r.into_inner(),
-        };
-        self.session = Some(Session { tx, rx: stream });
-        self.world = Some(ctx.world.clone());
         let start = pb::EpisodeStart {
             task: Some(convert::task_info(
                 ctx.task,
@@ -322,11 +306,32 @@ impl Planner for RemotePlanner {
             sim_dt: ctx.sim_dt,
             seed: self.seed,
         };
-        let msg = pb::WorkerMessage {
+        let (tx, rx) = mpsc::channel::<pb::WorkerMessage>(2);
+        // `EpisodeStart` is queued before the stream opens: a server may send its response headers only with its
+        // first answer (grpcio does), so waiting for them before sending anything would deadlock.
+        tx.try_send(pb::WorkerMessage {
             msg: Some(pb::worker_message::Msg::Start(start)),
+        })
+        .map_err(|e| PlannerError::Other(format!("queueing EpisodeStart: {e}")))?;
+        let mut client = self.client.clone();
+        let opened = self.rt.block_on(tokio::time::timeout(
+            self.start_deadline,
+            client.plan_episode(tokio_stream::wrappers::ReceiverStream::new(rx)),
+        ));
+        let stream = match opened {
+            Err(_) => {
+                return Err(PlannerError::Timeout(format!(
+                "planner did not open the episode stream and answer EpisodeStart within {:.1} s",
+                self.start_deadline.as_secs_f64()
+            )))
+            }
+            Ok(Err(s)) => return Err(status_error("PlanEpisode", &s)),
+            Ok(Ok(r)) => r.into_inner(),
         };
+        self.session = Some(Session { tx, rx: stream });
+        self.world = Some(ctx.world.clone());
         let deadline = self.start_deadline;
-        match self.exchange(msg, deadline, "EpisodeStart")?.msg {
+        match self.exchange(None, deadline, "EpisodeStart")?.msg {
             Some(pb::planner_message::Msg::Ready(_)) => Ok(()),
             other => Err(PlannerError::Protocol(format!(
                 "expected `ready` in answer to EpisodeStart, got {other:?}"
@@ -349,7 +354,7 @@ impl Planner for RemotePlanner {
         let t0 = Instant::now();
         let deadline = self.step_deadline;
         let answer = self.exchange(
-            msg,
+            Some(msg),
             deadline,
             &format!("the observation at t = {:.2} s", obs.state.time),
         );

@@ -1,24 +1,23 @@
 //! The client-driven simulator API (`vertibench.v1.Sim`): create an episode on a task, reset it, step it with an
-//! action per call, read observations, reward terms and the world maps. The Python SDK's gymnasium environment
-//! wraps it.
+//! action per call, read observations, reward terms and the world maps. A non-Python client drives episodes with it
+//! (Python users have the SDK's in-process environments, which are much faster).
 //!
-//! Each episode runs sim-core's own episode runner on a thread of its own, with a planner whose `act` hands the
-//! observation to the client and waits for the client's next action. So a client-driven episode follows exactly the
-//! rules (termination, metrics, action checks) of a benchmark episode.
-//!
-//! Reward terms per step: `progress` = decrease of the horizontal distance to the goal (m); `roll_penalty` and
-//! `pitch_penalty` = -(angle / rollover threshold)^2 at the new state; `terminal` = +10 on success, -10 on
-//! rollover, -5 when stuck, -10 on a rejected action, 0 otherwise. `terminated` covers success, rollover, stuck and
-//! rejected actions; `truncated` covers the time limit and leaving the map.
+//! Each episode is sim-core's [`EpisodeRun`], the state machine the benchmark's own runner drives, so a
+//! client-driven episode follows exactly the rules (start, termination, metrics, action checks) of a benchmark
+//! episode. Reward terms are [`sim_core::reward`]'s with the default weights: `progress` (m of goal distance gained,
+//! full scale), `roll_penalty` and `pitch_penalty` (never positive: `-0.1 (angle / 30 deg)^2`), `terminal` (+10 on
+//! success, -10 on any other end except the time limit). `truncated` is the time limit; every other end is
+//! `terminated`.
 
 use crate::convert;
-use sim_core::episode::{EpisodeConfig, EpisodeResult, Outcome};
+use sim_core::episode::EpisodeConfig;
 use sim_core::observe::CropSpec;
-use sim_core::planner::{Action, Observation, Planner, PlannerContext, PlannerError};
+use sim_core::planner::Action;
+use sim_core::reward::{is_time_limit, RewardWeights};
 use sim_core::vehicle::VehicleSpec;
 use sim_core::world::{Task, World};
+use sim_core::EpisodeRun;
 use std::collections::HashMap;
-use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::sync::Arc;
 use tasks::TaskSet;
 use tokio::sync::Mutex;
@@ -28,87 +27,94 @@ use vb_proto::v1 as pb;
 /// Most episodes open at once per server.
 pub const MAX_EPISODES: usize = 64;
 
-enum FromSim {
-    Observation(Observation),
-    Done(Box<EpisodeResult>),
-}
-
-/// The planner side of a client-driven episode.
-struct ClientPlanner {
-    rate: f64,
-    to_client: SyncSender<FromSim>,
-    from_client: Receiver<Action>,
-}
-
-impl Planner for ClientPlanner {
-    fn name(&self) -> &str {
-        "client"
-    }
-    fn control_rate_hz(&self) -> f64 {
-        self.rate
-    }
-    fn reset(&mut self, _: &PlannerContext<'_>) -> Result<(), PlannerError> {
-        Ok(())
-    }
-    fn act(&mut self, obs: &Observation) -> Result<Action, PlannerError> {
-        self.to_client
-            .send(FromSim::Observation(obs.clone()))
-            .map_err(|_| PlannerError::Other("episode closed".into()))?;
-        self.from_client
-            .recv()
-            .map_err(|_| PlannerError::Other("episode closed".into()))
-    }
-}
-
-struct Running {
-    to_sim: SyncSender<Action>,
-    from_sim: Receiver<FromSim>,
-    last: Option<Observation>,
-    done: bool,
-}
-
 struct SimEpisode {
     world: Arc<World>,
     task: Arc<Task>,
     vehicle: Arc<VehicleSpec>,
     cfg: EpisodeConfig,
-    control_dt: f64,
+    control_rate: f64,
     crop: Option<CropSpec>,
-    running: Option<Running>,
+    run: Option<EpisodeRun>,
 }
 
 impl SimEpisode {
-    fn start(&mut self) -> Running {
-        let (to_client, from_sim) = sync_channel(1);
-        let (to_sim, from_client) = sync_channel(1);
-        let (world, task, vehicle, cfg) = (
-            self.world.clone(),
-            self.task.clone(),
-            self.vehicle.clone(),
-            self.cfg.clone(),
-        );
-        let rate = 1.0 / self.control_dt;
-        std::thread::spawn(move || {
-            let mut planner = ClientPlanner {
-                rate,
-                to_client: to_client.clone(),
-                from_client,
-            };
-            let r = sim_core::run_episode(&world, &task, &vehicle, &mut planner, &cfg);
-            let _ = to_client.send(FromSim::Done(Box::new(r)));
-        });
-        Running {
-            to_sim,
-            from_sim,
-            last: None,
-            done: false,
-        }
+    fn observation(&self, run: &EpisodeRun) -> pb::Observation {
+        convert::observation(&run.observation(), &self.world, self.crop.as_ref())
     }
-}
 
-fn goal_distance(obs: &Observation, task: &Task) -> f64 {
-    let p = obs.state.position;
-    ((task.goal[0] - p[0]).powi(2) + (task.goal[1] - p[1]).powi(2)).sqrt()
+    /// Starts the episode over: the vehicle settled at rest at the start.
+    fn reset(&mut self) -> pb::StepResponse {
+        let mut run = EpisodeRun::new(&self.world, &self.task, &self.vehicle, &self.cfg);
+        run.set_control_rate(self.control_rate)
+            .expect("the control rate was checked at creation");
+        let resp = pb::StepResponse {
+            observation: Some(self.observation(&run)),
+            reward: Some(pb::RewardTerms::default()),
+            terminated: false,
+            truncated: false,
+            outcome: String::new(),
+        };
+        self.run = Some(run);
+        resp
+    }
+
+    /// One control step with `action`.
+    fn step(&mut self, action: Action) -> Result<pb::StepResponse, Status> {
+        let mut run = self
+            .run
+            .take()
+            .ok_or_else(|| Status::failed_precondition("call Reset before Step"))?;
+        if run.end().is_some() {
+            self.run = Some(run);
+            return Err(Status::failed_precondition(
+                "the episode has ended: call Reset to start again",
+            ));
+        }
+        let before = run.goal_distance();
+        if run.control(action).is_ok() {
+            run.advance();
+        }
+        let s = run.state();
+        let (after, scale) = (run.goal_distance(), self.world.scale);
+        let terms = |end| {
+            RewardWeights::default().terms(
+                before,
+                after,
+                s.roll,
+                s.pitch,
+                self.cfg.rollover_deg,
+                scale,
+                end,
+            )
+        };
+        let mut resp = pb::StepResponse {
+            observation: Some(self.observation(&run)),
+            ..Default::default()
+        };
+        let r = match run.end().cloned() {
+            None => terms(None),
+            Some(end) => {
+                let result = run.finish();
+                resp.truncated = is_time_limit(&end);
+                resp.terminated = !resp.truncated;
+                let outcome = result.outcome.as_str();
+                resp.outcome = if result.reason == outcome {
+                    outcome.to_string()
+                } else {
+                    format!("{outcome}:{}", result.reason)
+                };
+                terms(Some((&end, result.outcome)))
+            }
+        };
+        resp.reward = Some(pb::RewardTerms {
+            progress: r.progress,
+            roll_penalty: r.roll,
+            pitch_penalty: r.pitch,
+            terminal: r.terminal,
+        });
+        self.run = Some(run);
+        Ok(resp)
+    }
 }
 
 /// The `Sim` gRPC service.
@@ -129,80 +135,22 @@ impl SimService {
         pb::sim_server::SimServer::new(self)
     }
 
+    /// Serves the API alone on `listener` until the server fails.
+    pub async fn serve(
+        self,
+        listener: tokio::net::TcpListener,
+    ) -> Result<(), tonic::transport::Error> {
+        tonic::transport::Server::builder()
+            .add_service(self.server())
+            .serve_with_incoming(tokio_stream::wrappers::TcpListenerStream::new(listener))
+            .await
+    }
+
     async fn get(&self, id: &str) -> Result<Arc<Mutex<SimEpisode>>, Status> {
         self.episodes.lock().await.get(id).cloned().ok_or_else(|| {
             Status::not_found(format!("no episode `{id}` (closed, or never created)"))
         })
     }
-
-    fn response(
-        ep: &SimEpisode,
-        run: &mut Running,
-        msg: FromSim,
-        prev: Option<&Observation>,
-    ) -> pb::StepResponse {
-        let limit = ep.cfg.rollover_deg.to_radians();
-        match msg {
-            FromSim::Observation(obs) => {
-                let progress = prev.map_or(0.0, |p| {
-                    goal_distance(p, &ep.task) - goal_distance(&obs, &ep.task)
-                });
-                let reward = pb::RewardTerms {
-                    progress,
-                    roll_penalty: -(obs.state.roll / limit).powi(2),
-                    pitch_penalty: -(obs.state.pitch / limit).powi(2),
-                    terminal: 0.0,
-                };
-                let o = convert::observation(&obs, &ep.world, ep.crop.as_ref());
-                run.last = Some(obs);
-                pb::StepResponse {
-                    observation: Some(o),
-                    reward: Some(reward),
-                    terminated: false,
-                    truncated: false,
-                    outcome: String::new(),
-                }
-            }
-            FromSim::Done(r) => {
-                run.done = true;
-                let (terminated, truncated, terminal) = match r.outcome {
-                    Outcome::Success => (true, false, 10.0),
-                    Outcome::Rollover => (true, false, -10.0),
-                    Outcome::Stuck => (true, false, -5.0),
-                    Outcome::PlannerFailure => (true, false, -10.0),
-                    Outcome::Timeout | Outcome::OffMap => (false, true, 0.0),
-                };
-                let final_distance = r.metrics.final_goal_distance;
-                let progress = prev.map_or(0.0, |p| goal_distance(p, &ep.task) - final_distance);
-                let outcome = if r.reason.is_empty() || r.reason == r.outcome.as_str() {
-                    r.outcome.as_str().to_string()
-                } else {
-                    format!("{}:{}", r.outcome.as_str(), r.reason)
-                };
-                pb::StepResponse {
-                    observation: run
-                        .last
-                        .as_ref()
-                        .map(|o| convert::observation(o, &ep.world, ep.crop.as_ref())),
-                    reward: Some(pb::RewardTerms {
-                        progress,
-                        roll_penalty: 0.0,
-                        pitch_penalty: 0.0,
-                        terminal,
-                    }),
-                    terminated,
-                    truncated,
-                    outcome,
-                }
-            }
-        }
-    }
-}
-
-fn recv(run: &Running) -> Result<FromSim, Status> {
-    run.from_sim
-        .recv()
-        .map_err(|_| Status::internal("the episode thread stopped unexpectedly"))
 }
 
 #[tonic::async_trait]
@@ -285,9 +233,9 @@ impl pb::sim_server::Sim for SimService {
                 seed: r.seed,
                 ..EpisodeConfig::default()
             },
-            control_dt,
+            control_rate: 1.0 / control_dt,
             crop,
-            running: None,
+            run: None,
         };
         let mut map = self.episodes.lock().await;
         if map.len() >= MAX_EPISODES {
@@ -309,17 +257,9 @@ impl pb::sim_server::Sim for SimService {
     ) -> Result<Response<pb::StepResponse>, Status> {
         let ep = self.get(&req.get_ref().episode_id).await?;
         let mut ep = ep.lock_owned().await;
-        let resp = tokio::task::spawn_blocking(move || {
-            // Dropping the old channels ends the previous run's thread.
-            ep.running = None;
-            let mut run = ep.start();
-            let msg = recv(&run)?;
-            let resp = SimService::response(&ep, &mut run, msg, None);
-            ep.running = Some(run);
-            Ok::<_, Status>(resp)
-        })
-        .await
-        .map_err(|e| Status::internal(e.to_string()))??;
+        let resp = tokio::task::spawn_blocking(move || ep.reset())
+            .await
+            .map_err(|e| Status::internal(e.to_string()))?;
         Ok(Response::new(resp))
     }
 
@@ -333,28 +273,9 @@ impl pb::sim_server::Sim for SimService {
             .ok_or_else(|| Status::invalid_argument("step without an action"))?;
         let ep = self.get(&r.episode_id).await?;
         let mut ep = ep.lock_owned().await;
-        let resp = tokio::task::spawn_blocking(move || {
-            let mut run = ep
-                .running
-                .take()
-                .ok_or_else(|| Status::failed_precondition("call Reset before Step"))?;
-            if run.done {
-                ep.running = Some(run);
-                return Err(Status::failed_precondition(
-                    "the episode has ended: call Reset to start again",
-                ));
-            }
-            let prev = run.last.clone();
-            run.to_sim
-                .send(convert::action(&action))
-                .map_err(|_| Status::internal("the episode thread stopped unexpectedly"))?;
-            let msg = recv(&run)?;
-            let resp = SimService::response(&ep, &mut run, msg, prev.as_ref());
-            ep.running = Some(run);
-            Ok(resp)
-        })
-        .await
-        .map_err(|e| Status::internal(e.to_string()))??;
+        let resp = tokio::task::spawn_blocking(move || ep.step(convert::action(&action)))
+            .await
+            .map_err(|e| Status::internal(e.to_string()))??;
         Ok(Response::new(resp))
     }
 

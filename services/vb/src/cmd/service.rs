@@ -75,6 +75,9 @@ pub struct WorkerArgs {
     /// How long a planner process may take to start serving, s.
     #[arg(long, default_value_t = 30.0)]
     planner_startup_s: f64,
+    /// Also serve the client-driven `Sim` gRPC API on this address (e.g. 127.0.0.1:50052).
+    #[arg(long)]
+    sim: Option<SocketAddr>,
 }
 
 #[derive(Args)]
@@ -146,14 +149,26 @@ async fn bind(addr: SocketAddr, what: &str) -> anyhow::Result<TcpListener> {
         .with_context(|| format!("cannot listen on {addr} for the {what} (is another vb running? pick another with a flag)"))
 }
 
+/// The `Sim` API on the task set in `dir`.
+fn sim_service(dir: &std::path::Path) -> anyhow::Result<vb_worker::sim_service::SimService> {
+    let set = tasks::TaskSet::load(dir)
+        .with_context(|| format!("loading the task set {}", dir.display()))?;
+    Ok(vb_worker::sim_service::SimService::new(Arc::new(set)))
+}
+
+/// Starts the coordinator's gRPC services on `listener`, with the `Sim` API when `sim` is given.
 async fn start_coordinator(
     store: Store,
     cfg: CoordinatorConfig,
     listener: TcpListener,
+    sim: Option<vb_worker::sim_service::SimService>,
 ) -> anyhow::Result<Arc<Coordinator>> {
     let coord = Coordinator::new(store, cfg)?;
     tokio::spawn(coord.clone().run_lease_sweeper());
-    let grpc = vb_coordinator::grpc_router(&coord);
+    let mut grpc = vb_coordinator::grpc_router(&coord);
+    if let Some(sim) = sim {
+        grpc = grpc.add_service(sim.server());
+    }
     tokio::spawn(async move {
         if let Err(e) = grpc
             .serve_with_incoming(tokio_stream::wrappers::TcpListenerStream::new(listener))
@@ -172,7 +187,8 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         let http = bind(a.http, "leaderboard").await?;
         let grpc_addr = grpc.local_addr()?;
         let http_addr = http.local_addr()?;
-        let coord = start_coordinator(store.clone(), CoordinatorConfig::new(a.task_dir.clone()), grpc).await?;
+        let sim = sim_service(&a.task_dir)?;
+        let coord = start_coordinator(store.clone(), CoordinatorConfig::new(a.task_dir.clone()), grpc, Some(sim)).await?;
         let lb = Leaderboard::new(store.reader(), Some(tasks::TaskSet::load(&a.task_dir)?));
         tokio::spawn(async move {
             if let Err(e) = vb_leaderboard::serve(lb, http).await {
@@ -193,7 +209,7 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
             }
         });
         let token = coord.store().create_token("vb-serve", vb_coordinator::now()).await?;
-        eprintln!("coordinator gRPC on {grpc_addr}, leaderboard on http://{http_addr}/, {} local worker slots", a.slots);
+        eprintln!("coordinator and Sim gRPC APIs on {grpc_addr}, leaderboard on http://{http_addr}/, {} local worker slots", a.slots);
         eprintln!("submit your own planner with: VB_COORDINATOR=http://{grpc_addr} VB_TOKEN={token} vb-submit endpoint URL --name NAME");
         if let Some(planner) = &a.evaluate {
             let mut client = vb_submit::connect(&format!("http://{grpc_addr}"), &token).await?;
@@ -252,7 +268,7 @@ pub fn coordinator(a: CoordinatorArgs) -> anyhow::Result<()> {
             a.db,
             a.task_dir.display()
         );
-        start_coordinator(store, cfg, listener).await?;
+        start_coordinator(store, cfg, listener, None).await?;
         tokio::signal::ctrl_c().await?;
         Ok(())
     })
@@ -271,6 +287,16 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
             task_dir: a.task_dir.clone(),
             planner_startup_s: a.planner_startup_s,
         };
+        if let Some(addr) = a.sim {
+            let sim = sim_service(&a.task_dir)?;
+            let listener = bind(addr, "Sim API").await?;
+            eprintln!("Sim API on {}", listener.local_addr()?);
+            tokio::spawn(async move {
+                if let Err(e) = sim.serve(listener).await {
+                    eprintln!("Sim API stopped: {e}");
+                }
+            });
+        }
         vb_worker::run_worker(cfg, shutdown).await?;
         Ok(())
     })
