@@ -112,7 +112,7 @@ impl Slot {
         });
         self.draws += 1;
         let (lw, t) = src.get(self.task);
-        let mut run = EpisodeRun::new(&lw.world, t, &src.vehicle, &src.episode);
+        let mut run = src.start(self.task);
         run.set_control_rate(set.control_rate_hz)
             .expect("the control rate was checked when the environments were made");
         self.prev_distance = run.goal_distance();

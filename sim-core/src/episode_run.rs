@@ -74,7 +74,9 @@ pub fn control_every(rate_hz: f64, dt: f64) -> u64 {
 /// Stuck bookkeeping: positions sampled every [`STUCK_SAMPLE_DT`] in a ring covering the rule's window.
 const STUCK_SAMPLE_DT: f64 = 0.5;
 
-/// A running episode (see the module documentation).
+/// A running episode (see the module documentation). A clone continues bit-identically: cloning a freshly made run
+/// is the cheap way to start the same task again (the start's settling is not repeated).
+#[derive(Clone)]
 pub struct EpisodeRun {
     sim: Simulation,
     cfg: EpisodeConfig,

@@ -71,11 +71,47 @@ pub fn occupied(world: &World, x: f64, y: f64) -> bool {
     })
 }
 
-/// Heading-aligned obstacle crop (1 = occupied or off the map).
+/// Heading-aligned obstacle crop (1 = occupied or off the map). Each obstacle is tested only on the cells its
+/// bounding circle covers, so the cost grows with the obstacles near the vehicle, not with all of them; the result
+/// is [`occupied`]'s at every cell.
 pub fn obstacle_crop(world: &World, state: &VehicleState, spec: &CropSpec, out: &mut [u8]) {
     fill(state, spec, out, |x, y| {
-        u8::from(!world.heightmap.contains(x, y) || occupied(world, x, y))
+        u8::from(!world.heightmap.contains(x, y))
     });
+    let n = spec.size;
+    if n == 0 {
+        return;
+    }
+    let half = (n as f64 - 1.0) / 2.0;
+    let (s, c) = state.yaw.sin_cos();
+    let last = (n - 1) as f64;
+    for o in &world.obstacles {
+        // Cell (row, col) lies (half - row) * res ahead and (half - col) * res to the left of the vehicle.
+        let (dx, dy) = (o.x - state.position[0], o.y - state.position[1]);
+        let (ahead, left) = (c * dx + s * dy, -s * dx + c * dy);
+        let reach = o.half_extents[0].hypot(o.half_extents[1]) / spec.resolution + 1.0;
+        let (row, col) = (
+            half - ahead / spec.resolution,
+            half - left / spec.resolution,
+        );
+        if row + reach < 0.0 || row - reach > last || col + reach < 0.0 || col - reach > last {
+            continue;
+        }
+        let rows =
+            (row - reach).max(0.0).floor() as usize..=(row + reach).min(last).ceil() as usize;
+        let cols =
+            (col - reach).max(0.0).floor() as usize..=(col + reach).min(last).ceil() as usize;
+        for r in rows {
+            for k in cols.clone() {
+                let v = &mut out[r * n + k];
+                if *v == 0 {
+                    let (x, y) = cell_position(state, spec, r, k);
+                    let top = Vector3::new(x, y, o.z + o.half_extents[2]);
+                    *v = u8::from(sphere_obstacle(o, &top, 0.0).is_some());
+                }
+            }
+        }
+    }
 }
 
 /// Semantic label id of every heightmap sample, `grid[iy * nx + ix]`.
@@ -164,6 +200,46 @@ mod tests {
         obstacle_crop(&w, &state, &spec, &mut o);
         assert_eq!(o[5], 1);
         assert_eq!(o[60], 0);
+    }
+
+    #[test]
+    fn obstacle_crop_equals_the_occupancy_of_every_cell() {
+        let mut w = world();
+        // Rocks and trees of several sizes and headings around the origin.
+        for i in 0..40 {
+            let a = i as f64 * 0.7;
+            w.obstacles.push(Obstacle {
+                kind: if i % 3 == 0 {
+                    ObstacleKind::Tree
+                } else {
+                    ObstacleKind::Rock
+                },
+                x: (i as f64 * 1.3) % 30.0 - 15.0,
+                y: (i as f64 * 2.9) % 30.0 - 15.0,
+                z: 0.0,
+                yaw: a,
+                half_extents: [0.3 + 0.1 * (i % 7) as f64, 0.4 + 0.15 * (i % 5) as f64, 1.0],
+            });
+        }
+        let spec = CropSpec {
+            size: 33,
+            resolution: 0.7,
+        };
+        let mut fast = vec![0u8; 33 * 33];
+        for k in 0..12 {
+            let state = VehicleState {
+                position: [k as f64 * 3.0 - 20.0, 5.0 - k as f64, 0.0],
+                yaw: k as f64 * 0.55,
+                ..Default::default()
+            };
+            obstacle_crop(&w, &state, &spec, &mut fast);
+            let mut slow = vec![0u8; 33 * 33];
+            fill(&state, &spec, &mut slow, |x, y| {
+                u8::from(!w.heightmap.contains(x, y) || occupied(&w, x, y))
+            });
+            assert_eq!(fast, slow, "pose {k}");
+            assert!(fast.iter().any(|v| *v == 1), "pose {k} sees obstacles");
+        }
     }
 
     #[test]

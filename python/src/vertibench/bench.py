@@ -1,10 +1,12 @@
 """Environment throughput against the raw simulator: ``python -m vertibench.bench``.
 
-For 1, 8 and 64 environments (``--envs``), with and without map crops, it steps the vector environment with a
-fixed action (gentle left turn at half throttle, on the low-elevation rigid tasks, no time limit) and reports
-environment steps per second and the physics steps per second they deliver (environment steps x physics steps
-per control step), next to ``Simulation::step`` alone on the same vehicles, tasks and thread count. Resets (with
-the start's settling) that episode ends cause during the run are part of the environment's cost and are counted.
+For 1, 8 and 64 environments (``--envs``), with and without map crops (``--crops``), it runs the vector environment
+on the first tasks of a split (environment ``i`` on task ``i``) for ``--horizon`` steps from the start with a fixed
+action, again and again for ``--seconds`` of wall time, and reports environment steps per second, the physics steps
+per second they deliver (environment steps x physics steps per control step) and the same vehicles on the same
+tasks with the same action stepped by ``Simulation::step`` alone, on the same number of threads. The trajectories
+are the same, so the ratio is what the episode rules, observations, NumPy arrays and Python cost. Resets are timed
+apart: a task's first start (settling the vehicle) and a repeated one (a clone of the settled start).
 """
 
 from __future__ import annotations
@@ -19,43 +21,67 @@ import numpy as np
 from . import _core, make_vec
 from ._spaces import default_task_set
 
+ACTION = (0.0, 0.4, 0.0)
 
-def env_rate(num_envs: int, crop_size: int, seconds: float, tasks: str, threads: int | None):
-    env = make_vec(num_envs, tasks=tasks, crop_size=crop_size, max_time=1e9, task_order="cycle", num_threads=threads)
-    env.reset(seed=0)
-    action = np.tile(np.array([0.3, 0.5, 0.0]), (num_envs, 1))
-    env.step(action)
-    steps = ends = 0
+
+def measure(num_envs: int, crop_size: int, seconds: float, horizon: int, tasks: str, threads: int):
+    env = make_vec(num_envs, tasks=tasks, crop_size=crop_size, max_time=1e9, task_order="cycle",
+                   num_threads=threads)
+    picks = [env.task_ids[i % len(env.task_ids)] for i in range(num_envs)]
     t0 = time.perf_counter()
-    while time.perf_counter() - t0 < seconds:
-        _, _, term, trunc, _ = env.step(action)
-        steps += num_envs
-        ends += int(np.sum(term | trunc))
-    dt = time.perf_counter() - t0
+    env.reset(seed=0, options={"tasks": picks})
+    first_reset = time.perf_counter() - t0
+    action = np.tile(np.array(ACTION), (num_envs, 1))
+    step_s = reset_s = 0.0
+    steps = resets = ends = 0
+    while step_s < seconds:
+        t0 = time.perf_counter()
+        env.reset(options={"tasks": picks})
+        reset_s += time.perf_counter() - t0
+        resets += 1
+        t0 = time.perf_counter()
+        for _ in range(horizon):
+            _, _, term, trunc, _ = env.step(action)
+            ends += int(np.sum(term | trunc))
+        step_s += time.perf_counter() - t0
+        steps += horizon * num_envs
     per_control = round(env.control_period / env.physics_dt)
-    return steps / dt, steps * per_control / dt, ends
+    raw_steps, raw_s = 0, 0.0
+    while raw_s < seconds:
+        n, s = _core.raw_throughput(num_envs, horizon * per_control, default_task_set(), tasks=tasks,
+                                    action=ACTION, num_threads=threads)
+        raw_steps, raw_s = raw_steps + n, raw_s + s
+    return dict(
+        env_rate=steps / step_s,
+        physics_rate=steps * per_control / step_s,
+        raw_rate=raw_steps / raw_s,
+        first_reset_ms=first_reset * 1e3,
+        reset_ms=reset_s / resets * 1e3,
+        ends=ends,
+    )
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--envs", default="1,8,64")
-    ap.add_argument("--crops", default="0,64", help="crop sizes to measure (0: none)")
-    ap.add_argument("--seconds", type=float, default=5.0, help="wall time per measurement")
+    ap.add_argument("--crops", default="0,32", help="crop sizes to measure (0: none)")
+    ap.add_argument("--seconds", type=float, default=4.0, help="wall time of stepping per measurement")
+    ap.add_argument("--horizon", type=int, default=150, help="steps per run from the start (150 = 7.8 s)")
     ap.add_argument("--tasks", default="low")
     ap.add_argument("--threads", type=int, default=None, help="threads (default: all cores)")
     args = ap.parse_args(argv)
     threads = args.threads or os.cpu_count()
-    print(f"# vertibench {_core.SIM_VERSION}; {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"{threads} threads; tasks {args.tasks}; {time.strftime('%Y-%m-%d %H:%M')}")
-    print("| envs | crop | env steps/s | physics steps/s | raw physics steps/s | env / raw | episode ends |")
-    print("|---:|---:|---:|---:|---:|---:|---:|")
+    print(f"# vertibench {_core.SIM_VERSION}; {platform.machine()}, {os.cpu_count()} cores, {threads} threads; "
+          f"tasks {args.tasks}; action {ACTION}; {args.horizon} steps per run; {time.strftime('%Y-%m-%d %H:%M')}")
+    print("| envs | crop | env steps/s | physics steps/s | raw physics steps/s | env / raw | reset, first (ms) "
+          "| reset, repeated (ms) | episode ends |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for n in (int(v) for v in args.envs.split(",")):
-        raw_steps = max(2000, int(2e5 * args.seconds / n))
-        steps, secs = _core.raw_throughput(n, raw_steps, default_task_set(), tasks=args.tasks, num_threads=threads)
-        raw = steps / secs
         for crop in (int(v) for v in args.crops.split(",")):
-            rate, physics, ends = env_rate(n, crop, args.seconds, args.tasks, threads)
-            print(f"| {n} | {crop or '-'} | {rate:,.0f} | {physics:,.0f} | {raw:,.0f} | {physics / raw:.0%} | {ends} |")
+            m = measure(n, crop, args.seconds, args.horizon, args.tasks, threads)
+            print(f"| {n} | {crop or '-'} | {m['env_rate']:,.0f} | {m['physics_rate']:,.0f} | {m['raw_rate']:,.0f} "
+                  f"| {m['physics_rate'] / m['raw_rate']:.0%} | {m['first_reset_ms']:.1f} | {m['reset_ms']:.2f} "
+                  f"| {m['ends']} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ The same planner runs in-process with :func:`vertibench.evaluate` and on the ben
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -149,6 +150,24 @@ def make_observation(state, crops=None) -> Observation:
     if crops is not None:
         o.elevation, o.semantics, o.obstacles = crops
     return o
+
+
+def env_observation(obs: Observation, goal) -> dict:
+    """The gymnasium environments' observation for ``obs`` with the goal at ``goal`` (world x, y): ``state`` and
+    ``goal`` vectors and, when ``obs`` has crops, ``elevation`` relative to the vehicle's height, ``semantics`` and
+    ``obstacles``. A policy trained on the environments can then drive as a :class:`Planner` (see
+    ``vertibench.sb3.PolicyPlanner``)."""
+    x, y, z = (float(v) for v in obs.position)
+    state = np.array([x, y, z, obs.roll, obs.pitch, obs.yaw, *obs.velocity, *obs.angular_velocity, obs.speed,
+                      obs.steering, obs.time], dtype=np.float64)
+    dx, dy = float(goal[0]) - x, float(goal[1]) - y
+    s, c = math.sin(obs.yaw), math.cos(obs.yaw)
+    d = {"state": state, "goal": np.array([c * dx + s * dy, -s * dx + c * dy, float(np.hypot(dx, dy))])}
+    if obs.elevation is not None:
+        d["elevation"] = obs.elevation - np.float32(z)
+        d["semantics"] = obs.semantics
+        d["obstacles"] = obs.obstacles
+    return d
 
 
 def _core_reset(planner: Planner, task: dict, vehicle: dict, maps: dict, sim_dt: float) -> None:

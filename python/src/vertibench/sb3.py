@@ -17,6 +17,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
+from .planner import Planner, env_observation
 from .vector import VertibenchVectorEnv
 
 
@@ -85,3 +86,31 @@ class SB3VecEnv(VecEnv):
 
     def env_is_wrapped(self, wrapper_class, indices=None):
         return [False for _ in self._get_indices(indices)]
+
+
+class PolicyPlanner(Planner):
+    """A trained SB3 policy as a :class:`vertibench.planner.Planner`, for :func:`vertibench.evaluate` and
+    :func:`vertibench.serve.serve`: it builds the environments' observation (:func:`env_observation`), normalises it
+    with ``vec_normalize`` when given (the ``VecNormalize`` the policy was trained with) and acts
+    deterministically. ``crop_size`` and ``crop_resolution`` must be those of the training environments."""
+
+    def __init__(self, model, vec_normalize=None, name: str = "sb3-policy", crop_size: int = 0,
+                 crop_resolution: float = 1.0, control_rate_hz: float = 20.0):
+        self.model = model
+        self.vec_normalize = vec_normalize
+        self.name = name
+        self.crop_size = crop_size
+        self.crop_resolution = crop_resolution
+        self.control_rate_hz = control_rate_hz
+        low, high = model.action_space.low, model.action_space.high
+        self._low, self._high = low.astype(np.float64), high.astype(np.float64)
+
+    def reset(self, task, vehicle, maps):
+        self.goal = task.goal
+
+    def act(self, obs):
+        o = {k: v[None] for k, v in env_observation(obs, self.goal).items()}
+        if self.vec_normalize is not None:
+            o = self.vec_normalize.normalize_obs(o)
+        action, _ = self.model.predict(o, deterministic=True)
+        return tuple(np.clip(np.asarray(action, dtype=np.float64).reshape(3), self._low, self._high))
