@@ -10,6 +10,5 @@ venv="${VB_VENV:-$HOME/.cache/vertibench/venv}"
 if [ ! -x "$venv/bin/python" ]; then
     python3 -m venv "$venv"
 fi
-"$venv/bin/python" -m pip install -q --upgrade pip
 "$venv/bin/python" -m pip install -q ".[test]"
 "$venv/bin/python" -m pytest -q -rs tests "$@"

@@ -1,5 +1,6 @@
 """Drives one task with the Python PID in the gymnasium environment and plots the episode with matplotlib: the
-path over the elevation map, and roll, pitch and speed over time.
+driven path and the global path over the elevation map (obstacles outlined in black), and roll, pitch and speed
+over time.
 
     python examples/python/plot_episode.py --task w017-t3 --out episode.png
 """
@@ -29,7 +30,7 @@ def drive(task_id: str):
         obs, _, terminated, truncated, info = env.step(np.array([a.steering, a.throttle, a.brake]))
         rows.append(obs["state"])
         if terminated or truncated:
-            return env.task, np.array(rows), info
+            return env.task, env.maps, np.array(rows), info
 
 
 def main():
@@ -37,13 +38,18 @@ def main():
     ap.add_argument("--task", default="w017-t3")
     ap.add_argument("--out", default="episode.png")
     args = ap.parse_args()
-    task, states, info = drive(args.task)
+    task, maps, states, info = drive(args.task)
     col = {name: k for k, name in enumerate(vb.STATE_FIELDS)}
     fig, (ax_map, ax_t) = plt.subplots(1, 2, figsize=(12, 5))
+    ny, nx = maps.elevation.shape
+    half_x, half_y = (nx - 1) / 2 * maps.cell, (ny - 1) / 2 * maps.cell
+    im = ax_map.imshow(maps.elevation, origin="lower", extent=(-half_x, half_x, -half_y, half_y), cmap="terrain")
+    ax_map.contour(maps.obstacles, levels=[0.5], colors="k", linewidths=0.6, origin="lower",
+                   extent=(-half_x, half_x, -half_y, half_y))
+    fig.colorbar(im, ax=ax_map, label="elevation (m)")
     ax_map.plot(task.path[:, 0], task.path[:, 1], "w--", lw=1, label="global path")
-    ax_map.plot(states[:, col["x"]], states[:, col["y"]], "y-", lw=2, label="driven")
+    ax_map.plot(states[:, col["x"]], states[:, col["y"]], "m-", lw=2, label="driven")
     ax_map.plot(*task.goal, "r*", ms=14, label="goal")
-    ax_map.set_facecolor("0.3")
     ax_map.set_aspect("equal")
     ax_map.legend(loc="best")
     ax_map.set_title(f"{task.id} ({task.level}, {task.semantics}, {task.density}): {info['outcome']}")

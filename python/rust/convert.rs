@@ -2,9 +2,13 @@
 
 use crate::slot::Ended;
 use crate::source::Source;
+use numpy::ndarray::Array2;
+use numpy::IntoPyArray;
+use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use sim_core::episode::EpisodeMetrics;
+use sim_core::observe;
 use sim_core::planner::VehicleInfo;
 use sim_core::world::{Task, World};
 
@@ -37,6 +41,24 @@ pub fn task<'py>(py: Python<'py>, t: &Task, w: &World) -> PyResult<Bound<'py, Py
     d.set_item("semantics", w.semantics.as_str())?;
     d.set_item("density", w.density.as_str())?;
     d.set_item("scale", w.scale)?;
+    Ok(d)
+}
+
+fn grid<'py, T: numpy::Element>(py: Python<'py>, w: &World, data: Vec<T>) -> PyResult<Bound<'py, PyAny>> {
+    let h = &w.heightmap;
+    let a = Array2::from_shape_vec((h.ny, h.nx), data)
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    Ok(a.into_pyarray(py).into_any())
+}
+
+/// A world's ground-truth maps on its heightmap grid, as `vertibench.planner.Maps` takes them.
+pub fn maps<'py>(py: Python<'py>, w: &World) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("elevation", grid(py, w, w.heightmap.heights.clone())?)?;
+    d.set_item("semantics", grid(py, w, observe::semantics_grid(w))?)?;
+    d.set_item("obstacles", grid(py, w, observe::occupancy_grid(w))?)?;
+    d.set_item("friction", grid(py, w, observe::friction_grid(w))?)?;
+    d.set_item("cell", w.heightmap.cell)?;
     Ok(d)
 }
 

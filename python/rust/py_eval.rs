@@ -28,17 +28,6 @@ struct PyPlanner {
     interrupted: Arc<AtomicBool>,
 }
 
-fn grid<'py, T: numpy::Element>(
-    py: Python<'py>,
-    w: &World,
-    data: Vec<T>,
-) -> PyResult<Bound<'py, PyAny>> {
-    let h = &w.heightmap;
-    let a = Array2::from_shape_vec((h.ny, h.nx), data)
-        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-    Ok(a.into_pyarray(py).into_any())
-}
-
 impl PyPlanner {
     /// A Python exception as the planner's failure; Ctrl-C stops the evaluation instead.
     fn failure(&self, py: Python<'_>, e: PyErr) -> PlannerError {
@@ -56,12 +45,7 @@ impl PyPlanner {
     fn reset_py(&mut self, py: Python<'_>, ctx: &PlannerContext<'_>) -> PyResult<()> {
         let (t, w) = (ctx.task, ctx.world);
         let task = crate::convert::task(py, t, w)?;
-        let maps = PyDict::new(py);
-        maps.set_item("elevation", grid(py, w, w.heightmap.heights.clone())?)?;
-        maps.set_item("semantics", grid(py, w, observe::semantics_grid(w))?)?;
-        maps.set_item("obstacles", grid(py, w, observe::occupancy_grid(w))?)?;
-        maps.set_item("friction", grid(py, w, observe::friction_grid(w))?)?;
-        maps.set_item("cell", w.heightmap.cell)?;
+        let maps = crate::convert::maps(py, w)?;
         let vehicle = vehicle_info(py, ctx.vehicle)?;
         self.glue.call_method1(
             py,

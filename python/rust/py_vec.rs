@@ -277,6 +277,14 @@ impl VecCore {
         crate::convert::task(py, t, &lw.world)
     }
 
+    /// The ground-truth maps of selected task `k`'s world.
+    fn maps<'py>(&self, py: Python<'py>, k: usize) -> PyResult<Bound<'py, PyDict>> {
+        if k >= self.src.tasks.len() {
+            return Err(bad(format!("task index {k} is out of range")));
+        }
+        crate::convert::maps(py, &self.src.get(k).0.world)
+    }
+
     #[getter]
     fn task_set_version(&self) -> String {
         self.src.version.clone()

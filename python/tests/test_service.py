@@ -160,3 +160,26 @@ def test_vb_serve_serves_the_sim_api(service):
     assert r.observation.state.time == pytest.approx(2.0, abs=0.05)
     assert r.reward.progress > 0 and r.reward.roll_penalty <= 0
     call("CloseEpisode", pb.CloseEpisodeRequest(episode_id=created.episode_id), pb.CloseEpisodeResponse)
+
+
+def test_vb_worker_serves_the_sim_api_on_its_own_address():
+    import grpc
+
+    from vertibench import protocol as pb
+
+    port = free_port()
+    # No coordinator is needed for the Sim API: the worker keeps retrying to register meanwhile.
+    proc = subprocess.Popen([binary("VB_BIN"), "worker", "--coordinator", f"http://127.0.0.1:{free_port()}", "--sim",
+                             f"127.0.0.1:{port}", "--task-dir", vb.default_task_set()],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        channel = grpc.insecure_channel(f"127.0.0.1:{port}")
+        grpc.channel_ready_future(channel).result(timeout=60)
+        rpc = channel.unary_unary(f"/{pb.SIM_SERVICE}/CreateEpisode",
+                                  request_serializer=pb.CreateEpisodeRequest.SerializeToString,
+                                  response_deserializer=pb.CreateEpisodeResponse.FromString)
+        created = rpc(pb.CreateEpisodeRequest(task_id="w003-t2"), timeout=30)
+        assert created.task.task_id == "w003-t2" and created.episode_id
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)

@@ -8,7 +8,7 @@ import gymnasium as gym
 import numpy as np
 
 from . import _core
-from .planner import make_task
+from .planner import Maps, make_task
 from ._spaces import REWARD_TERMS, action_space, core_kwargs, observation_space
 
 
@@ -79,6 +79,14 @@ class VertibenchEnv(gym.Env):
         if self.task_id is None:
             raise RuntimeError("call reset() first")
         return make_task(self._core.task(self.task_ids.index(self.task_id)))
+
+    @property
+    def maps(self):
+        """The current episode's world maps (:class:`vertibench.planner.Maps`: elevation, semantics, obstacles,
+        friction on the heightmap grid)."""
+        if self.task_id is None:
+            raise RuntimeError("call reset() first")
+        return Maps(**self._core.maps(self.task_ids.index(self.task_id)))
 
     @property
     def control_period(self) -> float:

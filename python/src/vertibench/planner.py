@@ -7,8 +7,8 @@ tuple). Simulated time is frozen while the planner thinks. An exception fails th
 ``planner_crash`` (its traceback is the episode's detail); an out-of-range or NaN action fails it with reason
 ``invalid_action``.
 
-The same planner runs in-process with :func:`vertibench.evaluate` and on the benchmark service with
-:func:`vertibench.serve.serve` (``vb-submit exec -- python my_planner.py``).
+The same planner runs in-process with :func:`vertibench.evaluate` and on the benchmark service with :func:`serve`
+(``vb-submit exec -- python my_planner.py``).
 """
 
 from __future__ import annotations
@@ -168,6 +168,13 @@ def env_observation(obs: Observation, goal) -> dict:
         d["semantics"] = obs.semantics
         d["obstacles"] = obs.obstacles
     return d
+
+
+def serve(planner: Planner, address: str | None = None, **kwargs):
+    """Serves ``planner`` over the benchmark's ``Planner`` gRPC protocol (:func:`vertibench.serve.serve`)."""
+    from .serve import serve as _serve
+
+    return _serve(planner, address, **kwargs)
 
 
 def _core_reset(planner: Planner, task: dict, vehicle: dict, maps: dict, sim_dt: float) -> None:

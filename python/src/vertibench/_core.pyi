@@ -1,0 +1,85 @@
+"""Type stubs of the native core (``vertibench._core``, a PyO3 extension). Use the documented Python API
+(``vertibench.make``, ``make_vec``, ``evaluate``, ...) rather than these directly."""
+
+from os import PathLike
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+SIM_VERSION: str
+STATE_FIELDS: list[str]
+GOAL_FIELDS: list[str]
+SPLITS: list[str]
+PROTO_DESCRIPTOR_SET: bytes
+
+def default_task_dir() -> str: ...
+def vehicles() -> list[str]: ...
+
+class VecCore:
+    num_envs: int
+    task_ids: list[str]
+    task_factors: list[tuple[str, str, str]]
+    task_set_version: str
+    crop_size: int
+    crop_resolution: float
+    scale: float
+    max_time: float
+    vehicle: dict[str, Any]
+    physics_dt: float
+    control_period: float
+    def __init__(
+        self,
+        num_envs: int,
+        task_dir: str | PathLike[str],
+        tasks: str = "all",
+        vehicle: str = "hmmwv",
+        scale: float | None = None,
+        control_rate_hz: float = 20.0,
+        crop_size: int = 0,
+        crop_resolution: float | None = None,
+        rules: str = "paper",
+        max_time: float | None = None,
+        reward: list[float] | None = None,
+        autoreset: str = "next_step",
+        task_order: str = "random",
+        num_threads: int | None = None,
+    ) -> None: ...
+    def task(self, k: int) -> dict[str, Any]: ...
+    def maps(self, k: int) -> dict[str, Any]: ...
+    def reset(
+        self,
+        seed: int | None = None,
+        mask: npt.NDArray[np.bool_] | None = None,
+        tasks: list[int | None] | None = None,
+    ) -> tuple[dict[str, np.ndarray], list[int]]: ...
+    def step(
+        self, actions: npt.NDArray[np.float64]
+    ) -> tuple[
+        dict[str, np.ndarray],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.bool_],
+        list[int],
+        list[tuple[int, dict[str, Any]]],
+    ]: ...
+
+def evaluate(
+    planner: Any,
+    out: str | PathLike[str],
+    task_dir: str | PathLike[str],
+    tasks: str = "all",
+    vehicle: str = "hmmwv",
+    scale: float | None = None,
+    rules: str = "paper",
+    progress: bool = True,
+) -> dict[str, list[Any]]: ...
+def raw_throughput(
+    num_envs: int,
+    steps: int,
+    task_dir: str | PathLike[str],
+    tasks: str = "all",
+    action: tuple[float, float, float] = (0.3, 0.5, 0.0),
+    num_threads: int | None = None,
+) -> tuple[int, float]: ...
