@@ -44,7 +44,11 @@ pub fn task<'py>(py: Python<'py>, t: &Task, w: &World) -> PyResult<Bound<'py, Py
     Ok(d)
 }
 
-fn grid<'py, T: numpy::Element>(py: Python<'py>, w: &World, data: Vec<T>) -> PyResult<Bound<'py, PyAny>> {
+fn grid<'py, T: numpy::Element>(
+    py: Python<'py>,
+    w: &World,
+    data: Vec<T>,
+) -> PyResult<Bound<'py, PyAny>> {
     let h = &w.heightmap;
     let a = Array2::from_shape_vec((h.ny, h.nx), data)
         .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
