@@ -6,6 +6,7 @@ import re
 import shutil
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -13,6 +14,12 @@ import vertibench as vb
 from test_service import PURE_PURSUIT, ROOT, binary, service  # noqa: F401 (the fixture)
 
 TAG = "vertibench-test-python-planner:1"
+
+
+def containers(image):
+    """Ids of the containers (running or not) of `image`."""
+    out = subprocess.run(["docker", "ps", "-a", "-q", "--filter", f"ancestor={image}"], capture_output=True, text=True)
+    return out.stdout.split()
 
 
 def docker_ok():
@@ -44,12 +51,16 @@ def test_a_python_planner_image_through_the_service(image, service, tmp_path):  
         r = subprocess.run([binary("VB_SUBMIT_BIN"), "results", sid, "--format", "csv"], capture_output=True,
                            text=True, timeout=60, env=env)
         assert r.returncode == 0, r.stderr
+        # The worker removes each episode's container when the episode ends.
+        for _ in range(100):
+            if not containers(image):
+                break
+            time.sleep(0.1)
+        assert not containers(image), "containers of finished episodes are removed"
     finally:
-        # The worker stops the `docker run` client; containers it leaves behind are issue 15's to fix.
-        ids = subprocess.run(["docker", "ps", "-q", "--filter", f"ancestor={image}"], capture_output=True,
-                             text=True).stdout.split()
+        ids = containers(image)
         if ids:
-            subprocess.run(["docker", "kill", *ids], capture_output=True)
+            subprocess.run(["docker", "rm", "-f", *ids], capture_output=True)
     import io
 
     import pandas as pd

@@ -183,6 +183,39 @@ impl WorldRecord {
     }
 }
 
+/// Adds one world file (its name and bytes) to the task-set version's hash.
+fn hash_file(hasher: &mut Sha256, path: &Path, bytes: &[u8]) {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy())
+        .unwrap_or_default();
+    hasher.update(name.as_bytes());
+    hasher.update(bytes);
+}
+
+/// The version: the first 16 hex digits of the hash.
+fn version_of(hasher: Sha256) -> String {
+    hasher
+        .finalize()
+        .iter()
+        .take(8)
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// The version of the world files a manifest lists, from their content (as [`save`] computed it).
+pub fn content_version(dir: &Path, manifest: &Manifest) -> Result<String, TasksError> {
+    let worlds_dir = dir.join("worlds");
+    let mut hasher = Sha256::new();
+    for w in &manifest.worlds {
+        for ext in ["json", "png"] {
+            let path = worlds_dir.join(format!("{}.{ext}", world_stem(w.id)));
+            hash_file(&mut hasher, &path, &read(&path)?);
+        }
+    }
+    Ok(version_of(hasher))
+}
+
 /// Writes a task set to `dir` (replacing its world files) and returns its manifest.
 pub fn save(
     dir: &Path,
@@ -210,13 +243,7 @@ pub fn save(
             &png_path,
         )?;
         for (path, bytes) in [(&json_path, &json), (&png_path, &png)] {
-            hasher.update(
-                path.file_name()
-                    .expect("file name")
-                    .to_string_lossy()
-                    .as_bytes(),
-            );
-            hasher.update(bytes);
+            hash_file(&mut hasher, path, bytes);
             std::fs::write(path, bytes).map_err(|e| TasksError::io(path, e))?;
         }
         entries.push(WorldEntry {
@@ -227,8 +254,7 @@ pub fn save(
             terrain: spec.terrain,
         });
     }
-    let digest = hasher.finalize();
-    let version: String = digest.iter().take(8).map(|b| format!("{b:02x}")).collect();
+    let version = version_of(hasher);
     let manifest = Manifest {
         format: FORMAT.into(),
         version,
@@ -289,7 +315,9 @@ impl TaskSet {
             .join("v1")
     }
 
-    /// Opens a task set directory (reads and validates the manifest only).
+    /// Opens a task set directory: reads and validates the manifest, and recomputes the version from the world
+    /// files, refusing a set whose files do not hash to the version its manifest claims (results carry the
+    /// version, so it must say what they were computed on).
     pub fn load(dir: &Path) -> Result<TaskSet, TasksError> {
         let path = dir.join("manifest.json");
         let bytes = read(&path)?;
@@ -311,6 +339,18 @@ impl TaskSet {
         ids.sort_unstable();
         if ids.windows(2).any(|w| w[0] == w[1]) {
             return Err(TasksError::field(&path, "worlds", "duplicate world id"));
+        }
+        let actual = content_version(dir, &manifest)?;
+        if actual != manifest.version {
+            return Err(TasksError::field(
+                &path,
+                "version",
+                format!(
+                    "the manifest says `{}` but the world files hash to `{actual}`: the task set was changed after \
+                     it was written; restore its files or regenerate it (`vb tasks generate`)",
+                    manifest.version
+                ),
+            ));
         }
         Ok(TaskSet {
             dir: dir.to_path_buf(),

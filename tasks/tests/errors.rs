@@ -1,6 +1,7 @@
 //! Bad input gets an error naming the file and the field, never a panic.
 
 use std::path::{Path, PathBuf};
+use tasks::format::{content_version, Manifest};
 use tasks::TaskSet;
 
 fn scratch(name: &str) -> PathBuf {
@@ -10,6 +11,7 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
+/// Copies the committed set's world `id` into `dir` and seals a manifest listing it alone.
 fn copy_world(dir: &Path, id: u32) {
     let src = TaskSet::default_dir().join("worlds");
     for ext in ["json", "png"] {
@@ -19,8 +21,24 @@ fn copy_world(dir: &Path, id: u32) {
         )
         .unwrap();
     }
-    let manifest = std::fs::read_to_string(TaskSet::default_dir().join("manifest.json")).unwrap();
-    std::fs::write(dir.join("manifest.json"), manifest).unwrap();
+    seal(dir, &[id]);
+}
+
+/// Writes a manifest listing worlds `ids` with the version their files in `dir` hash to, as a task set's author
+/// would after editing it by hand.
+fn seal(dir: &Path, ids: &[u32]) {
+    let text = std::fs::read_to_string(TaskSet::default_dir().join("manifest.json")).unwrap();
+    let mut m: Manifest = serde_json::from_str(&text).unwrap();
+    m.worlds.retain(|w| ids.contains(&w.id));
+    // Missing files leave the old version: the load reports the missing file.
+    if let Ok(v) = content_version(dir, &m) {
+        m.version = v;
+    }
+    std::fs::write(
+        dir.join("manifest.json"),
+        serde_json::to_string(&m).unwrap(),
+    )
+    .unwrap();
 }
 
 #[test]
@@ -50,7 +68,8 @@ fn broken_world_files_name_the_file_and_field() {
     let set = TaskSet::load(&dir).unwrap();
     assert!(set.world(3, 1.0).is_ok());
     // A missing world file.
-    let e = set.world(4, 1.0).unwrap_err().to_string();
+    seal(&dir, &[3, 4]);
+    let e = TaskSet::load(&dir).unwrap_err().to_string();
     assert!(e.contains("004.json"), "{e}");
     // A rigid patch without friction.
     let json_path = dir.join("worlds/003.json");
@@ -64,7 +83,12 @@ fn broken_world_files_name_the_file_and_field() {
         .unwrap();
     patch.as_object_mut().unwrap().remove("friction");
     std::fs::write(&json_path, serde_json::to_string(&v).unwrap()).unwrap();
-    let e = set.world(3, 1.0).unwrap_err().to_string();
+    seal(&dir, &[3]);
+    let e = TaskSet::load(&dir)
+        .unwrap()
+        .world(3, 1.0)
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("003.json") && e.contains("friction") && e.contains("missing"),
         "{e}"
@@ -73,9 +97,48 @@ fn broken_world_files_name_the_file_and_field() {
     std::fs::write(&json_path, &text).unwrap();
     let img: image::ImageBuffer<image::Luma<u16>, Vec<u16>> = image::ImageBuffer::new(64, 64);
     img.save(dir.join("worlds/003.png")).unwrap();
-    let e = set.world(3, 1.0).unwrap_err().to_string();
+    seal(&dir, &[3]);
+    let e = TaskSet::load(&dir)
+        .unwrap()
+        .world(3, 1.0)
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("003.png") && e.contains("expected 129 x 129"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_task_set_changed_after_it_was_written_is_refused() {
+    let dir = scratch("tampered");
+    copy_world(&dir, 5);
+    let version = TaskSet::load(&dir).unwrap().version().to_string();
+    // Obstacles removed and friction raised, the manifest left as it was.
+    let json_path = dir.join("worlds/005.json");
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json_path).unwrap()).unwrap();
+    v["obstacles"] = serde_json::json!([]);
+    for p in v["patches"].as_array_mut().unwrap() {
+        if p.get("friction").is_some() {
+            p["friction"] = serde_json::json!(2.0);
+        }
+    }
+    std::fs::write(&json_path, serde_json::to_string(&v).unwrap()).unwrap();
+    let e = TaskSet::load(&dir).unwrap_err().to_string();
+    assert!(
+        e.contains("manifest.json") && e.contains("`version`") && e.contains(&version),
+        "{e}"
+    );
+    // A made-up version is refused too.
+    seal(&dir, &[5]);
+    let path = dir.join("manifest.json");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let sealed: Manifest = serde_json::from_str(&text).unwrap();
+    std::fs::write(&path, text.replace(&sealed.version, "0000000000000000")).unwrap();
+    let e = TaskSet::load(&dir).unwrap_err().to_string();
+    assert!(
+        e.contains("0000000000000000") && e.contains(&sealed.version),
         "{e}"
     );
 }

@@ -128,3 +128,115 @@ fn validate_accepts_a_good_planner_and_names_what_is_wrong_with_bad_ones() {
         "{text}"
     );
 }
+
+/// Waits up to `secs` for `pred`.
+fn eventually(secs: f64, pred: impl Fn() -> bool) -> bool {
+    let t0 = std::time::Instant::now();
+    while t0.elapsed().as_secs_f64() < secs {
+        if pred() {
+            return true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    pred()
+}
+
+/// The value after `key` on the line of the planner log that has it.
+fn logged<'a>(text: &'a str, key: &str) -> &'a str {
+    text.lines()
+        .find_map(|l| l.split_once(key).map(|(_, v)| v.trim()))
+        .unwrap_or_else(|| panic!("no `{key}` in the planner log: {text}"))
+}
+
+#[test]
+fn exec_planners_run_contained_and_leave_nothing_behind() {
+    let planner = example_planner().display().to_string();
+    // The planner reports its environment and directory, forks a long-lived child, then serves.
+    let script = format!(
+        "echo \"ENV: $(env | cut -d= -f1 | sort | tr '\\n' ' ')\"; echo \"DIR: $PWD\"; \
+         echo \"HOME: $HOME\"; sleep 300 & echo \"CHILD: $!\"; exec {planner}"
+    );
+    let (ok, text) = run(vb_submit().env("VB_SECRET_TOKEN", "hunter2").args([
+        "validate",
+        "exec",
+        "--max-time",
+        "3",
+        "--",
+        "sh",
+        "-c",
+        &script,
+    ]));
+    assert!(ok, "{text}");
+    let env = logged(&text, "ENV:");
+    assert!(
+        !env.contains("VB_SECRET_TOKEN"),
+        "the worker's environment leaked: {env}"
+    );
+    for var in env.split_whitespace() {
+        assert!(
+            [
+                "PATH",
+                "HOME",
+                "TMPDIR",
+                "LANG",
+                "VB_PLANNER_ADDR",
+                "PWD",
+                "SHLVL",
+                "OLDPWD",
+                "_"
+            ]
+            .contains(&var),
+            "unexpected variable {var} in {env}"
+        );
+    }
+    let dir = logged(&text, "DIR:");
+    assert!(dir.contains("vb-planner-"), "{dir}");
+    assert_eq!(logged(&text, "HOME:"), dir, "HOME is the private directory");
+    assert!(
+        eventually(5.0, || !Path::new(dir).exists()),
+        "the private directory {dir} is removed after the episode"
+    );
+    let child = logged(&text, "CHILD:");
+    assert!(
+        eventually(5.0, || {
+            std::fs::read_to_string(format!("/proc/{child}/stat"))
+                .map(|s| s.contains(") Z"))
+                .unwrap_or(true)
+        }),
+        "the planner's child {child} was killed with its process group"
+    );
+}
+
+#[test]
+fn a_planner_flooding_its_output_gets_a_bounded_log() {
+    let planner = example_planner().display().to_string();
+    // 64 MB without a newline, then a normal line.
+    let script = format!(
+        "head -c 67108864 /dev/zero | tr '\\000' x; echo; echo after the flood; exec {planner}"
+    );
+    let (ok, text) = run(vb_submit().args([
+        "validate",
+        "exec",
+        "--max-time",
+        "2",
+        "--",
+        "sh",
+        "-c",
+        &script,
+    ]));
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("[line cut at 4096 bytes]"),
+        "{}",
+        &text[..text.len().min(2000)]
+    );
+    assert!(
+        text.contains("after the flood"),
+        "lines after a cut one are kept"
+    );
+    assert!(
+        text.len() < 200_000,
+        "the log is bounded: {} bytes",
+        text.len()
+    );
+}

@@ -1,7 +1,14 @@
 //! Planner processes the worker starts (`exec` and `image` submissions). The user's code runs in its own process (or
 //! container), never inside the worker: it serves the `Planner` gRPC service on the address the worker gives it in
 //! the environment variable `VB_PLANNER_ADDR` (`127.0.0.1:PORT`), and its stdout and stderr become the episode's
-//! planner log.
+//! planner log (bounded: lines are cut at [`MAX_LINE`] bytes and the log at [`PlannerLog::CAP`], with a marker).
+//!
+//! Containment of `exec` planners (they are for trusted clusters: they run as the worker's user): each one gets a
+//! clean environment (`PATH`, `VB_PLANNER_ADDR`, and `HOME` and `TMPDIR` in its working directory), a fresh private
+//! working directory removed after the episode, and its own process group, killed as a whole when the episode ends
+//! or the worker drops it, so children it forked do not outlive the episode. Image planners run in a named
+//! container that is removed when the episode ends, as an unprivileged user, with a read-only root filesystem, no
+//! capabilities and memory, CPU and process limits.
 
 use crate::remote::{PlannerLog, RemotePlanner, SharedLog};
 use sha2::{Digest, Sha256};
@@ -10,15 +17,22 @@ use std::path::{Path, PathBuf};
 use std::process::Stdio;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-use tokio::io::{AsyncBufReadExt, AsyncRead, BufReader};
+use tokio::io::{AsyncRead, AsyncReadExt};
 use tokio::process::{Child, Command};
 
 /// Environment variable that tells a planner process where to serve.
 pub const ADDR_ENV: &str = "VB_PLANNER_ADDR";
 
-/// A running planner process; killed when dropped.
+/// Longest planner output line kept, bytes; the rest of the line is dropped and the line marked.
+pub const MAX_LINE: usize = 4096;
+
+/// A running planner process in its own process group, with its private working directory (and, for an image, its
+/// container): all of them are killed and removed when it stops or is dropped.
 pub struct PlannerProcess {
     child: Child,
+    pgid: Option<i32>,
+    workdir: Option<PathBuf>,
+    container: Option<String>,
     pub addr: String,
     pub output: SharedLog,
     pub identity: String,
@@ -27,9 +41,55 @@ pub struct PlannerProcess {
 impl PlannerProcess {
     /// Stops the process (it has served its episode).
     pub async fn stop(mut self) {
+        self.kill_group();
         let _ = self.child.start_kill();
         let _ = tokio::time::timeout(Duration::from_secs(5), self.child.wait()).await;
     }
+
+    fn kill_group(&self) {
+        if let Some(pgid) = self.pgid {
+            use nix::sys::signal::{killpg, Signal};
+            let _ = killpg(nix::unistd::Pid::from_raw(pgid), Signal::SIGKILL);
+        }
+    }
+}
+
+impl Drop for PlannerProcess {
+    fn drop(&mut self) {
+        self.kill_group();
+        if let Some(name) = self.container.take() {
+            // The `docker run` client dies with the group; the container must be removed by name.
+            remove_container(name);
+        }
+        if let Some(dir) = &self.workdir {
+            let _ = std::fs::remove_dir_all(dir);
+        }
+    }
+}
+
+/// Removes a container (waited for on a thread of its own, so no zombie stays behind).
+fn remove_container(name: String) {
+    std::thread::spawn(move || {
+        let _ = std::process::Command::new("docker")
+            .args(["rm", "-f", &name])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status();
+    });
+}
+
+/// A fresh private (0700) working directory for one planner process.
+fn private_dir() -> Result<PathBuf, PlannerError> {
+    use std::os::unix::fs::DirBuilderExt;
+    let mut id = [0u8; 8];
+    getrandom::getrandom(&mut id).map_err(|e| PlannerError::Other(e.to_string()))?;
+    let name: String = id.iter().map(|b| format!("{b:02x}")).collect();
+    let dir = std::env::temp_dir().join(format!("vb-planner-{name}"));
+    std::fs::DirBuilder::new()
+        .mode(0o700)
+        .create(&dir)
+        .map_err(|e| PlannerError::Other(format!("cannot make {}: {e}", dir.display())))?;
+    Ok(dir)
 }
 
 fn free_port() -> Result<u16, PlannerError> {
@@ -40,13 +100,42 @@ fn free_port() -> Result<u16, PlannerError> {
         .map_err(|e| PlannerError::Other(e.to_string()))
 }
 
-fn capture(stream: impl AsyncRead + Unpin + Send + 'static, log: SharedLog, prefix: &'static str) {
+/// Copies a planner's output into its log line by line, in bounded memory: a line is cut at [`MAX_LINE`] bytes.
+fn capture(stream: impl AsyncRead + Unpin + Send + 'static, log: SharedLog) {
     tokio::spawn(async move {
-        let mut lines = BufReader::new(stream).lines();
-        while let Ok(Some(line)) = lines.next_line().await {
+        let mut reader = stream;
+        let mut chunk = vec![0u8; 8192];
+        let mut line: Vec<u8> = Vec::with_capacity(256);
+        let mut cut = false;
+        let push = |line: &[u8], cut: bool| {
             if let Ok(mut l) = log.lock() {
-                l.push_line(&format!("{prefix}{line}"));
+                let text = String::from_utf8_lossy(line);
+                if cut {
+                    l.push_line(&format!("{text} [line cut at {MAX_LINE} bytes]"));
+                } else {
+                    l.push_line(&text);
+                }
             }
+        };
+        loop {
+            let n = match reader.read(&mut chunk).await {
+                Ok(0) | Err(_) => break,
+                Ok(n) => n,
+            };
+            for &b in &chunk[..n] {
+                if b == b'\n' {
+                    push(&line, cut);
+                    line.clear();
+                    cut = false;
+                } else if line.len() < MAX_LINE {
+                    line.push(b);
+                } else {
+                    cut = true;
+                }
+            }
+        }
+        if !line.is_empty() {
+            push(&line, cut);
         }
     });
 }
@@ -98,30 +187,56 @@ pub async fn start(
     };
     let port = free_port().map_err(|e| (e, String::new()))?;
     let addr = format!("127.0.0.1:{port}");
-    let mut child = Command::new(program)
+    let workdir = private_dir().map_err(|e| (e, String::new()))?;
+    let path = std::env::var_os("PATH").unwrap_or_else(|| "/usr/local/bin:/usr/bin:/bin".into());
+    let spawned = Command::new(program)
         .args(&argv[1..])
+        .env_clear()
+        .env("PATH", path)
+        .env("HOME", &workdir)
+        .env("TMPDIR", &workdir)
+        .env("LANG", "C.UTF-8")
         .env(ADDR_ENV, &addr)
+        .current_dir(&workdir)
+        .process_group(0)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .kill_on_drop(true)
-        .spawn()
-        .map_err(|e| {
-            (
+        .spawn();
+    let mut child = match spawned {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&workdir);
+            return Err((
                 PlannerError::Crashed(format!("cannot start planner `{program}`: {e}")),
                 String::new(),
-            )
-        })?;
-    if let Some(out) = child.stdout.take() {
-        capture(out, output.clone(), "");
-    }
-    if let Some(err) = child.stderr.take() {
-        capture(err, output.clone(), "");
-    }
+            ));
+        }
+    };
+    // From here on, dropping `process` kills the group and removes the directory and the container.
+    let mut process = PlannerProcess {
+        pgid: child.id().map(|id| id as i32),
+        workdir: Some(workdir),
+        container: container_name(argv),
+        addr,
+        output: output.clone(),
+        identity,
+        child: {
+            if let Some(out) = child.stdout.take() {
+                capture(out, output.clone());
+            }
+            if let Some(err) = child.stderr.take() {
+                capture(err, output.clone());
+            }
+            child
+        },
+    };
+    let addr = process.addr.clone();
     let t0 = Instant::now();
     let endpoint = format!("http://{addr}");
     loop {
-        if let Ok(Some(status)) = child.try_wait() {
+        if let Ok(Some(status)) = process.child.try_wait() {
             // Let the output readers drain.
             tokio::time::sleep(Duration::from_millis(100)).await;
             let text = log_text(&output);
@@ -137,16 +252,10 @@ pub async fn start(
             RemotePlanner::connect(&endpoint, step_deadline, Duration::from_millis(500)).await
         {
             p.set_crash_context(output.clone());
-            let process = PlannerProcess {
-                child,
-                addr,
-                output,
-                identity,
-            };
             return Ok((process, p));
         }
         if t0.elapsed() > startup {
-            let _ = child.start_kill();
+            drop(process);
             let text = log_text(&output);
             return Err((
                 PlannerError::Timeout(format!(
@@ -160,8 +269,20 @@ pub async fn start(
     }
 }
 
+/// The container name in a `docker run --name NAME ...` command line.
+fn container_name(argv: &[String]) -> Option<String> {
+    if argv.first().map(String::as_str) != Some("docker") {
+        return None;
+    }
+    argv.windows(2)
+        .find(|w| w[0] == "--name")
+        .map(|w| w[1].clone())
+}
+
 /// The command that runs a container planner, and its identity (the image id as Docker reports it). The container
-/// shares the host network so it can serve on `VB_PLANNER_ADDR`; it gets no volumes.
+/// is named, so it can be removed when the episode ends; it runs as nobody (65534) with a read-only root filesystem
+/// (a 64 MB `/tmp`), no capabilities, 2 GB of memory, one CPU and 256 processes, and no volumes. It shares the host
+/// network so it can serve on `VB_PLANNER_ADDR`.
 pub async fn image_command(image: &str) -> Result<(Vec<String>, String), String> {
     let out = Command::new("docker")
         .args(["image", "inspect", "--format", "{{.Id}}", image])
@@ -175,19 +296,37 @@ pub async fn image_command(image: &str) -> Result<(Vec<String>, String), String>
         ));
     }
     let id = String::from_utf8_lossy(&out.stdout).trim().to_string();
-    let argv = vec![
-        "docker".into(),
-        "run".into(),
-        "--rm".into(),
-        "--network".into(),
-        "host".into(),
-        "--cap-drop".into(),
-        "ALL".into(),
-        "--security-opt".into(),
-        "no-new-privileges".into(),
-        "-e".into(),
-        ADDR_ENV.into(),
-        image.into(),
-    ];
+    let mut name = [0u8; 8];
+    getrandom::getrandom(&mut name).map_err(|e| e.to_string())?;
+    let name: String = name.iter().map(|b| format!("{b:02x}")).collect();
+    let argv = [
+        "docker",
+        "run",
+        "--rm",
+        "--name",
+        &format!("vb-planner-{name}"),
+        "--network",
+        "host",
+        "--user",
+        "65534:65534",
+        "--read-only",
+        "--tmpfs",
+        "/tmp:rw,size=64m",
+        "--cap-drop",
+        "ALL",
+        "--security-opt",
+        "no-new-privileges",
+        "--memory",
+        "2g",
+        "--cpus",
+        "1",
+        "--pids-limit",
+        "256",
+        "-e",
+        ADDR_ENV,
+        image,
+    ]
+    .map(String::from)
+    .to_vec();
     Ok((argv, format!("image:{image}@{id}")))
 }

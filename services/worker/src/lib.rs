@@ -57,6 +57,8 @@ pub struct WorkerConfig {
     pub task_dir: PathBuf,
     /// How long a started planner process may take to serve, s.
     pub planner_startup_s: f64,
+    /// Whether this worker runs `exec` and `image` planners (untrusted code: for trusted clusters only).
+    pub allow_exec: bool,
 }
 
 /// Seconds since the Unix epoch (only for log lines; the simulation never sees the wall clock).
@@ -432,6 +434,7 @@ pub async fn run_worker(
         });
     }
     let startup = Duration::from_secs_f64(cfg.planner_startup_s.max(1.0));
+    let allow_exec = cfg.allow_exec;
     let mut backoff = Duration::from_millis(100);
     loop {
         if *shutdown.borrow() {
@@ -468,6 +471,7 @@ pub async fn run_worker(
                                 lease.clone(),
                                 flag.clone(),
                                 startup,
+                                allow_exec,
                             )
                             .await;
                             if let Ok(mut a) = active.lock() {
@@ -506,6 +510,7 @@ async fn run_lease(
     lease: pb::EpisodeLease,
     cancel: Arc<AtomicBool>,
     startup: Duration,
+    allow_exec: bool,
 ) {
     let infra = |detail: String| pb::EpisodeReport {
         worker_id: worker_id.into(),
@@ -525,6 +530,13 @@ async fn run_lease(
             set.version(),
             lease.task_set_version
         );
+        deliver(client, infra(msg), Duration::from_secs(600)).await;
+        return;
+    }
+    use pb::planner_ref::Kind;
+    let kind = lease.planner.as_ref().and_then(|p| p.kind.as_ref());
+    if !allow_exec && matches!(kind, Some(Kind::Exec(_) | Kind::Image(_))) {
+        let msg = "this worker does not run exec or image planners (--no-exec)".to_string();
         deliver(client, infra(msg), Duration::from_secs(600)).await;
         return;
     }

@@ -40,6 +40,10 @@ pub struct ServeArgs {
     /// Stop once the evaluation has finished instead of serving on.
     #[arg(long)]
     exit_when_done: bool,
+    /// Refuse exec and image planners (untrusted code; exec planners run as this process's user): only endpoints
+    /// and built-ins. Use it whenever strangers can submit.
+    #[arg(long)]
+    no_exec: bool,
 }
 
 #[derive(Args)]
@@ -78,6 +82,9 @@ pub struct WorkerArgs {
     /// Also serve the client-driven `Sim` gRPC API on this address (e.g. 127.0.0.1:50052).
     #[arg(long)]
     sim: Option<SocketAddr>,
+    /// Do not run exec or image planners (they are untrusted code; exec planners run as this worker's user).
+    #[arg(long)]
+    no_exec: bool,
 }
 
 #[derive(Args)]
@@ -188,7 +195,9 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         let grpc_addr = grpc.local_addr()?;
         let http_addr = http.local_addr()?;
         let sim = sim_service(&a.task_dir)?;
-        let coord = start_coordinator(store.clone(), CoordinatorConfig::new(a.task_dir.clone()), grpc, Some(sim)).await?;
+        let mut ccfg = CoordinatorConfig::new(a.task_dir.clone());
+        ccfg.allow_exec = !a.no_exec;
+        let coord = start_coordinator(store.clone(), ccfg, grpc, Some(sim)).await?;
         let lb = Leaderboard::new(store.reader(), Some(tasks::TaskSet::load(&a.task_dir)?));
         tokio::spawn(async move {
             if let Err(e) = vb_leaderboard::serve(lb, http).await {
@@ -202,6 +211,7 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
             slots: a.slots.max(1),
             task_dir: a.task_dir.clone(),
             planner_startup_s: 30.0,
+            allow_exec: !a.no_exec,
         };
         tokio::spawn(async move {
             if let Err(e) = vb_worker::run_worker(wcfg, shutdown).await {
@@ -286,6 +296,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
             slots: a.slots,
             task_dir: a.task_dir.clone(),
             planner_startup_s: a.planner_startup_s,
+            allow_exec: !a.no_exec,
         };
         if let Some(addr) = a.sim {
             let sim = sim_service(&a.task_dir)?;
