@@ -16,7 +16,9 @@ use tasks::TaskSet;
 use tokio::sync::Mutex;
 use tonic::{Request, Response, Status};
 use vb_proto::v1 as pb;
-use vb_store::{NewEpisode, NewSubmission, ReportOutcome, Store, StoreError};
+use vb_store::{
+    NewEpisode, NewSubmission, ReportOutcome, Store, StoreError, Submission, Token, TokenRole,
+};
 
 pub use convert::planner_ref_from_parts;
 
@@ -134,7 +136,8 @@ impl Coordinator {
         }
     }
 
-    async fn authenticate<T>(&self, req: &Request<T>) -> Result<String, Status> {
+    /// The token a request carries (`authorization: Bearer <token>`).
+    async fn authenticate<T>(&self, req: &Request<T>) -> Result<Token, Status> {
         let header = req
             .metadata()
             .get("authorization")
@@ -148,9 +151,66 @@ impl Coordinator {
                 Status::unauthenticated("authorization header must be `Bearer <token>`")
             })?
             .trim();
-        match self.store.check_token(token).await.map_err(store_status)? {
-            Some(name) => Ok(name),
-            None => Err(Status::unauthenticated("unknown or revoked token")),
+        self.store
+            .check_token(token)
+            .await
+            .map_err(store_status)?
+            .ok_or_else(|| Status::unauthenticated("unknown or revoked token"))
+    }
+
+    /// A user's or admin's token (the submission API).
+    async fn user<T>(&self, req: &Request<T>) -> Result<Token, Status> {
+        let t = self.authenticate(req).await?;
+        if t.role == TokenRole::Worker {
+            return Err(Status::permission_denied(
+                "a worker token cannot use the submission API",
+            ));
+        }
+        Ok(t)
+    }
+
+    /// A worker's (or admin's) token (the worker API).
+    async fn worker<T>(&self, req: &Request<T>) -> Result<Token, Status> {
+        let t = self.authenticate(req).await?;
+        if t.role == TokenRole::User {
+            return Err(Status::permission_denied(
+                "the worker API needs a worker token (`vb admin token create --role worker`)",
+            ));
+        }
+        Ok(t)
+    }
+
+    /// Submission `id` if `token` may see it (its owner, or an admin); else the same answer as for an unknown id.
+    async fn owned(&self, token: &Token, id: &str) -> Result<Submission, Status> {
+        check_id(id)?;
+        let sub = self
+            .store
+            .reader()
+            .submission(id)
+            .await
+            .map_err(store_status)?;
+        if token.role == TokenRole::Admin
+            || (!sub.owner_token.is_empty() && sub.owner_token == token.id)
+        {
+            Ok(sub)
+        } else {
+            Err(Status::not_found(format!("no submission `{id}`")))
+        }
+    }
+
+    /// Marks worker `id` seen, if it is registered under `token`.
+    async fn known_worker(&self, id: &str, token: &Token, t: f64) -> Result<(), Status> {
+        if self
+            .store
+            .touch_worker(id, &token.id, t)
+            .await
+            .map_err(store_status)?
+        {
+            Ok(())
+        } else {
+            Err(Status::not_found(format!(
+                "unknown worker `{id}` for this token: register first"
+            )))
         }
     }
 
@@ -297,6 +357,7 @@ impl Coordinator {
             sub: NewSubmission {
                 name: name.to_string(),
                 owner: String::new(),
+                owner_token: String::new(),
                 planner_kind: kind.into(),
                 planner_identity: match kind {
                     "builtin" => format!("builtin:{spec} ({SIM_VERSION})"),
@@ -345,9 +406,10 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
         &self,
         req: Request<pb::SubmitRequest>,
     ) -> Result<Response<pb::SubmitResponse>, Status> {
-        let owner = self.0.authenticate(&req).await?;
+        let owner = self.0.user(&req).await?;
         let mut v = self.0.validate_submit(req.get_ref())?;
-        v.sub.owner = owner;
+        v.sub.owner = owner.name;
+        v.sub.owner_token = owner.id;
         let id = self
             .0
             .store
@@ -364,8 +426,8 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
         &self,
         req: Request<pb::StatusRequest>,
     ) -> Result<Response<pb::SubmissionStatus>, Status> {
-        self.0.authenticate(&req).await?;
-        check_id(&req.get_ref().submission_id)?;
+        let token = self.0.user(&req).await?;
+        self.0.owned(&token, &req.get_ref().submission_id).await?;
         Ok(Response::new(
             self.0.status_of(&req.get_ref().submission_id).await?,
         ))
@@ -375,9 +437,9 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
         &self,
         req: Request<pb::CancelRequest>,
     ) -> Result<Response<pb::SubmissionStatus>, Status> {
-        self.0.authenticate(&req).await?;
+        let token = self.0.user(&req).await?;
         let id = &req.get_ref().submission_id;
-        check_id(id)?;
+        self.0.owned(&token, id).await?;
         {
             let _g = self.0.lease_lock.lock().await;
             self.0.store.cancel(id, now()).await.map_err(store_status)?;
@@ -391,11 +453,10 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
         &self,
         req: Request<pb::StatusRequest>,
     ) -> Result<Response<Self::WatchProgressStream>, Status> {
-        self.0.authenticate(&req).await?;
+        let token = self.0.user(&req).await?;
         let id = req.into_inner().submission_id;
-        check_id(&id)?;
-        // Fail now on an unknown id rather than in the stream.
-        self.0.status_of(&id).await?;
+        // Fail now on an unknown (or another owner's) id rather than in the stream.
+        self.0.owned(&token, &id).await?;
         let (tx, rx) = tokio::sync::mpsc::channel(4);
         let me = self.0.clone();
         tokio::spawn(async move {
@@ -418,7 +479,7 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
         &self,
         req: Request<pb::ListRequest>,
     ) -> Result<Response<pb::SubmissionList>, Status> {
-        self.0.authenticate(&req).await?;
+        let token = self.0.user(&req).await?;
         let subs = self
             .0
             .store
@@ -427,7 +488,10 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
             .await
             .map_err(store_status)?;
         let mut out = Vec::with_capacity(subs.len());
-        for s in subs {
+        let visible = subs
+            .into_iter()
+            .filter(|s| token.role == TokenRole::Admin || s.owner_token == token.id);
+        for s in visible {
             out.push(self.0.status_of(&s.id).await?);
         }
         Ok(Response::new(pb::SubmissionList { submissions: out }))
@@ -437,9 +501,9 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
         &self,
         req: Request<pb::StatusRequest>,
     ) -> Result<Response<pb::ResultsResponse>, Status> {
-        self.0.authenticate(&req).await?;
+        let token = self.0.user(&req).await?;
         let id = &req.get_ref().submission_id;
-        check_id(id)?;
+        self.0.owned(&token, id).await?;
         let status = self.0.status_of(id).await?;
         let eps = self
             .0
@@ -461,6 +525,7 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
         &self,
         req: Request<pb::RegisterRequest>,
     ) -> Result<Response<pb::RegisterResponse>, Status> {
+        let token = self.0.worker(&req).await?;
         let r = req.into_inner();
         if r.sim_version != SIM_VERSION {
             return Err(Status::failed_precondition(format!(
@@ -476,7 +541,7 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
         let id = self
             .0
             .store
-            .register_worker(&r.worker_name, r.slots, &r.sim_version, now())
+            .register_worker(&r.worker_name, r.slots, &r.sim_version, &token.id, now())
             .await
             .map_err(store_status)?;
         Ok(Response::new(pb::RegisterResponse {
@@ -490,20 +555,10 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
         &self,
         req: Request<pb::LeaseRequest>,
     ) -> Result<Response<pb::LeaseResponse>, Status> {
+        let token = self.0.worker(&req).await?;
         let r = req.into_inner();
         let t = now();
-        if !self
-            .0
-            .store
-            .touch_worker(&r.worker_id, t)
-            .await
-            .map_err(store_status)?
-        {
-            return Err(Status::not_found(format!(
-                "unknown worker `{}`: register first",
-                r.worker_id
-            )));
-        }
+        self.0.known_worker(&r.worker_id, &token, t).await?;
         let leases = {
             let _g = self.0.lease_lock.lock().await;
             self.0.store.expire_leases(t).await.map_err(store_status)?;
@@ -522,20 +577,10 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
         &self,
         req: Request<pb::HeartbeatRequest>,
     ) -> Result<Response<pb::HeartbeatResponse>, Status> {
+        let token = self.0.worker(&req).await?;
         let r = req.into_inner();
         let t = now();
-        if !self
-            .0
-            .store
-            .touch_worker(&r.worker_id, t)
-            .await
-            .map_err(store_status)?
-        {
-            return Err(Status::not_found(format!(
-                "unknown worker `{}`: register first",
-                r.worker_id
-            )));
-        }
+        self.0.known_worker(&r.worker_id, &token, t).await?;
         let gone = {
             let _g = self.0.lease_lock.lock().await;
             self.0
@@ -553,20 +598,10 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
         &self,
         req: Request<pb::EpisodeReport>,
     ) -> Result<Response<pb::ReportAck>, Status> {
+        let token = self.0.worker(&req).await?;
         let r = req.into_inner();
         let t = now();
-        if !self
-            .0
-            .store
-            .touch_worker(&r.worker_id, t)
-            .await
-            .map_err(store_status)?
-        {
-            return Err(Status::not_found(format!(
-                "unknown worker `{}`: register first",
-                r.worker_id
-            )));
-        }
+        self.0.known_worker(&r.worker_id, &token, t).await?;
         if r.infrastructure_failure {
             eprintln!(
                 "coordinator: worker {} could not run {} of {}: {}",
@@ -575,7 +610,7 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
             let _g = self.0.lease_lock.lock().await;
             self.0
                 .store
-                .release(&r.lease_id, t)
+                .release(&r.worker_id, &r.lease_id, t)
                 .await
                 .map_err(store_status)?;
             return Ok(Response::new(pb::ReportAck {
@@ -584,11 +619,30 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
             }));
         }
         let result = convert::report(&r, MAX_LOG, MAX_TRAJECTORY)?;
+        if r.sim_version != SIM_VERSION {
+            return Err(Status::invalid_argument(format!(
+                "the result was computed by `{}`, not `{SIM_VERSION}`",
+                r.sim_version
+            )));
+        }
+        let sub = self
+            .0
+            .store
+            .reader()
+            .submission(&r.submission_id)
+            .await
+            .map_err(store_status)?;
+        if r.task_set_version != sub.task_set_version {
+            return Err(Status::invalid_argument(format!(
+                "the result was computed on task set `{}`, the submission needs `{}`",
+                r.task_set_version, sub.task_set_version
+            )));
+        }
         let outcome = {
             let _g = self.0.lease_lock.lock().await;
             self.0
                 .store
-                .report(&result, t)
+                .report(&r.worker_id, &result, t)
                 .await
                 .map_err(store_status)?
         };

@@ -5,6 +5,7 @@
 //! Pages are rendered on the server from `web/` (compiled in); no JavaScript.
 
 mod pages;
+pub mod public;
 
 use axum::extract::{Path, State};
 use axum::http::{header, StatusCode};
@@ -130,7 +131,7 @@ impl Leaderboard {
 
     async fn entry(&self, sub: Submission) -> Result<SubmissionEntry, WebError> {
         let progress = self.reader.progress(&sub.id).await?;
-        let eps = self.reader.episodes(&sub.id).await?;
+        let eps = public::episodes(&self.reader, &sub.id).await?;
         let mut summary = eval::summary::summarise(&rows(&sub, &eps, self.set.as_deref()));
         summary.planner = sub.name.clone();
         summary.vehicle = sub.vehicle.clone();
@@ -148,7 +149,7 @@ impl Leaderboard {
     /// Every submission, ranked by success rate over finished episodes (submissions with none come last).
     pub async fn ranked(&self) -> Result<Vec<SubmissionEntry>, WebError> {
         let mut out = Vec::new();
-        for s in self.reader.submissions().await? {
+        for s in public::submissions(&self.reader).await? {
             out.push(self.entry(s).await?);
         }
         out.sort_by(|a, b| {
@@ -207,9 +208,9 @@ async fn index(State(lb): St) -> Result<Html<String>, WebError> {
 }
 
 async fn submission_page(State(lb): St, Path(id): Path<String>) -> Result<Html<String>, WebError> {
-    let sub = lb.reader.submission(&id).await?;
+    let sub = public::submission(&lb.reader, &id).await?;
     let entry = lb.entry(sub).await?;
-    let eps = lb.reader.episodes(&id).await?;
+    let eps = public::episodes(&lb.reader, &id).await?;
     Ok(Html(pages::submission(&entry, &eps)))
 }
 
@@ -217,8 +218,8 @@ async fn episode_page(
     State(lb): St,
     Path((id, task)): Path<(String, String)>,
 ) -> Result<Html<String>, WebError> {
-    let sub = lb.reader.submission(&id).await?;
-    let detail = lb.reader.episode_detail(&id, &task).await?;
+    let sub = public::submission(&lb.reader, &id).await?;
+    let detail = public::episode_detail(&lb.reader, &id, &task).await?;
     let world_task = lb.set.as_ref().and_then(|set| {
         let w = detail.record.world_id;
         let t = detail.record.task_index as usize;
@@ -277,15 +278,15 @@ async fn api_episodes(
     State(lb): St,
     Path(id): Path<String>,
 ) -> Result<Json<Vec<EpisodeRecord>>, WebError> {
-    lb.reader.submission(&id).await?;
-    Ok(Json(lb.reader.episodes(&id).await?))
+    public::submission(&lb.reader, &id).await?;
+    Ok(Json(public::episodes(&lb.reader, &id).await?))
 }
 
 async fn api_episode(
     State(lb): St,
     Path((id, task)): Path<(String, String)>,
 ) -> Result<Json<vb_store::EpisodeDetail>, WebError> {
-    Ok(Json(lb.reader.episode_detail(&id, &task).await?))
+    Ok(Json(public::episode_detail(&lb.reader, &id, &task).await?))
 }
 
 async fn not_found() -> WebError {

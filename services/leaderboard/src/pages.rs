@@ -108,7 +108,7 @@ pub fn index(entries: &[SubmissionEntry]) -> String {
             "<tr><td>{}</td><td class='l'><a href='/submissions/{id}'>{}</a></td><td class='l'>{}</td><td class='l'>{}</td><td class='l state-{st}'>{st}</td><td>{}/{}</td>{}<td>{}</td><td>{}</td><td>{}</td></tr>",
             e.rank.map_or("-".into(), |r| r.to_string()),
             esc(&s.name),
-            esc(&format!("{}:{}", s.planner_kind, s.planner_spec)),
+            esc(&planner_label(s)),
             esc(&s.vehicle),
             e.progress.finished,
             e.progress.total,
@@ -143,11 +143,20 @@ fn breakdown_table(
     t + "</table>\n"
 }
 
+/// `builtin:pid`, or the kind alone (the public does not see command lines, URLs or image names).
+fn planner_label(s: &Submission) -> String {
+    if s.planner_spec.is_empty() {
+        s.planner_kind.clone()
+    } else {
+        format!("{}:{}", s.planner_kind, s.planner_spec)
+    }
+}
+
 fn repro(s: &Submission) -> String {
     let rows = [
         ("submission", s.id.clone()),
         ("owner", s.owner.clone()),
-        ("planner", format!("{}:{}", s.planner_kind, s.planner_spec)),
+        ("planner", planner_label(s)),
         ("planner identity", s.planner_identity.clone()),
         ("vehicle", format!("{} at scale {}", s.vehicle, s.scale)),
         ("seed", s.seed.to_string()),

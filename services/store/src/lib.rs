@@ -7,7 +7,8 @@
 //!
 //! Scheduling invariants kept here:
 //! - an episode row is `queued`, `leased` (to one worker, until `lease_expires`), `done` or `not_run`;
-//! - a result is accepted once per (submission, task); a later duplicate is acknowledged and ignored;
+//! - a result is accepted once per (submission, task), only from the worker holding the episode's current lease; a
+//!   later duplicate is acknowledged and ignored, anything else rejected;
 //! - an expired lease returns its episode to the queue (a dead worker's episodes are retried), up to
 //!   [`MAX_ATTEMPTS`] times, after which the episode is recorded as an infrastructure failure;
 //! - cancelling keeps finished episodes and marks everything that never ran as `not_run`.
@@ -42,6 +43,45 @@ pub enum StoreError {
 
 pub type Result<T> = std::result::Result<T, StoreError>;
 
+/// What a token may do.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TokenRole {
+    /// Submits planners and sees, follows and cancels its own submissions.
+    User,
+    /// Everything a user may, on every submission.
+    Admin,
+    /// The worker API only: registers workers, leases, renews and reports for them.
+    Worker,
+}
+
+impl TokenRole {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::User => "user",
+            Self::Admin => "admin",
+            Self::Worker => "worker",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<TokenRole> {
+        match s {
+            "user" => Some(Self::User),
+            "admin" => Some(Self::Admin),
+            "worker" => Some(Self::Worker),
+            _ => None,
+        }
+    }
+}
+
+/// A valid token: its id (what submissions and workers are bound to), name and role.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Token {
+    pub id: String,
+    pub name: String,
+    pub role: TokenRole,
+}
+
 /// Which database a store runs on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Backend {
@@ -54,6 +94,8 @@ pub enum Backend {
 pub struct NewSubmission {
     pub name: String,
     pub owner: String,
+    /// Id of the token that submitted it: only that token (and admins) may see and cancel it.
+    pub owner_token: String,
     pub planner_kind: String,
     pub planner_spec: String,
     pub planner_identity: String,
@@ -82,6 +124,9 @@ pub struct Submission {
     pub seq: i64,
     pub name: String,
     pub owner: String,
+    /// Id of the token that submitted it (empty for submissions made before owners were recorded).
+    #[serde(default)]
+    pub owner_token: String,
     pub planner_kind: String,
     pub planner_spec: String,
     pub planner_identity: String,
@@ -116,6 +161,8 @@ pub struct Progress {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lease {
     pub lease_id: String,
+    /// The worker holding it.
+    pub worker_id: String,
     pub submission: Submission,
     pub task_id: String,
     pub attempt: i64,
@@ -197,6 +244,7 @@ fn submission_from_row(r: &AnyRow) -> Result<Submission> {
         seq: r.try_get("seq")?,
         name: r.try_get("name")?,
         owner: r.try_get("owner")?,
+        owner_token: r.try_get("owner_token")?,
         planner_kind: r.try_get("planner_kind")?,
         planner_spec: r.try_get("planner_spec")?,
         planner_identity: r.try_get("planner_identity")?,
@@ -319,32 +367,37 @@ impl Store {
 
     // ---- tokens ----
 
-    /// Creates a token named `name`; returns the token, which is shown once and stored only as a hash.
-    pub async fn create_token(&self, name: &str, now: f64) -> Result<String> {
+    /// Creates a token named `name` with `role`; returns the token, which is shown once and stored only as a hash.
+    pub async fn create_token(&self, name: &str, role: TokenRole, now: f64) -> Result<String> {
         let _w = self.write.lock().await;
         let token = format!("vbt_{}", random_hex(24)?);
         sqlx::query(
-            "INSERT INTO tokens (id, name, hash, created_at, revoked) VALUES ($1, $2, $3, $4, 0)",
+            "INSERT INTO tokens (id, name, hash, created_at, revoked, role) VALUES ($1, $2, $3, $4, 0, $5)",
         )
         .bind(random_hex(8)?)
         .bind(name)
         .bind(hash_token(&token))
         .bind(now)
+        .bind(role.as_str())
         .execute(&self.pool)
         .await?;
         Ok(token)
     }
 
-    /// The name of the (unrevoked) token, if `token` is one.
-    pub async fn check_token(&self, token: &str) -> Result<Option<String>> {
-        let row = sqlx::query("SELECT name FROM tokens WHERE hash = $1 AND revoked = 0")
+    /// The (unrevoked) token `token` is, if any.
+    pub async fn check_token(&self, token: &str) -> Result<Option<Token>> {
+        let row = sqlx::query("SELECT id, name, role FROM tokens WHERE hash = $1 AND revoked = 0")
             .bind(hash_token(token))
             .fetch_optional(&self.pool)
             .await?;
-        Ok(match row {
-            Some(r) => Some(r.try_get("name")?),
-            None => None,
-        })
+        let Some(r) = row else { return Ok(None) };
+        let role: String = r.try_get("role")?;
+        Ok(Some(Token {
+            id: r.try_get("id")?,
+            name: r.try_get("name")?,
+            role: TokenRole::parse(&role)
+                .ok_or_else(|| StoreError::Corrupt(format!("token role `{role}`")))?,
+        }))
     }
 
     /// Revokes every token named `name`; returns how many.
@@ -359,34 +412,38 @@ impl Store {
 
     // ---- workers ----
 
+    /// Registers a worker under the token `token_id`; returns its id.
     pub async fn register_worker(
         &self,
         name: &str,
         slots: u32,
         sim_version: &str,
+        token_id: &str,
         now: f64,
     ) -> Result<String> {
         let _w = self.write.lock().await;
         let id = format!("wk-{}", random_hex(6)?);
         sqlx::query(
-            "INSERT INTO workers (id, name, slots, sim_version, registered_at, last_seen) VALUES ($1, $2, $3, $4, $5, $5)",
+            "INSERT INTO workers (id, name, slots, sim_version, registered_at, last_seen, token_id)              VALUES ($1, $2, $3, $4, $5, $5, $6)",
         )
         .bind(&id)
         .bind(name)
         .bind(slots as i64)
         .bind(sim_version)
         .bind(now)
+        .bind(token_id)
         .execute(&self.pool)
         .await?;
         Ok(id)
     }
 
-    /// Whether `id` is a registered worker (and marks it seen).
-    pub async fn touch_worker(&self, id: &str, now: f64) -> Result<bool> {
+    /// Whether `id` is a worker registered under the token `token_id` (and marks it seen).
+    pub async fn touch_worker(&self, id: &str, token_id: &str, now: f64) -> Result<bool> {
         let _w = self.write.lock().await;
-        let r = sqlx::query("UPDATE workers SET last_seen = $1 WHERE id = $2")
+        let r = sqlx::query("UPDATE workers SET last_seen = $1 WHERE id = $2 AND token_id = $3")
             .bind(now)
             .bind(id)
+            .bind(token_id)
             .execute(&self.pool)
             .await?;
         Ok(r.rows_affected() == 1)
@@ -412,8 +469,8 @@ impl Store {
         .try_get("next")?;
         sqlx::query(
             "INSERT INTO submissions (id, seq, name, owner, planner_kind, planner_spec, planner_identity, vehicle, \
-             scale, seed, step_deadline_s, task_set_version, sim_version, state, created_at) \
-             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, 'queued', $14)",
+             scale, seed, step_deadline_s, task_set_version, sim_version, state, created_at, owner_token) \
+             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, 'queued', $14, $15)",
         )
         .bind(&id)
         .bind(seq)
@@ -429,6 +486,7 @@ impl Store {
         .bind(&s.task_set_version)
         .bind(&s.sim_version)
         .bind(now)
+        .bind(&s.owner_token)
         .execute(&mut *tx)
         .await?;
         for (i, e) in episodes.iter().enumerate() {
@@ -574,6 +632,7 @@ impl Store {
         for (lease_id, sid, task_id, attempt) in out {
             leases.push(Lease {
                 lease_id,
+                worker_id: worker_id.to_string(),
                 submission: reader.submission(&sid).await?,
                 task_id,
                 attempt,
@@ -611,44 +670,56 @@ impl Store {
         Ok(gone)
     }
 
-    /// A worker could not run a leased episode (not the planner's fault): it goes back to the queue.
-    pub async fn release(&self, lease_id: &str, now: f64) -> Result<()> {
+    /// Worker `worker_id` could not run its leased episode (not the planner's fault): it goes back to the queue.
+    pub async fn release(&self, worker_id: &str, lease_id: &str, now: f64) -> Result<()> {
         let _w = self.write.lock().await;
         sqlx::query(
-            "UPDATE episodes SET lease_expires = $1 WHERE lease_id = $2 AND state = 'leased'",
+            "UPDATE episodes SET lease_expires = $1 WHERE lease_id = $2 AND worker_id = $3 AND state = 'leased'",
         )
         .bind(now - 1.0)
         .bind(lease_id)
+        .bind(worker_id)
         .execute(&self.pool)
         .await?;
         self.expire_leases_locked(now).await?;
         Ok(())
     }
 
-    /// Records a finished episode. Keyed by (submission, task): the first result wins; a late duplicate (for
-    /// instance from a worker whose lease expired while it kept running) is ignored.
-    pub async fn report(&self, r: &EpisodeResultIn, now: f64) -> Result<ReportOutcome> {
+    /// Records a finished episode reported by worker `worker_id`. It is taken only for an episode that worker holds
+    /// the lease `r.lease_id` on; a report for an episode that already has a result is a duplicate (ignored), any
+    /// other (not leased, leased to another worker or under another lease, cancelled) is rejected.
+    pub async fn report(
+        &self,
+        worker_id: &str,
+        r: &EpisodeResultIn,
+        now: f64,
+    ) -> Result<ReportOutcome> {
         let _w = self.write.lock().await;
-        let row =
-            sqlx::query("SELECT state FROM episodes WHERE submission_id = $1 AND task_id = $2")
-                .bind(&r.submission_id)
-                .bind(&r.task_id)
-                .fetch_optional(&self.pool)
-                .await?;
+        let row = sqlx::query(
+            "SELECT state, lease_id, worker_id FROM episodes WHERE submission_id = $1 AND task_id = $2",
+        )
+        .bind(&r.submission_id)
+        .bind(&r.task_id)
+        .fetch_optional(&self.pool)
+        .await?;
         let Some(row) = row else {
             return Ok(ReportOutcome::Rejected);
         };
         let state: String = row.try_get("state")?;
+        let lease: Option<String> = row.try_get("lease_id")?;
+        let holder: Option<String> = row.try_get("worker_id")?;
         match state.as_str() {
             "done" => return Ok(ReportOutcome::Duplicate),
-            "not_run" => return Ok(ReportOutcome::Rejected),
-            _ => {}
+            "leased"
+                if lease.as_deref() == Some(r.lease_id.as_str())
+                    && holder.as_deref() == Some(worker_id) => {}
+            _ => return Ok(ReportOutcome::Rejected),
         }
         let n = sqlx::query(
             "UPDATE episodes SET state = 'done', outcome = $1, reason = $2, detail = $3, metrics_json = $4, \
              trajectory_csv = $5, planner_log = $6, sim_version = $7, planner_identity = $8, wall_time_s = $9, \
              finished_at = $10, lease_id = NULL, lease_expires = NULL \
-             WHERE submission_id = $11 AND task_id = $12 AND state IN ('queued', 'leased')",
+             WHERE submission_id = $11 AND task_id = $12 AND state = 'leased' AND lease_id = $13",
         )
         .bind(&r.outcome)
         .bind(&r.reason)
@@ -662,6 +733,7 @@ impl Store {
         .bind(now)
         .bind(&r.submission_id)
         .bind(&r.task_id)
+        .bind(&r.lease_id)
         .execute(&self.pool)
         .await?
         .rows_affected();

@@ -34,6 +34,7 @@ fn new_submission(name: &str) -> NewSubmission {
     NewSubmission {
         name: name.into(),
         owner: "tester".into(),
+        owner_token: "tk-1".into(),
         planner_kind: "builtin".into(),
         planner_spec: "pid".into(),
         planner_identity: "builtin:pid".into(),
@@ -80,12 +81,18 @@ fn result(lease: &Lease, outcome: &str) -> EpisodeResultIn {
 async fn tokens_are_stored_hashed_and_can_be_revoked() -> anyhow::Result<()> {
     for url in backends("tokens").await? {
         let store = Store::open(&url).await?;
-        let token = store.create_token("alice", 1.0).await?;
+        let token = store.create_token("alice", TokenRole::User, 1.0).await?;
         assert!(token.starts_with("vbt_") && token.len() > 40, "{token}");
+        let t = store.check_token(&token).await?.expect("a valid token");
         assert_eq!(
-            store.check_token(&token).await?.as_deref(),
-            Some("alice"),
+            (t.name.as_str(), t.role),
+            ("alice", TokenRole::User),
             "{url}"
+        );
+        let w = store.create_token("w", TokenRole::Worker, 1.0).await?;
+        assert_eq!(
+            store.check_token(&w).await?.map(|t| t.role),
+            Some(TokenRole::Worker)
         );
         assert_eq!(store.check_token("vbt_wrong").await?, None);
         // Only the hash is in the database.
@@ -94,7 +101,7 @@ async fn tokens_are_stored_hashed_and_can_be_revoked() -> anyhow::Result<()> {
             .fetch_all(&pool)
             .await?;
         let hashes: Vec<String> = rows.iter().map(|r| r.get("hash")).collect();
-        assert_eq!(hashes, vec![hash_token(&token)]);
+        assert!(hashes.contains(&hash_token(&token)) && hashes.len() == 2);
         assert!(!hashes[0].contains(&token[4..]));
         assert_eq!(store.revoke_tokens("alice").await?, 1);
         assert_eq!(
@@ -118,10 +125,10 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
             .create_submission(&new_submission("b"), &episodes(2), 11.0)
             .await?;
         let w1 = store
-            .register_worker("w1", 2, "sim-core test", 12.0)
+            .register_worker("w1", 2, "sim-core test", "tk-w", 12.0)
             .await?;
         let w2 = store
-            .register_worker("w2", 2, "sim-core test", 12.0)
+            .register_worker("w2", 2, "sim-core test", "tk-w", 12.0)
             .await?;
         // Oldest submission first, in task order.
         let l1 = store.lease(&w1, 2, 30.0, 20.0).await?;
@@ -141,11 +148,15 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
         assert_eq!((pb.queue_position, pb.episodes_ahead), (1, 3 + 2), "{url}");
         // First result accepted, the same again is a duplicate.
         assert_eq!(
-            store.report(&result(&l1[0], "success"), 21.0).await?,
+            store
+                .report(&l1[0].worker_id, &result(&l1[0], "success"), 21.0)
+                .await?,
             ReportOutcome::Accepted
         );
         assert_eq!(
-            store.report(&result(&l1[0], "rollover"), 22.0).await?,
+            store
+                .report(&l1[0].worker_id, &result(&l1[0], "rollover"), 22.0)
+                .await?,
             ReportOutcome::Duplicate
         );
         let eps = r.episodes(&a).await?;
@@ -159,21 +170,28 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
         assert_eq!(store.expire_leases(51.0).await?, 1);
         let l2 = store.lease(&w2, 1, 30.0, 52.0).await?;
         assert_eq!((l2[0].task_id.as_str(), l2[0].attempt), ("w001-t1", 2));
-        // Worker 1 was only slow: its late report is the first result, so it counts; worker 2 learns its lease
-        // is gone at its next heartbeat, and its own report is then a duplicate.
+        // Worker 1 was only slow: its late report comes under a lease it no longer holds and is rejected;
+        // worker 2 holds the episode now (its lease renews) and its report counts.
         assert_eq!(
-            store.report(&result(&l1[1], "stuck"), 53.0).await?,
-            ReportOutcome::Accepted
+            store
+                .report(&l1[1].worker_id, &result(&l1[1], "stuck"), 53.0)
+                .await?,
+            ReportOutcome::Rejected
+        );
+        assert!(store
+            .renew(&w2, &[l2[0].lease_id.clone()], 30.0, 54.0)
+            .await?
+            .is_empty());
+        // A report for worker 2's episode sent as worker 1 is rejected too.
+        assert_eq!(
+            store.report(&w1, &result(&l2[0], "success"), 54.5).await?,
+            ReportOutcome::Rejected
         );
         assert_eq!(
             store
-                .renew(&w2, &[l2[0].lease_id.clone()], 30.0, 54.0)
+                .report(&l2[0].worker_id, &result(&l2[0], "stuck"), 55.0)
                 .await?,
-            vec![l2[0].lease_id.clone()]
-        );
-        assert_eq!(
-            store.report(&result(&l2[0], "success"), 55.0).await?,
-            ReportOutcome::Duplicate
+            ReportOutcome::Accepted
         );
         // Exactly one result per task.
         let eps = r.episodes(&a).await?;
@@ -187,7 +205,9 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
         // Finishing the last episode finishes the submission.
         let l3 = store.lease(&w2, 1, 30.0, 56.0).await?;
         assert_eq!(l3[0].task_id, "w001-t2");
-        store.report(&result(&l3[0], "success"), 57.0).await?;
+        store
+            .report(&l3[0].worker_id, &result(&l3[0], "success"), 57.0)
+            .await?;
         let s = r.submission(&a).await?;
         assert_eq!(
             (s.state.as_str(), s.finished_at),
@@ -216,7 +236,9 @@ async fn lost_episodes_are_retried_then_recorded_as_infrastructure_failures() ->
         let id = store
             .create_submission(&new_submission("a"), &episodes(1), 0.0)
             .await?;
-        let w = store.register_worker("w", 1, "sim-core test", 0.0).await?;
+        let w = store
+            .register_worker("w", 1, "sim-core test", "tk-w", 0.0)
+            .await?;
         let mut t = 1.0;
         for attempt in 1..=MAX_ATTEMPTS {
             let l = store.lease(&w, 1, 5.0, t).await?;
@@ -245,7 +267,7 @@ async fn lost_episodes_are_retried_then_recorded_as_infrastructure_failures() ->
             .create_submission(&new_submission("b"), &episodes(1), t)
             .await?;
         let l = store.lease(&w, 1, 60.0, t).await?;
-        store.release(&l[0].lease_id, t + 1.0).await?;
+        store.release(&w, &l[0].lease_id, t + 1.0).await?;
         let again = store.lease(&w, 1, 60.0, t + 2.0).await?;
         assert_eq!(
             (again[0].submission.id.as_str(), again[0].attempt),
@@ -262,9 +284,13 @@ async fn cancel_keeps_finished_episodes_and_marks_the_rest_not_run() -> anyhow::
         let id = store
             .create_submission(&new_submission("a"), &episodes(4), 0.0)
             .await?;
-        let w = store.register_worker("w", 2, "sim-core test", 0.0).await?;
+        let w = store
+            .register_worker("w", 2, "sim-core test", "tk-w", 0.0)
+            .await?;
         let l = store.lease(&w, 2, 30.0, 1.0).await?;
-        store.report(&result(&l[0], "success"), 2.0).await?;
+        store
+            .report(&l[0].worker_id, &result(&l[0], "success"), 2.0)
+            .await?;
         assert!(store.cancel(&id, 3.0).await?);
         assert!(!store.cancel(&id, 3.5).await?, "cancelling twice");
         // The running episode's lease is no longer renewed; a result that arrives anyway is kept (it did run).
@@ -291,7 +317,9 @@ async fn cancel_keeps_finished_episodes_and_marks_the_rest_not_run() -> anyhow::
         let s = store.reader().submission(&id).await?;
         assert_eq!(s.state, "cancelled");
         assert_eq!(
-            store.report(&result(&l[1], "success"), 101.0).await?,
+            store
+                .report(&l[1].worker_id, &result(&l[1], "success"), 101.0)
+                .await?,
             ReportOutcome::Rejected
         );
     }
@@ -306,9 +334,13 @@ async fn reopening_keeps_everything() -> anyhow::Result<()> {
             let id = store
                 .create_submission(&new_submission("a"), &episodes(2), 0.0)
                 .await?;
-            let w = store.register_worker("w", 1, "sim-core test", 0.0).await?;
+            let w = store
+                .register_worker("w", 1, "sim-core test", "tk-w", 0.0)
+                .await?;
             let l = store.lease(&w, 1, 30.0, 1.0).await?;
-            store.report(&result(&l[0], "success"), 2.0).await?;
+            store
+                .report(&l[0].worker_id, &result(&l[0], "success"), 2.0)
+                .await?;
             id
         };
         // A restarted coordinator opens (and re-runs the migrations on) the same database.

@@ -35,8 +35,8 @@ async fn workers_die_and_the_coordinator_restarts_yet_every_task_has_exactly_one
     let port = free_port();
     let token = create_token(&db);
     let mut coordinator = start_coordinator(&dir, "coordinator", &db, port);
-    let mut worker_a = start_worker(&dir, "worker-a", port, 2);
-    let _worker_b = start_worker(&dir, "worker-b", port, 2);
+    let mut worker_a = start_worker(&dir, "worker-a", &db, port, 2);
+    let _worker_b = start_worker(&dir, "worker-b", &db, port, 2);
     let mut c = client(port, &token).await;
     // A slow but correct planner (5 ms per step), so episodes last long enough to be interrupted.
     let req = exec_request("example", &["1", "2"], &["--delay-ms", "5"], 2.0);
@@ -115,8 +115,19 @@ async fn workers_die_and_the_coordinator_restarts_yet_every_task_has_exactly_one
     ] {
         assert!(page.contains(needle), "submission page lacks {needle}");
     }
-    let api: serde_json::Value =
-        serde_json::from_str(&http_text(http, &format!("/api/submissions/{id}")))?;
+    let api_text = http_text(http, &format!("/api/submissions/{id}"));
+    // The public sees the planner's kind and identity hash, never its command line.
+    let command = example_planner().display().to_string();
+    let episodes_api = http_text(http, &format!("/api/submissions/{id}/episodes"));
+    for (what, text) in [
+        ("/", &index),
+        ("the submission page", &page),
+        ("the API", &api_text),
+        ("the episodes API", &episodes_api),
+    ] {
+        assert!(!text.contains(&command), "{what} shows the command line");
+    }
+    let api: serde_json::Value = serde_json::from_str(&api_text)?;
     assert_eq!(api["progress"]["finished"], 20);
     assert_eq!(api["summary"]["overall"]["episodes"], 20);
     assert!(api["summary"]["by_level"]
@@ -157,8 +168,8 @@ async fn misbehaving_planners_fail_their_own_episodes_and_nothing_else() -> anyh
     let port = free_port();
     let token = create_token(&db);
     let _coordinator = start_coordinator(&dir, "coordinator", &db, port);
-    let _w1 = start_worker(&dir, "worker-1", port, 3);
-    let _w2 = start_worker(&dir, "worker-2", port, 3);
+    let _w1 = start_worker(&dir, "worker-1", &db, port, 3);
+    let _w2 = start_worker(&dir, "worker-2", &db, port, 3);
     let mut c = client(port, &token).await;
     let good_tasks = ["w003-t0", "w003-t1", "w004-t2", "w005-t5"];
     // The well-behaved planner alone first, as the reference.
@@ -436,49 +447,167 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
         vb_submit::list(&mut c).await?.is_empty(),
         "nothing was stored"
     );
-    // The worker API refuses a worker with another simulator version and reports from unknown workers.
+    // The worker API wants a worker token on every call; a user's token is not one.
+    let worker_token = create_token_with_role(&db, "rogue-test", "worker");
+    fn authed<T>(msg: T, token: &str) -> tonic::Request<T> {
+        let mut r = tonic::Request::new(msg);
+        r.metadata_mut()
+            .insert("authorization", format!("Bearer {token}").parse().unwrap());
+        r
+    }
+    let register = |name: &str, sim: &str| pb::RegisterRequest {
+        worker_name: name.into(),
+        slots: 1,
+        sim_version: sim.into(),
+    };
     let mut w = pb::worker_pool_client::WorkerPoolClient::connect(url.clone()).await?;
     let e = w
-        .register(pb::RegisterRequest {
-            worker_name: "old".into(),
-            slots: 1,
-            sim_version: "sim-core 0.0.1".into(),
-        })
+        .register(register("anonymous", vb_worker::SIM_VERSION))
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::Unauthenticated, "{e}");
+    let e = w
+        .register(authed(register("user", vb_worker::SIM_VERSION), &token))
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::PermissionDenied, "{e}");
+    // ... it refuses a worker with another simulator version, and reports from workers it does not know under
+    // this token.
+    let e = w
+        .register(authed(register("old", "sim-core 0.0.1"), &worker_token))
         .await
         .unwrap_err();
     assert_eq!(e.code(), tonic::Code::FailedPrecondition, "{e}");
     let e = w
-        .report_result(pb::EpisodeReport {
-            worker_id: "wk-nope".into(),
-            outcome: "success".into(),
-            ..Default::default()
-        })
+        .report_result(authed(
+            pb::EpisodeReport {
+                worker_id: "wk-nope".into(),
+                outcome: "success".into(),
+                ..Default::default()
+            },
+            &worker_token,
+        ))
         .await
         .unwrap_err();
     assert_eq!(e.code(), tonic::Code::NotFound, "{e}");
     let reg = w
-        .register(pb::RegisterRequest {
-            worker_name: "w".into(),
-            slots: 1,
-            sim_version: vb_worker::SIM_VERSION.into(),
-        })
+        .register(authed(register("w", vb_worker::SIM_VERSION), &worker_token))
         .await?
         .into_inner();
+    let other_worker_token = create_token_with_role(&db, "other", "worker");
     let e = w
-        .report_result(pb::EpisodeReport {
-            worker_id: reg.worker_id.clone(),
-            outcome: "victory".into(),
-            ..Default::default()
-        })
+        .lease(authed(
+            pb::LeaseRequest {
+                worker_id: reg.worker_id.clone(),
+                max: 1,
+            },
+            &other_worker_token,
+        ))
+        .await
+        .unwrap_err();
+    assert_eq!(
+        e.code(),
+        tonic::Code::NotFound,
+        "another token cannot use this worker: {e}"
+    );
+    let e = w
+        .report_result(authed(
+            pb::EpisodeReport {
+                worker_id: reg.worker_id.clone(),
+                outcome: "victory".into(),
+                ..Default::default()
+            },
+            &worker_token,
+        ))
         .await
         .unwrap_err();
     assert!(
         e.code() == tonic::Code::InvalidArgument && e.message().contains("unknown outcome"),
         "{e}"
     );
+    // A forged success for an episode this worker never leased is not taken, nor one with a bogus simulator
+    // version or task set.
+    let victim = vb_submit::submit(&mut c, exec_request("victim", &["9"], &[], 1.0)).await?;
+    let forged = |sim: &str, set: &str| pb::EpisodeReport {
+        worker_id: reg.worker_id.clone(),
+        lease_id: "ls-forged".into(),
+        submission_id: victim.submission_id.clone(),
+        task_id: "w009-t0".into(),
+        outcome: "success".into(),
+        reason: "success".into(),
+        sim_version: sim.into(),
+        task_set_version: set.into(),
+        metrics_json: serde_json::to_vec(&sim_core::episode::EpisodeMetrics::default()).unwrap(),
+        ..Default::default()
+    };
+    let set_version = tasks::TaskSet::load(&tasks::TaskSet::default_dir())?
+        .version()
+        .to_string();
+    let ack = w
+        .report_result(authed(
+            forged(vb_worker::SIM_VERSION, &set_version),
+            &worker_token,
+        ))
+        .await?
+        .into_inner();
+    assert!(
+        !ack.accepted && !ack.duplicate,
+        "a report without the lease is rejected"
+    );
+    let e = w
+        .report_result(authed(
+            forged("sim-core 9.9.9", &set_version),
+            &worker_token,
+        ))
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e}");
+    let e = w
+        .report_result(authed(
+            forged(vb_worker::SIM_VERSION, "0000000000000000"),
+            &worker_token,
+        ))
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e}");
+    let results = vb_submit::results(&mut c, &victim.submission_id).await?;
+    assert!(
+        results.episodes.iter().all(|e| e.outcome != "success"),
+        "no forged result was stored (no worker has run the submission yet)"
+    );
+    // Another user's token neither sees nor cancels the submission; an admin's does.
+    let mallory = create_token_with_role(&db, "mallory", "user");
+    let mut m = client(port, &mallory).await;
+    assert!(
+        vb_submit::list(&mut m).await?.is_empty(),
+        "mallory sees no one else's submissions"
+    );
+    for e in [
+        vb_submit::status(&mut m, &victim.submission_id)
+            .await
+            .unwrap_err()
+            .to_string(),
+        vb_submit::cancel(&mut m, &victim.submission_id)
+            .await
+            .unwrap_err()
+            .to_string(),
+        vb_submit::results(&mut m, &victim.submission_id)
+            .await
+            .unwrap_err()
+            .to_string(),
+    ] {
+        assert!(e.contains("no submission"), "{e}");
+    }
+    let admin = create_token_with_role(&db, "root", "admin");
+    let mut a = client(port, &admin).await;
+    assert!(vb_submit::list(&mut a)
+        .await?
+        .iter()
+        .any(|s| s.submission_id == victim.submission_id));
+    vb_submit::cancel(&mut a, &victim.submission_id).await?;
 
     // Cancel: finished episodes are kept, the rest is shown as not run. A slow planner and one worker slot.
-    let _worker = start_worker(&dir, "worker", port, 1);
+    let _worker = start_worker(&dir, "worker", &db, port, 1);
     let sub = vb_submit::submit(
         &mut c,
         exec_request("slow", &["7"], &["--delay-ms", "3"], 1.0),
@@ -585,7 +714,7 @@ async fn a_submission_completes_on_postgres() -> anyhow::Result<()> {
     let port = free_port();
     let token = create_token(&db);
     let _coordinator = start_coordinator(&dir, "coordinator", &db, port);
-    let _worker = start_worker(&dir, "worker", port, 2);
+    let _worker = start_worker(&dir, "worker", &db, port, 2);
     let mut c = client(port, &token).await;
     let req = pb::SubmitRequest {
         name: "pid on postgres".into(),

@@ -59,6 +59,8 @@ pub struct WorkerConfig {
     pub planner_startup_s: f64,
     /// Whether this worker runs `exec` and `image` planners (untrusted code: for trusted clusters only).
     pub allow_exec: bool,
+    /// The worker token (`vb admin token create --role worker`) sent with every call to the coordinator.
+    pub token: String,
 }
 
 /// Seconds since the Unix epoch (only for log lines; the simulation never sees the wall clock).
@@ -288,8 +290,14 @@ pub async fn run_episode(
     })
 }
 
-fn report(worker_id: &str, lease: &pb::EpisodeLease, run: &EpisodeRun) -> pb::EpisodeReport {
+fn report(
+    worker_id: &str,
+    lease: &pb::EpisodeLease,
+    run: &EpisodeRun,
+    task_set_version: &str,
+) -> pb::EpisodeReport {
     pb::EpisodeReport {
+        task_set_version: task_set_version.into(),
         worker_id: worker_id.into(),
         lease_id: lease.lease_id.clone(),
         submission_id: lease.submission_id.clone(),
@@ -309,7 +317,20 @@ fn report(worker_id: &str, lease: &pb::EpisodeLease, run: &EpisodeRun) -> pb::Ep
 
 /// Delivers a report, retrying (with backoff) while the coordinator is unreachable, so a coordinator restart loses
 /// nothing. Gives up only on a definite refusal, or after `give_up`.
-async fn deliver(client: &mut WorkerPoolClient<Channel>, r: pb::EpisodeReport, give_up: Duration) {
+/// Sends the worker token with every call.
+#[derive(Clone)]
+struct Auth(tonic::metadata::MetadataValue<tonic::metadata::Ascii>);
+
+impl tonic::service::Interceptor for Auth {
+    fn call(&mut self, mut req: tonic::Request<()>) -> Result<tonic::Request<()>, tonic::Status> {
+        req.metadata_mut().insert("authorization", self.0.clone());
+        Ok(req)
+    }
+}
+
+type Client = WorkerPoolClient<tonic::service::interceptor::InterceptedService<Channel, Auth>>;
+
+async fn deliver(client: &mut Client, r: pb::EpisodeReport, give_up: Duration) {
     let t0 = Instant::now();
     let mut backoff = Duration::from_millis(100);
     loop {
@@ -360,8 +381,11 @@ pub async fn run_worker(
         .connect_timeout(Duration::from_secs(2))
         .tcp_nodelay(true)
         .connect_lazy();
-    let mut client =
-        WorkerPoolClient::new(channel).max_encoding_message_size(crate::remote::MAX_WORKER_MESSAGE);
+    let auth = format!("Bearer {}", cfg.token.trim())
+        .parse()
+        .map_err(|_| WorkerError::Refused("the worker token is not valid header text".into()))?;
+    let mut client = WorkerPoolClient::with_interceptor(channel, Auth(auth))
+        .max_encoding_message_size(crate::remote::MAX_WORKER_MESSAGE);
     let slots = cfg.slots.max(1);
     // Register, waiting for the coordinator if it is not up yet.
     let reg = loop {
@@ -378,8 +402,13 @@ pub async fn run_worker(
         {
             Ok(r) => break r.into_inner(),
             Err(s)
-                if s.code() == tonic::Code::FailedPrecondition
-                    || s.code() == tonic::Code::InvalidArgument =>
+                if matches!(
+                    s.code(),
+                    tonic::Code::FailedPrecondition
+                        | tonic::Code::InvalidArgument
+                        | tonic::Code::Unauthenticated
+                        | tonic::Code::PermissionDenied
+                ) =>
             {
                 return Err(WorkerError::Refused(s.message().into()))
             }
@@ -505,7 +534,7 @@ pub async fn run_worker(
 
 async fn run_lease(
     set: Arc<TaskSet>,
-    client: &mut WorkerPoolClient<Channel>,
+    client: &mut Client,
     worker_id: &str,
     lease: pb::EpisodeLease,
     cancel: Arc<AtomicBool>,
@@ -540,6 +569,8 @@ async fn run_lease(
         deliver(client, infra(msg), Duration::from_secs(600)).await;
         return;
     }
+    let set_version = set.version().to_string();
+    let set_version = set_version.as_str();
     let spec = EpisodeSpec {
         task_id: lease.task_id.clone(),
         planner: lease.planner.clone().unwrap_or_default(),
@@ -557,7 +588,7 @@ async fn run_lease(
         Ok(run) => {
             deliver(
                 client,
-                report(worker_id, &lease, &run),
+                report(worker_id, &lease, &run, set_version),
                 Duration::from_secs(600),
             )
             .await

@@ -85,6 +85,9 @@ pub struct WorkerArgs {
     /// Do not run exec or image planners (they are untrusted code; exec planners run as this worker's user).
     #[arg(long)]
     no_exec: bool,
+    /// Worker token (`vb admin token create --role worker`), sent with every call to the coordinator.
+    #[arg(long, env = "VB_WORKER_TOKEN", hide_env_values = true)]
+    token: String,
 }
 
 #[derive(Args)]
@@ -110,6 +113,10 @@ pub enum TokenCmd {
     Create {
         #[arg(long)]
         name: String,
+        /// `user` (submits; sees its own submissions), `admin` (sees and cancels all) or `worker` (the worker API:
+        /// give it to `vb worker --token`).
+        #[arg(long, default_value = "user", value_parser = parse_role)]
+        role: vb_store::TokenRole,
         #[arg(long, default_value = "sqlite://out/vb.db")]
         db: String,
     },
@@ -120,6 +127,10 @@ pub enum TokenCmd {
         #[arg(long, default_value = "sqlite://out/vb.db")]
         db: String,
     },
+}
+
+fn parse_role(s: &str) -> Result<vb_store::TokenRole, String> {
+    vb_store::TokenRole::parse(s).ok_or_else(|| format!("`{s}` is not user, admin or worker"))
 }
 
 fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
@@ -205,6 +216,10 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
             }
         });
         let (_stop, shutdown) = tokio::sync::watch::channel(false);
+        let worker_token = coord
+            .store()
+            .create_token("vb-serve-worker", vb_store::TokenRole::Worker, vb_coordinator::now())
+            .await?;
         let wcfg = vb_worker::WorkerConfig {
             coordinator: format!("http://{grpc_addr}"),
             name: "serve-local".into(),
@@ -212,13 +227,17 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
             task_dir: a.task_dir.clone(),
             planner_startup_s: 30.0,
             allow_exec: !a.no_exec,
+            token: worker_token,
         };
         tokio::spawn(async move {
             if let Err(e) = vb_worker::run_worker(wcfg, shutdown).await {
                 eprintln!("worker stopped: {e}");
             }
         });
-        let token = coord.store().create_token("vb-serve", vb_coordinator::now()).await?;
+        let token = coord
+            .store()
+            .create_token("vb-serve", vb_store::TokenRole::User, vb_coordinator::now())
+            .await?;
         eprintln!("coordinator and Sim gRPC APIs on {grpc_addr}, leaderboard on http://{http_addr}/, {} local worker slots", a.slots);
         eprintln!("submit your own planner with: VB_COORDINATOR=http://{grpc_addr} VB_TOKEN={token} vb-submit endpoint URL --name NAME");
         if let Some(planner) = &a.evaluate {
@@ -297,6 +316,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
             task_dir: a.task_dir.clone(),
             planner_startup_s: a.planner_startup_s,
             allow_exec: !a.no_exec,
+            token: a.token.clone(),
         };
         if let Some(addr) = a.sim {
             let sim = sim_service(&a.task_dir)?;
@@ -329,13 +349,18 @@ pub fn leaderboard(a: LeaderboardArgs) -> anyhow::Result<()> {
 pub fn admin(c: AdminCmd) -> anyhow::Result<()> {
     runtime()?.block_on(async move {
         match c {
-            AdminCmd::Token(TokenCmd::Create { name, db }) => {
+            AdminCmd::Token(TokenCmd::Create { name, role, db }) => {
                 if name.trim().is_empty() {
                     bail!("--name must not be empty");
                 }
                 let store = open_store(&db).await?;
-                let token = store.create_token(&name, vb_coordinator::now()).await?;
-                eprintln!("token for `{name}` (shown once; the store keeps only its SHA-256):");
+                let token = store
+                    .create_token(&name, role, vb_coordinator::now())
+                    .await?;
+                eprintln!(
+                    "{} token for `{name}` (shown once; the store keeps only its SHA-256):",
+                    role.as_str()
+                );
                 println!("{token}");
             }
             AdminCmd::Token(TokenCmd::Revoke { name, db }) => {

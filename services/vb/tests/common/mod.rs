@@ -109,9 +109,15 @@ pub fn vb_run(args: &[&str]) -> String {
 }
 
 pub fn create_token(db: &str) -> String {
-    vb_run(&["admin", "token", "create", "--name", "tester", "--db", db])
-        .trim()
-        .to_string()
+    create_token_with_role(db, "tester", "user")
+}
+
+pub fn create_token_with_role(db: &str, name: &str, role: &str) -> String {
+    vb_run(&[
+        "admin", "token", "create", "--name", name, "--role", role, "--db", db,
+    ])
+    .trim()
+    .to_string()
 }
 
 pub fn start_coordinator(dir: &Path, name: &str, db: &str, port: u16) -> Proc {
@@ -136,9 +142,11 @@ pub fn start_coordinator(dir: &Path, name: &str, db: &str, port: u16) -> Proc {
     p
 }
 
-pub fn start_worker(dir: &Path, name: &str, port: u16, slots: usize) -> Proc {
+/// A `vb worker` with a worker token of its own from the store `db`.
+pub fn start_worker(dir: &Path, name: &str, db: &str, port: u16, slots: usize) -> Proc {
     let url = format!("http://127.0.0.1:{port}");
     let slots = slots.to_string();
+    let token = create_token_with_role(db, name, "worker");
     Proc::start(
         name,
         dir,
@@ -151,6 +159,8 @@ pub fn start_worker(dir: &Path, name: &str, port: u16, slots: usize) -> Proc {
             &slots,
             "--name",
             name,
+            "--token",
+            &token,
         ],
     )
 }

@@ -1,0 +1,61 @@
+//! What the public may see of a submission: its name, planner kind and an identity hash, never its command line,
+//! environment, endpoint URL (which may carry credentials) or owner token. Every read of the store by the
+//! leaderboard goes through here.
+
+use sha2::{Digest, Sha256};
+use vb_store::{EpisodeDetail, EpisodeRecord, Reader, StoreError, Submission};
+
+/// A short hash of a planner identity (`sha256:` and 12 hex digits): equal identities, equal hashes.
+pub fn identity_hash(identity: &str) -> String {
+    let d = Sha256::digest(identity.as_bytes());
+    let hex: String = d.iter().take(6).map(|b| format!("{b:02x}")).collect();
+    format!("sha256:{hex}")
+}
+
+/// The planner as the public sees it: a built-in's name, or the kind and the identity's hash.
+fn public_planner(kind: &str, spec: &str, identity: &str) -> (String, String) {
+    if kind == "builtin" {
+        (spec.to_string(), identity.to_string())
+    } else {
+        (String::new(), identity_hash(identity))
+    }
+}
+
+fn redact(mut s: Submission) -> Submission {
+    let (spec, identity) = public_planner(&s.planner_kind, &s.planner_spec, &s.planner_identity);
+    s.planner_spec = spec;
+    s.planner_identity = identity;
+    s.owner_token = String::new();
+    s
+}
+
+fn redact_episode(kind: &str, mut e: EpisodeRecord) -> EpisodeRecord {
+    if kind != "builtin" {
+        e.planner_identity = e.planner_identity.as_deref().map(identity_hash);
+    }
+    e
+}
+
+pub async fn submission(r: &Reader, id: &str) -> Result<Submission, StoreError> {
+    r.submission(id).await.map(redact)
+}
+
+pub async fn submissions(r: &Reader) -> Result<Vec<Submission>, StoreError> {
+    Ok(r.submissions().await?.into_iter().map(redact).collect())
+}
+
+pub async fn episodes(r: &Reader, id: &str) -> Result<Vec<EpisodeRecord>, StoreError> {
+    let kind = r.submission(id).await?.planner_kind;
+    Ok(r.episodes(id)
+        .await?
+        .into_iter()
+        .map(|e| redact_episode(&kind, e))
+        .collect())
+}
+
+pub async fn episode_detail(r: &Reader, id: &str, task: &str) -> Result<EpisodeDetail, StoreError> {
+    let kind = r.submission(id).await?.planner_kind;
+    let mut d = r.episode_detail(id, task).await?;
+    d.record = redact_episode(&kind, d.record);
+    Ok(d)
+}
