@@ -212,6 +212,23 @@ pub fn summary_text(s: &Summary) -> String {
     t
 }
 
+/// Text made safe inside HTML and SVG elements and quoted attributes (`& < > " '`). Every user-controlled value in
+/// a page or chart goes through it: submission and planner names, reasons, logs, commands.
+pub fn escape_html(s: &str) -> String {
+    let mut o = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => o.push_str("&amp;"),
+            '<' => o.push_str("&lt;"),
+            '>' => o.push_str("&gt;"),
+            '"' => o.push_str("&quot;"),
+            '\'' => o.push_str("&#39;"),
+            c => o.push(c),
+        }
+    }
+    o
+}
+
 /// SVG bar charts of the success rate (with its interval) by elevation, semantics and obstacle density.
 pub fn charts_svg(s: &Summary) -> String {
     let groups: [(&str, &BTreeMap<String, Aggregate>); 3] = [
@@ -224,7 +241,7 @@ pub fn charts_svg(s: &Summary) -> String {
     let _ = writeln!(
         svg,
         "<text x='10' y='18' font-size='14'>success rate of {} (95% CI)</text>",
-        s.planner
+        escape_html(&s.planner)
     );
     let panel = (w - pad) / 3.0;
     for (gi, (title, map)) in groups.iter().enumerate() {
@@ -258,9 +275,10 @@ pub fn charts_svg(s: &Summary) -> String {
             );
             let _ = writeln!(
                 svg,
-                "<text x='{:.1}' y='{:.1}' text-anchor='middle'>{name}</text>",
+                "<text x='{:.1}' y='{:.1}' text-anchor='middle'>{}</text>",
                 cx,
-                h - 30.0
+                h - 30.0,
+                escape_html(name)
             );
             let _ = writeln!(
                 svg,
@@ -296,7 +314,7 @@ pub fn write(dir: &Path, rows: &[EpisodeRow], s: &Summary) -> Result<(), EvalErr
 pub fn leaderboard_html(summaries: &[Summary]) -> String {
     let mut ranked: Vec<&Summary> = summaries.iter().collect();
     ranked.sort_by(|a, b| b.overall.success_rate.total_cmp(&a.overall.success_rate));
-    let mut h = String::from("<!doctype html><html><head><meta charset='utf-8'><title>vertibench leaderboard</title><style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:4px 8px;text-align:right}th{background:#eee}</style></head><body><h1>vertibench leaderboard</h1>\n<table><tr><th>rank</th><th>planner</th><th>vehicle</th><th>tasks</th><th>success</th><th>95% CI</th><th>time (s)</th><th>roll</th><th>pitch</th><th>rollover</th><th>stuck</th><th>timeout</th><th>low / medium / high</th><th>rigid / deformable / mixed</th><th>sparse / medium / dense</th><th>task set</th><th>simulator</th></tr>\n");
+    let mut h = String::from("<!doctype html><html><head><meta charset='utf-8'><meta http-equiv='Content-Security-Policy' content=\"default-src 'none'; style-src 'unsafe-inline'; img-src 'self' data:\"><title>vertibench leaderboard</title><style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:4px 8px;text-align:right}th{background:#eee}</style></head><body><h1>vertibench leaderboard</h1>\n<table><tr><th>rank</th><th>planner</th><th>vehicle</th><th>tasks</th><th>success</th><th>95% CI</th><th>time (s)</th><th>roll</th><th>pitch</th><th>rollover</th><th>stuck</th><th>timeout</th><th>low / medium / high</th><th>rigid / deformable / mixed</th><th>sparse / medium / dense</th><th>task set</th><th>simulator</th></tr>\n");
     let trio = |m: &BTreeMap<String, Aggregate>, keys: [&str; 3]| {
         keys.iter()
             .map(|k| {
@@ -312,10 +330,11 @@ pub fn leaderboard_html(summaries: &[Summary]) -> String {
         let _ = writeln!(
             h,
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1}%</td><td>[{:.1}, {:.1}]</td><td>{:.1}</td><td>{:.2}</td><td>{:.2}</td><td>{:.1}%</td><td>{:.1}%</td><td>{:.1}%</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-            i + 1, s.planner, s.vehicle, a.episodes, 100.0 * a.success_rate, 100.0 * a.success_ci95.0, 100.0 * a.success_ci95.1,
+            i + 1, escape_html(&s.planner), escape_html(&s.vehicle), a.episodes, 100.0 * a.success_rate, 100.0 * a.success_ci95.0, 100.0 * a.success_ci95.1,
             a.traversal_time_mean, a.roll_mean, a.pitch_mean, a.rollover_pct, a.stuck_pct, a.timeout_pct,
             trio(&s.by_level, ["low", "medium", "high"]), trio(&s.by_semantics, ["rigid", "deformable", "mixed"]),
-            trio(&s.by_density, ["sparse", "medium", "dense"]), s.task_set_version, s.sim_version
+            trio(&s.by_density, ["sparse", "medium", "dense"]), escape_html(&s.task_set_version),
+            escape_html(&s.sim_version)
         );
     }
     h + "</table></body></html>\n"

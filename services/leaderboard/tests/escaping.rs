@@ -1,0 +1,131 @@
+//! Markup injected through every user-controlled field (submission name, owner, planner command, reason, detail,
+//! planner log, identity) comes out escaped on every HTML page, in every SVG and in the static leaderboard; the JSON
+//! API serves it as JSON that browsers may not sniff; every response carries the Content-Security-Policy.
+
+use std::io::{Read, Write};
+use vb_store::*;
+
+const EVIL: &str = "<script>alert(1)</script><img src=x onerror=alert(2)>";
+
+fn get(port: u16, path: &str) -> (String, String) {
+    let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut raw = Vec::new();
+    s.read_to_end(&mut raw).unwrap();
+    let text = String::from_utf8_lossy(&raw).into_owned();
+    let (head, body) = text.split_once("\r\n\r\n").unwrap_or((&text, ""));
+    (head.to_string(), body.to_string())
+}
+
+fn assert_clean(what: &str, text: &str) {
+    for raw in ["<script", "<img"] {
+        assert!(!text.contains(raw), "{what} contains raw `{raw}`");
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
+    let dir = std::env::temp_dir().join(format!("vb-escape-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir)?;
+    let url = format!("sqlite://{}", dir.join("vb.db").display());
+    let store = Store::open(&url).await?;
+    let set = tasks::TaskSet::load(&tasks::TaskSet::default_dir())?;
+    let sub = NewSubmission {
+        name: EVIL.into(),
+        owner: EVIL.into(),
+        owner_token: "t".into(),
+        planner_kind: "exec".into(),
+        planner_spec: format!("[\"{EVIL}\"]"),
+        planner_identity: format!("exec:{EVIL}"),
+        vehicle: "hmmwv".into(),
+        scale: 1.0,
+        seed: 0,
+        step_deadline_s: 1.0,
+        task_set_version: set.version().into(),
+        sim_version: "s".into(),
+    };
+    let episode = NewEpisode {
+        task_id: "w001-t0".into(),
+        world_id: 1,
+        task_index: 0,
+        level: "low".into(),
+        semantics: "rigid".into(),
+        density: "sparse".into(),
+    };
+    let id = store.create_submission(&sub, &[episode], 0.0).await?;
+    let w = store.register_worker("w", 1, "s", "tw", 0.0).await?;
+    let lease = store.lease(&w, 1, 30.0, 1.0).await?.remove(0);
+    let metrics = serde_json::to_string(&sim_core::episode::EpisodeMetrics::default())?;
+    let r = EpisodeResultIn {
+        lease_id: lease.lease_id.clone(),
+        submission_id: id.clone(),
+        task_id: "w001-t0".into(),
+        outcome: "planner_failure".into(),
+        reason: EVIL.into(),
+        detail: EVIL.into(),
+        metrics_json: metrics,
+        trajectory_csv: "time,x,y,z,roll,pitch,yaw,speed,throttle,steering,brake\n".into(),
+        planner_log: EVIL.into(),
+        sim_version: "s".into(),
+        planner_identity: format!("exec:{EVIL}"),
+        wall_time_s: 0.1,
+    };
+    assert_eq!(store.report(&w, &r, 2.0).await?, ReportOutcome::Accepted);
+    let lb = vb_leaderboard::Leaderboard::new(store.reader(), Some(set));
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let port = listener.local_addr()?.port();
+    tokio::spawn(vb_leaderboard::serve(lb, listener));
+    let pages = [
+        "/".to_string(),
+        format!("/submissions/{id}"),
+        format!("/submissions/{id}/episodes/w001-t0"),
+        "/api/submissions".to_string(),
+        format!("/api/submissions/{id}"),
+        format!("/api/submissions/{id}/episodes"),
+        format!("/api/submissions/{id}/episodes/w001-t0"),
+        "/no-such-page".to_string(),
+    ];
+    for path in &pages {
+        let (head, body) = tokio::task::spawn_blocking({
+            let path = path.clone();
+            move || get(port, &path)
+        })
+        .await?;
+        let head_lc = head.to_ascii_lowercase();
+        if head_lc.contains("content-type: application/json") {
+            // Data, not markup: the browser must not sniff it into HTML.
+            assert!(
+                head_lc.contains("x-content-type-options: nosniff"),
+                "{path}: {head}"
+            );
+        } else {
+            assert_clean(path, &body);
+        }
+        assert!(
+            head.to_ascii_lowercase().contains(
+                &format!("content-security-policy: {}", vb_leaderboard::CSP).to_ascii_lowercase()
+            ),
+            "{path}: {head}"
+        );
+    }
+    let (_, index) = tokio::task::spawn_blocking(move || get(port, "/")).await?;
+    assert!(
+        index.contains("&lt;script&gt;alert(1)&lt;/script&gt;"),
+        "the name is shown, escaped"
+    );
+    // The static leaderboard and the charts of `vb eval` escape too.
+    let mut summary = eval::summary::summarise(&[]);
+    summary.planner = EVIL.into();
+    summary.vehicle = EVIL.into();
+    assert_clean("charts.svg", &eval::report::charts_svg(&summary));
+    assert_clean(
+        "leaderboard.html",
+        &eval::report::leaderboard_html(&[summary]),
+    );
+    Ok(())
+}
