@@ -240,3 +240,74 @@ fn a_planner_flooding_its_output_gets_a_bounded_log() {
         text.len()
     );
 }
+
+#[test]
+fn exec_planners_run_under_resource_limits_and_die_with_their_worker() {
+    let planner = example_planner().display().to_string();
+    let script = format!("echo \"LIMITS: $(ulimit -n) $(ulimit -t) $(ulimit -v)\"; exec {planner}");
+    let (ok, text) = run(vb_submit().args([
+        "validate",
+        "exec",
+        "--max-time",
+        "2",
+        "--",
+        "sh",
+        "-c",
+        &script,
+    ]));
+    assert!(ok, "{text}");
+    let limits: Vec<&str> = logged(&text, "LIMITS:").split_whitespace().collect();
+    // Open files, CPU seconds and address space (KiB) of `vb_worker::sandbox::Limits::default()`.
+    assert_eq!(
+        limits,
+        ["1024", "3600", &(16u64 << 20).to_string()],
+        "{text}"
+    );
+
+    // The worker (here vb-submit's validate) is killed with SIGKILL while its planner runs: the planner dies too.
+    let dir = std::env::temp_dir().join(format!("vb-pdeath-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let pid_file = dir.join("planner.pid");
+    let script = format!(
+        "echo $$ > {}; exec {planner} --delay-ms 50",
+        pid_file.display()
+    );
+    let mut child = vb_submit()
+        .args([
+            "validate",
+            "exec",
+            "--max-time",
+            "60",
+            "--",
+            "sh",
+            "-c",
+            &script,
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    assert!(
+        eventually(30.0, || pid_file.exists()),
+        "the planner started"
+    );
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let pid = std::fs::read_to_string(&pid_file)
+        .unwrap()
+        .trim()
+        .to_string();
+    assert!(
+        Path::new(&format!("/proc/{pid}")).exists(),
+        "the planner runs"
+    );
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(
+        eventually(5.0, || {
+            std::fs::read_to_string(format!("/proc/{pid}/stat"))
+                .map(|s| s.contains(") Z"))
+                .unwrap_or(true)
+        }),
+        "planner {pid} outlived its killed worker"
+    );
+}

@@ -5,8 +5,9 @@
 //!
 //! Containment of `exec` planners (they are for trusted clusters: they run as the worker's user): each one gets a
 //! clean environment (`PATH`, `VB_PLANNER_ADDR`, and `HOME` and `TMPDIR` in its working directory), a fresh private
-//! working directory removed after the episode, and its own process group, killed as a whole when the episode ends
-//! or the worker drops it, so children it forked do not outlive the episode. Image planners run in a named
+//! working directory removed after the episode, its own process group, killed as a whole when the episode ends or
+//! the worker drops it, so children it forked do not outlive the episode, resource limits, and a kill when the
+//! worker dies ([`crate::sandbox`]). Image planners run in a named
 //! container that is removed when the episode ends, as an unprivileged user, with a read-only root filesystem, no
 //! capabilities and memory, CPU and process limits.
 
@@ -189,7 +190,15 @@ pub async fn start(
     let addr = format!("127.0.0.1:{port}");
     let workdir = private_dir().map_err(|e| (e, String::new()))?;
     let path = std::env::var_os("PATH").unwrap_or_else(|| "/usr/local/bin:/usr/bin:/bin".into());
-    let spawned = Command::new(program)
+    let limits = crate::sandbox::Limits::default();
+    let mut command = Command::new(program);
+    // SAFETY: the closure runs in the forked child before `exec`; `apply_in_child` makes only async-signal-safe
+    // system calls (setrlimit, prctl) and does not allocate.
+    #[allow(unsafe_code)]
+    unsafe {
+        command.pre_exec(move || limits.apply_in_child());
+    }
+    let spawned = command
         .args(&argv[1..])
         .env_clear()
         .env("PATH", path)

@@ -13,6 +13,7 @@
 pub mod convert;
 pub mod exec;
 pub mod remote;
+pub mod sandbox;
 pub mod sim_service;
 
 use remote::{PlannerLog, RemotePlanner, SharedLog};
