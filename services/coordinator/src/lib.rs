@@ -45,6 +45,10 @@ pub struct CoordinatorConfig {
     pub heartbeat_s: f64,
     /// Whether `exec` and `image` planners are accepted (workers then start user code in their own processes).
     pub allow_exec: bool,
+    /// A worker token whose workers dropped this many leases (expired or released without a result) within
+    /// `drop_window_s` gets no new leases until the window has passed.
+    pub max_dropped_leases: u64,
+    pub drop_window_s: f64,
 }
 
 impl CoordinatorConfig {
@@ -54,6 +58,8 @@ impl CoordinatorConfig {
             lease_s: 30.0,
             heartbeat_s: 5.0,
             allow_exec: true,
+            max_dropped_leases: 32,
+            drop_window_s: 600.0,
         }
     }
 }
@@ -559,12 +565,31 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
         let r = req.into_inner();
         let t = now();
         self.0.known_worker(&r.worker_id, &token, t).await?;
+        let (limit, window) = (self.0.cfg.max_dropped_leases, self.0.cfg.drop_window_s);
+        let dropped = self
+            .0
+            .store
+            .drops_since(&token.id, t - window)
+            .await
+            .map_err(store_status)?;
+        if dropped >= limit {
+            return Err(Status::resource_exhausted(format!(
+                "throttled: this token's workers dropped {dropped} leases in the last {window:.0} s (limit {limit}); \
+                 no new leases until fewer remain in the window"
+            )));
+        }
         let leases = {
             let _g = self.0.lease_lock.lock().await;
             self.0.store.expire_leases(t).await.map_err(store_status)?;
             self.0
                 .store
-                .lease(&r.worker_id, r.max.min(64), self.0.cfg.lease_s, t)
+                .lease(
+                    &r.worker_id,
+                    r.max.min(64),
+                    self.0.cfg.lease_s,
+                    r.runs_exec_planners,
+                    t,
+                )
                 .await
                 .map_err(store_status)?
         };

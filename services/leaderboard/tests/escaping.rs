@@ -59,7 +59,7 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
     };
     let id = store.create_submission(&sub, &[episode], 0.0).await?;
     let w = store.register_worker("w", 1, "s", "tw", 0.0).await?;
-    let lease = store.lease(&w, 1, 30.0, 1.0).await?.remove(0);
+    let lease = store.lease(&w, 1, 30.0, true, 1.0).await?.remove(0);
     let metrics = serde_json::to_string(&sim_core::episode::EpisodeMetrics::default())?;
     let r = EpisodeResultIn {
         lease_id: lease.lease_id.clone(),

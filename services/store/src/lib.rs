@@ -10,7 +10,9 @@
 //! - a result is accepted once per (submission, task), only from the worker holding the episode's current lease; a
 //!   later duplicate is acknowledged and ignored, anything else rejected;
 //! - an expired lease returns its episode to the queue (a dead worker's episodes are retried), up to
-//!   [`MAX_ATTEMPTS`] times, after which the episode is recorded as an infrastructure failure;
+//!   [`MAX_ATTEMPTS`] times, after which the episode is recorded as an infrastructure failure; every lease that ends
+//!   without a result is recorded against its worker's token (`lease_drops`), and a token's repeated drops of one
+//!   episode count as one attempt, so one token cannot use up an episode's attempts;
 //! - cancelling keeps finished episodes and marks everything that never ran as `not_run`.
 
 use serde::{Deserialize, Serialize};
@@ -542,6 +544,25 @@ impl Store {
 
     async fn expire_leases_locked(&self, now: f64) -> Result<u64> {
         let mut tx = self.pool.begin().await?;
+        // A token that already dropped this episode does not use up another of its attempts ...
+        sqlx::query(
+            "UPDATE episodes SET attempts = attempts - 1 WHERE state = 'leased' AND lease_expires < $1 \
+             AND EXISTS (SELECT 1 FROM lease_drops d JOIN workers w ON w.token_id = d.token_id \
+             WHERE w.id = episodes.worker_id AND d.submission_id = episodes.submission_id \
+             AND d.task_id = episodes.task_id)",
+        )
+        .bind(now)
+        .execute(&mut *tx)
+        .await?;
+        // ... and every drop is recorded against the token of the worker that held the lease.
+        sqlx::query(
+            "INSERT INTO lease_drops (token_id, worker_id, submission_id, task_id, at) \
+             SELECT w.token_id, e.worker_id, e.submission_id, e.task_id, $1 FROM episodes e \
+             JOIN workers w ON w.id = e.worker_id WHERE e.state = 'leased' AND e.lease_expires < $1",
+        )
+        .bind(now)
+        .execute(&mut *tx)
+        .await?;
         let a = sqlx::query(
             "UPDATE episodes SET state = 'not_run', lease_id = NULL, worker_id = NULL, lease_expires = NULL \
              WHERE state = 'leased' AND lease_expires < $1 \
@@ -577,13 +598,15 @@ impl Store {
         Ok(a + b + c)
     }
 
-    /// Leases up to `max` queued episodes to `worker_id` for `lease_s` seconds, oldest submission first. The caller
-    /// serialises calls (the coordinator holds a lock), so two workers never lease the same row.
+    /// Leases up to `max` queued episodes to `worker_id` for `lease_s` seconds, oldest submission first (exec and
+    /// image planners only to a worker that `runs_exec`). The caller serialises calls (the coordinator holds a lock),
+    /// so two workers never lease the same row.
     pub async fn lease(
         &self,
         worker_id: &str,
         max: u32,
         lease_s: f64,
+        runs_exec: bool,
         now: f64,
     ) -> Result<Vec<Lease>> {
         let _w = self.write.lock().await;
@@ -592,9 +615,11 @@ impl Store {
         }
         let rows = sqlx::query(
             "SELECT e.submission_id, e.task_id, e.attempts FROM episodes e JOIN submissions s ON s.id = e.submission_id \
-             WHERE e.state = 'queued' AND s.state IN ('queued', 'running') ORDER BY s.seq, e.ord LIMIT $1",
+             WHERE e.state = 'queued' AND s.state IN ('queued', 'running') \
+             AND ($2 = 1 OR s.planner_kind NOT IN ('exec', 'image')) ORDER BY s.seq, e.ord LIMIT $1",
         )
         .bind(max as i64)
+        .bind(i64::from(runs_exec))
         .fetch_all(&self.pool)
         .await?;
         let mut out = Vec::with_capacity(rows.len());
@@ -668,6 +693,19 @@ impl Store {
             }
         }
         Ok(gone)
+    }
+
+    /// How many leases the workers of token `token_id` dropped since `since`.
+    pub async fn drops_since(&self, token_id: &str, since: f64) -> Result<u64> {
+        let n: i64 = sqlx::query(
+            "SELECT CAST(COUNT(*) AS BIGINT) AS n FROM lease_drops WHERE token_id = $1 AND at > $2",
+        )
+        .bind(token_id)
+        .bind(since)
+        .fetch_one(&self.pool)
+        .await?
+        .try_get("n")?;
+        Ok(n as u64)
     }
 
     /// Worker `worker_id` could not run its leased episode (not the planner's fault): it goes back to the queue.

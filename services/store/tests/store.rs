@@ -131,7 +131,7 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
             .register_worker("w2", 2, "sim-core test", "tk-w", 12.0)
             .await?;
         // Oldest submission first, in task order.
-        let l1 = store.lease(&w1, 2, 30.0, 20.0).await?;
+        let l1 = store.lease(&w1, 2, 30.0, true, 20.0).await?;
         assert_eq!(
             l1.iter().map(|l| l.task_id.as_str()).collect::<Vec<_>>(),
             ["w001-t0", "w001-t1"]
@@ -168,7 +168,7 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
         // Worker 1 dies holding w001-t1: after the lease expires it goes to worker 2.
         assert_eq!(store.expire_leases(40.0).await?, 0, "not expired yet");
         assert_eq!(store.expire_leases(51.0).await?, 1);
-        let l2 = store.lease(&w2, 1, 30.0, 52.0).await?;
+        let l2 = store.lease(&w2, 1, 30.0, true, 52.0).await?;
         assert_eq!((l2[0].task_id.as_str(), l2[0].attempt), ("w001-t1", 2));
         // Worker 1 was only slow: its late report comes under a lease it no longer holds and is rejected;
         // worker 2 holds the episode now (its lease renews) and its report counts.
@@ -203,7 +203,7 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
             ("hello", "time,x\n0,0\n")
         );
         // Finishing the last episode finishes the submission.
-        let l3 = store.lease(&w2, 1, 30.0, 56.0).await?;
+        let l3 = store.lease(&w2, 1, 30.0, true, 56.0).await?;
         assert_eq!(l3[0].task_id, "w001-t2");
         store
             .report(&l3[0].worker_id, &result(&l3[0], "success"), 57.0)
@@ -236,18 +236,20 @@ async fn lost_episodes_are_retried_then_recorded_as_infrastructure_failures() ->
         let id = store
             .create_submission(&new_submission("a"), &episodes(1), 0.0)
             .await?;
-        let w = store
-            .register_worker("w", 1, "sim-core test", "tk-w", 0.0)
-            .await?;
+        // Workers of four different tokens each die holding it.
         let mut t = 1.0;
+        let mut w = String::new();
         for attempt in 1..=MAX_ATTEMPTS {
-            let l = store.lease(&w, 1, 5.0, t).await?;
+            w = store
+                .register_worker("w", 1, "sim-core test", &format!("tk-{attempt}"), t)
+                .await?;
+            let l = store.lease(&w, 1, 5.0, true, t).await?;
             assert_eq!(l.len(), 1, "{url}: attempt {attempt} got no lease");
             assert_eq!(l[0].attempt, attempt);
             t += 10.0;
             store.expire_leases(t).await?;
         }
-        assert!(store.lease(&w, 1, 5.0, t).await?.is_empty());
+        assert!(store.lease(&w, 1, 5.0, true, t).await?.is_empty());
         let e = &store.reader().episodes(&id).await?[0];
         assert_eq!(
             (e.state.as_str(), e.outcome.as_deref(), e.reason.as_deref()),
@@ -266,13 +268,86 @@ async fn lost_episodes_are_retried_then_recorded_as_infrastructure_failures() ->
         let id2 = store
             .create_submission(&new_submission("b"), &episodes(1), t)
             .await?;
-        let l = store.lease(&w, 1, 60.0, t).await?;
+        let l = store.lease(&w, 1, 60.0, true, t).await?;
         store.release(&w, &l[0].lease_id, t + 1.0).await?;
-        let again = store.lease(&w, 1, 60.0, t + 2.0).await?;
+        let again = store.lease(&w, 1, 60.0, true, t + 2.0).await?;
         assert_eq!(
             (again[0].submission.id.as_str(), again[0].attempt),
             (id2.as_str(), 2)
         );
+    }
+    Ok(())
+}
+
+#[tokio::test]
+async fn one_token_leasing_and_dropping_cannot_use_up_an_episode() -> anyhow::Result<()> {
+    for url in backends("drops").await? {
+        let store = Store::open(&url).await?;
+        let id = store
+            .create_submission(&new_submission("a"), &episodes(1), 0.0)
+            .await?;
+        let mut t = 1.0;
+        for round in 0..3 * MAX_ATTEMPTS {
+            // A new worker id each time, under the same token.
+            let w = store
+                .register_worker("rogue", 1, "sim-core test", "tk-rogue", t)
+                .await?;
+            let l = store.lease(&w, 1, 5.0, true, t).await?;
+            assert_eq!(l.len(), 1, "{url}: round {round}");
+            assert!(
+                l[0].attempt <= 2,
+                "{url}: round {round}: attempt {}",
+                l[0].attempt
+            );
+            t += 10.0;
+            store.expire_leases(t).await?;
+        }
+        let e = &store.reader().episodes(&id).await?[0];
+        assert_eq!(
+            e.state, "queued",
+            "{url}: the episode is still there to run"
+        );
+        assert_eq!(
+            store.drops_since("tk-rogue", 0.0).await?,
+            3 * MAX_ATTEMPTS as u64
+        );
+        // Drops at t - 20, t - 10 and t are in the last 25 s.
+        assert_eq!(
+            store.drops_since("tk-rogue", t - 25.0).await?,
+            3,
+            "only the window counts"
+        );
+        assert_eq!(store.drops_since("tk-other", 0.0).await?, 0);
+        // An honest worker of another token then runs it.
+        let w = store
+            .register_worker("honest", 1, "sim-core test", "tk-honest", t)
+            .await?;
+        let l = store.lease(&w, 1, 5.0, true, t).await?;
+        assert_eq!(
+            store.report(&w, &result(&l[0], "success"), t + 1.0).await?,
+            ReportOutcome::Accepted
+        );
+    }
+    Ok(())
+}
+
+#[tokio::test]
+async fn workers_that_do_not_run_exec_planners_get_none() -> anyhow::Result<()> {
+    for url in backends("noexec").await? {
+        let store = Store::open(&url).await?;
+        let mut exec = new_submission("exec");
+        exec.planner_kind = "exec".into();
+        store.create_submission(&exec, &episodes(1), 0.0).await?;
+        let builtin = store
+            .create_submission(&new_submission("builtin"), &episodes(1), 1.0)
+            .await?;
+        let w = store
+            .register_worker("w", 2, "sim-core test", "tk", 2.0)
+            .await?;
+        let l = store.lease(&w, 2, 30.0, false, 3.0).await?;
+        assert_eq!(l.len(), 1, "{url}");
+        assert_eq!(l[0].submission.id, builtin);
+        assert_eq!(store.lease(&w, 2, 30.0, true, 4.0).await?.len(), 1, "{url}");
     }
     Ok(())
 }
@@ -287,7 +362,7 @@ async fn cancel_keeps_finished_episodes_and_marks_the_rest_not_run() -> anyhow::
         let w = store
             .register_worker("w", 2, "sim-core test", "tk-w", 0.0)
             .await?;
-        let l = store.lease(&w, 2, 30.0, 1.0).await?;
+        let l = store.lease(&w, 2, 30.0, true, 1.0).await?;
         store
             .report(&l[0].worker_id, &result(&l[0], "success"), 2.0)
             .await?;
@@ -302,7 +377,7 @@ async fn cancel_keeps_finished_episodes_and_marks_the_rest_not_run() -> anyhow::
             1
         );
         assert!(
-            store.lease(&w, 2, 30.0, 4.0).await?.is_empty(),
+            store.lease(&w, 2, 30.0, true, 4.0).await?.is_empty(),
             "cancelled work must not be leased"
         );
         let p = store.reader().progress(&id).await?;
@@ -337,7 +412,7 @@ async fn reopening_keeps_everything() -> anyhow::Result<()> {
             let w = store
                 .register_worker("w", 1, "sim-core test", "tk-w", 0.0)
                 .await?;
-            let l = store.lease(&w, 1, 30.0, 1.0).await?;
+            let l = store.lease(&w, 1, 30.0, true, 1.0).await?;
             store
                 .report(&l[0].worker_id, &result(&l[0], "success"), 2.0)
                 .await?;

@@ -500,6 +500,7 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
             pb::LeaseRequest {
                 worker_id: reg.worker_id.clone(),
                 max: 1,
+                runs_exec_planners: true,
             },
             &other_worker_token,
         ))
@@ -751,5 +752,84 @@ fn sqlx_free_create_db(admin: &str, name: &str) -> anyhow::Result<()> {
             .status()?;
         anyhow::ensure!(st.success(), "psql {sql} failed");
     }
+    Ok(())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_worker_that_leases_and_drops_is_throttled_and_uses_up_nothing() -> anyhow::Result<()> {
+    let dir = temp_dir("rogue");
+    let db = format!("sqlite://{}", dir.join("vb.db").display());
+    let port = free_port();
+    let token = create_token(&db);
+    let rogue_token = create_token_with_role(&db, "rogue", "worker");
+    let _coordinator = start_coordinator_with(
+        &dir,
+        "coordinator",
+        &db,
+        port,
+        &["--max-dropped-leases", "3", "--drop-window-s", "600"],
+    );
+    let mut c = client(port, &token).await;
+    let sub = vb_submit::submit(
+        &mut c,
+        pb::SubmitRequest {
+            name: "victim".into(),
+            planner: Some(pb::PlannerRef {
+                kind: Some(pb::planner_ref::Kind::Builtin("pid".into())),
+            }),
+            task_ids: vec!["w001-t0".into(), "w001-t1".into()],
+            ..Default::default()
+        },
+    )
+    .await?;
+    let url = format!("http://127.0.0.1:{port}");
+    let mut w = pb::worker_pool_client::WorkerPoolClient::connect(url).await?;
+    let call = |msg| {
+        let mut r = tonic::Request::new(msg);
+        r.metadata_mut().insert(
+            "authorization",
+            format!("Bearer {rogue_token}").parse().unwrap(),
+        );
+        r
+    };
+    let reg = w
+        .register(call(pb::RegisterRequest {
+            worker_name: "rogue".into(),
+            slots: 1,
+            sim_version: vb_worker::SIM_VERSION.into(),
+        }))
+        .await?
+        .into_inner();
+    // Lease one episode at a time and drop it (no heartbeat, no report), until the coordinator says no.
+    let mut leased = 0;
+    let t0 = std::time::Instant::now();
+    let refusal = loop {
+        assert!(
+            t0.elapsed() < Duration::from_secs(120),
+            "never throttled after {leased} leases"
+        );
+        let lease = pb::LeaseRequest {
+            worker_id: reg.worker_id.clone(),
+            max: 1,
+            runs_exec_planners: false,
+        };
+        let mut r = tonic::Request::new(lease);
+        r.metadata_mut().insert(
+            "authorization",
+            format!("Bearer {rogue_token}").parse().unwrap(),
+        );
+        match w.lease(r).await {
+            Ok(r) => leased += r.into_inner().leases.len(),
+            Err(e) => break e,
+        }
+        tokio::time::sleep(Duration::from_millis(500)).await;
+    };
+    assert_eq!(refusal.code(), tonic::Code::ResourceExhausted, "{refusal}");
+    assert!(refusal.message().contains("throttled"), "{refusal}");
+    assert!(leased >= 3, "{leased}");
+    // Nothing of the submission was used up: both episodes are queued again, not failed.
+    tokio::time::sleep(Duration::from_secs(4)).await;
+    let s = vb_submit::status(&mut c, &sub.submission_id).await?;
+    assert_eq!((s.finished, s.queued), (0, 2), "{s:?}");
     Ok(())
 }

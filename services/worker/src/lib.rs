@@ -478,6 +478,7 @@ pub async fn run_worker(
                 .lease(pb::LeaseRequest {
                     worker_id: worker_id.clone(),
                     max: free as u32,
+                    runs_exec_planners: allow_exec,
                 })
                 .await
             {

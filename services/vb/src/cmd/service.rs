@@ -63,6 +63,12 @@ pub struct CoordinatorArgs {
     /// Refuse exec and image planners (only endpoints and built-ins).
     #[arg(long)]
     no_exec: bool,
+    /// A worker token whose workers drop this many leases (expired or released without a result) within
+    /// --drop-window-s gets no new leases until the window has passed.
+    #[arg(long, default_value_t = 32)]
+    max_dropped_leases: u64,
+    #[arg(long, default_value_t = 600.0)]
+    drop_window_s: f64,
 }
 
 #[derive(Args)]
@@ -291,6 +297,8 @@ pub fn coordinator(a: CoordinatorArgs) -> anyhow::Result<()> {
         cfg.lease_s = a.lease_s;
         cfg.heartbeat_s = a.heartbeat_s;
         cfg.allow_exec = !a.no_exec;
+        cfg.max_dropped_leases = a.max_dropped_leases;
+        cfg.drop_window_s = a.drop_window_s;
         eprintln!(
             "coordinator on {} (store {}, task set {})",
             listener.local_addr()?,

@@ -121,23 +121,25 @@ pub fn create_token_with_role(db: &str, name: &str, role: &str) -> String {
 }
 
 pub fn start_coordinator(dir: &Path, name: &str, db: &str, port: u16) -> Proc {
+    start_coordinator_with(dir, name, db, port, &[])
+}
+
+/// A `vb coordinator` (3 s leases, 0.5 s heartbeats) with `extra` arguments.
+pub fn start_coordinator_with(dir: &Path, name: &str, db: &str, port: u16, extra: &[&str]) -> Proc {
     let listen = format!("127.0.0.1:{port}");
-    let p = Proc::start(
-        name,
-        dir,
-        &vb(),
-        &[
-            "coordinator",
-            "--db",
-            db,
-            "--listen",
-            &listen,
-            "--lease-s",
-            "3",
-            "--heartbeat-s",
-            "0.5",
-        ],
-    );
+    let mut args = vec![
+        "coordinator",
+        "--db",
+        db,
+        "--listen",
+        &listen,
+        "--lease-s",
+        "3",
+        "--heartbeat-s",
+        "0.5",
+    ];
+    args.extend_from_slice(extra);
+    let p = Proc::start(name, dir, &vb(), &args);
     wait_port(port, Duration::from_secs(30));
     p
 }
