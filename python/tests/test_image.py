@@ -71,3 +71,57 @@ def test_a_python_planner_image_through_the_service(image, service, tmp_path):  
 
     local, _ = vb.evaluate(PurePursuit(), tasks, out=tmp_path / "local", progress=False)
     assert list(service_rows.outcome) == list(local.set_index("task_id").sort_index().outcome)
+
+
+PROBE = '''
+import socket
+import sys
+
+import vertibench as vb
+from vertibench.serve import serve
+
+# The worker's coordinator port on the host: a container without network cannot reach it.
+try:
+    socket.create_connection(("127.0.0.1", {port}), timeout=2).close()
+    print("NETWORK REACHABLE", flush=True)
+    sys.exit(3)
+except OSError as e:
+    print(f"network blocked: {{e}}", flush=True)
+
+
+class Straight(vb.Planner):
+    name = "probe"
+
+    def act(self, obs):
+        return vb.Action(steering=0.0, throttle=0.5)
+
+
+serve(Straight())
+'''
+
+
+def test_an_image_planner_has_no_network(service, tmp_path):  # noqa: F811
+    if not docker_ok():
+        pytest.skip("SKIPPED: Docker is not available here")
+    url, token = service
+    port = int(url.rsplit(":", 1)[1])
+    script = tmp_path / "probe.py"
+    script.write_text(PROBE.format(port=port))
+    tag = "vertibench-test-probe:1"
+    r = subprocess.run([str(ROOT / "deploy" / "build-python-planner-image.sh"), str(script), tag],
+                       capture_output=True, text=True, timeout=900, env=dict(os.environ, PYTHON=sys.executable))
+    assert r.returncode == 0, r.stdout + r.stderr
+    env = dict(os.environ, VB_COORDINATOR=url, VB_TOKEN=token)
+    try:
+        r = subprocess.run([binary("VB_SUBMIT_BIN"), "image", tag, "--tasks", "w001-t0", "--wait"],
+                           capture_output=True, text=True, timeout=600, env=env)
+        assert r.returncode == 0, r.stdout + r.stderr
+        sid = re.search(r"submitted (\S+)", r.stdout).group(1)
+        r = subprocess.run([binary("VB_SUBMIT_BIN"), "results", sid, "--format", "csv"], capture_output=True,
+                           text=True, timeout=60, env=env)
+        assert r.returncode == 0, r.stderr
+        assert "planner_failure" not in r.stdout, f"the probe reached the host network: {r.stdout}"
+    finally:
+        for cid in containers(tag):
+            subprocess.run(["docker", "rm", "-f", cid], capture_output=True)
+        subprocess.run(["docker", "image", "rm", "-f", tag], capture_output=True)

@@ -9,7 +9,8 @@
 //! the worker drops it, so children it forked do not outlive the episode, resource limits, and a kill when the
 //! worker dies ([`crate::sandbox`]). Image planners run in a named
 //! container that is removed when the episode ends, as an unprivileged user, with a read-only root filesystem, no
-//! capabilities and memory, CPU and process limits.
+//! capabilities, memory, CPU and process limits, and no network: the worker talks to it over a Unix socket in the
+//! episode's private directory, mounted into the container.
 
 use crate::remote::{PlannerLog, RemotePlanner, SharedLog};
 use sha2::{Digest, Sha256};
@@ -23,6 +24,13 @@ use tokio::process::{Child, Command};
 
 /// Environment variable that tells a planner process where to serve.
 pub const ADDR_ENV: &str = "VB_PLANNER_ADDR";
+
+/// Where an image planner's socket directory is mounted in its container, and the placeholder that
+/// [`image_command`] puts in its command line for the host side of that mount (the episode's private directory).
+const CONTAINER_SOCKET_DIR: &str = "/run/vb";
+const WORKDIR_PLACEHOLDER: &str = "{workdir}";
+/// The socket's file name in that directory.
+const SOCKET_NAME: &str = "planner.sock";
 
 /// Longest planner output line kept, bytes; the rest of the line is dropped and the line marked.
 pub const MAX_LINE: usize = 4096;
@@ -186,12 +194,35 @@ pub async fn start(
             String::new(),
         ));
     };
-    let port = free_port().map_err(|e| (e, String::new()))?;
-    let addr = format!("127.0.0.1:{port}");
     let workdir = private_dir().map_err(|e| (e, String::new()))?;
+    // An image planner has no network: it serves on a Unix socket in the episode's private directory, mounted into
+    // its container; an exec planner serves on a free loopback port.
+    let contained = argv.iter().any(|a| a.contains(WORKDIR_PLACEHOLDER));
+    let (addr, endpoint) = if contained {
+        // The container's unprivileged user must be able to create the socket.
+        if std::os::unix::fs::chown(&workdir, Some(65534), Some(65534)).is_err() {
+            use std::os::unix::fs::PermissionsExt;
+            let _ = std::fs::set_permissions(&workdir, std::fs::Permissions::from_mode(0o777));
+        }
+        (
+            format!("unix:{CONTAINER_SOCKET_DIR}/{SOCKET_NAME}"),
+            format!("unix:{}", workdir.join(SOCKET_NAME).display()),
+        )
+    } else {
+        let port = free_port().map_err(|e| (e, String::new()))?;
+        (
+            format!("127.0.0.1:{port}"),
+            format!("http://127.0.0.1:{port}"),
+        )
+    };
+    let workdir_text = workdir.display().to_string();
+    let argv: Vec<String> = argv
+        .iter()
+        .map(|a| a.replace(WORKDIR_PLACEHOLDER, &workdir_text))
+        .collect();
     let path = std::env::var_os("PATH").unwrap_or_else(|| "/usr/local/bin:/usr/bin:/bin".into());
     let limits = crate::sandbox::Limits::default();
-    let mut command = Command::new(program);
+    let mut command = Command::new(&argv[0]);
     // SAFETY: the closure runs in the forked child before `exec`; `apply_in_child` makes only async-signal-safe
     // system calls (setrlimit, prctl) and does not allocate.
     #[allow(unsafe_code)]
@@ -227,7 +258,7 @@ pub async fn start(
     let mut process = PlannerProcess {
         pgid: child.id().map(|id| id as i32),
         workdir: Some(workdir),
-        container: container_name(argv),
+        container: container_name(&argv),
         addr,
         output: output.clone(),
         identity,
@@ -243,7 +274,6 @@ pub async fn start(
     };
     let addr = process.addr.clone();
     let t0 = Instant::now();
-    let endpoint = format!("http://{addr}");
     loop {
         if let Ok(Some(status)) = process.child.try_wait() {
             // Let the output readers drain.
@@ -290,8 +320,8 @@ fn container_name(argv: &[String]) -> Option<String> {
 
 /// The command that runs a container planner, and its identity (the image id as Docker reports it). The container
 /// is named, so it can be removed when the episode ends; it runs as nobody (65534) with a read-only root filesystem
-/// (a 64 MB `/tmp`), no capabilities, 2 GB of memory, one CPU and 256 processes, and no volumes. It shares the host
-/// network so it can serve on `VB_PLANNER_ADDR`.
+/// (a 64 MB `/tmp`), no capabilities, 2 GB of memory, one CPU and 256 processes, and no network: it serves on a Unix
+/// socket (`VB_PLANNER_ADDR=unix:/run/vb/planner.sock`) in the episode's private directory, its only volume.
 pub async fn image_command(image: &str) -> Result<(Vec<String>, String), String> {
     let out = Command::new("docker")
         .args(["image", "inspect", "--format", "{{.Id}}", image])
@@ -315,7 +345,9 @@ pub async fn image_command(image: &str) -> Result<(Vec<String>, String), String>
         "--name",
         &format!("vb-planner-{name}"),
         "--network",
-        "host",
+        "none",
+        "--volume",
+        &format!("{WORKDIR_PLACEHOLDER}:{CONTAINER_SOCKET_DIR}"),
         "--user",
         "65534:65534",
         "--read-only",

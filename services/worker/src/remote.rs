@@ -116,11 +116,30 @@ impl RemotePlanner {
         step_deadline: Duration,
         connect_timeout: Duration,
     ) -> Result<RemotePlanner, PlannerError> {
-        let ep = Endpoint::from_shared(endpoint.to_string())
-            .map_err(|e| PlannerError::Other(format!("bad planner endpoint `{endpoint}`: {e}")))?
-            .connect_timeout(connect_timeout)
-            .tcp_nodelay(true);
-        let channel = ep.connect().await.map_err(|e| {
+        let connected = if let Some(path) = endpoint.strip_prefix("unix:") {
+            // A Unix socket (image planners, which have no network); the URI is not used.
+            let path = path.to_string();
+            Endpoint::from_static("http://planner.socket")
+                .connect_timeout(connect_timeout)
+                .connect_with_connector(tower::service_fn(move |_: tonic::transport::Uri| {
+                    let path = path.clone();
+                    async move {
+                        let stream = tokio::net::UnixStream::connect(path).await?;
+                        Ok::<_, std::io::Error>(hyper_util::rt::TokioIo::new(stream))
+                    }
+                }))
+                .await
+        } else {
+            Endpoint::from_shared(endpoint.to_string())
+                .map_err(|e| {
+                    PlannerError::Other(format!("bad planner endpoint `{endpoint}`: {e}"))
+                })?
+                .connect_timeout(connect_timeout)
+                .tcp_nodelay(true)
+                .connect()
+                .await
+        };
+        let channel = connected.map_err(|e| {
             PlannerError::Crashed(format!("cannot connect to planner at {endpoint}: {e}"))
         })?;
         let mut client = PlannerClient::new(channel)
