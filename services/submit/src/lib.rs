@@ -275,7 +275,12 @@ pub async fn validate(
     task_id: &str,
     max_time: f64,
     step_deadline_s: f64,
+    planner_user: Option<&str>,
 ) -> Result<Validation, SubmitError> {
+    let planner_user = planner_user
+        .map(vb_worker::sandbox::PlannerUser::lookup)
+        .transpose()
+        .map_err(SubmitError::Usage)?;
     let set = Arc::new(tasks::TaskSet::load(task_dir)?);
     if vb_worker::parse_task_id(task_id).is_none() {
         return Err(SubmitError::Usage(format!(
@@ -290,6 +295,7 @@ pub async fn validate(
         seed: 0,
         step_deadline_s,
         max_time: Some(max_time),
+        planner_user,
     };
     let run = vb_worker::run_episode(
         set,

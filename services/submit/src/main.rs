@@ -133,6 +133,9 @@ struct ValidateOpts {
     /// Task set directory.
     #[arg(long, default_value_os_t = tasks::TaskSet::default_dir())]
     task_dir: PathBuf,
+    /// Run an exec planner as this user, as a worker with `--planner-user` does (needs root).
+    #[arg(long)]
+    planner_user: Option<String>,
 }
 
 fn token(cli: &Cli) -> anyhow::Result<String> {
@@ -289,6 +292,7 @@ async fn main() -> anyhow::Result<()> {
                 &v.task,
                 v.max_time,
                 v.step_deadline,
+                v.planner_user.as_deref(),
             )
             .await?;
             println!(

@@ -311,3 +311,69 @@ fn exec_planners_run_under_resource_limits_and_die_with_their_worker() {
         "planner {pid} outlived its killed worker"
     );
 }
+
+#[test]
+fn exec_planners_can_run_as_an_unprivileged_user() {
+    if !nix_is_root() {
+        eprintln!("SKIPPED: running exec planners as another user needs root");
+        return;
+    }
+    // The planner binary must be reachable by `nobody`: a copy in a world-readable directory.
+    let dir = std::env::temp_dir().join(format!("vb-nobody-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let planner = dir.join("example-planner");
+    std::fs::copy(example_planner(), &planner).unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
+    std::fs::set_permissions(&planner, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let secret = dir.join("worker-secret");
+    std::fs::write(&secret, "hunter2").unwrap();
+    std::fs::set_permissions(&secret, std::fs::Permissions::from_mode(0o600)).unwrap();
+    let script = format!(
+        "echo \"UID: $(id -u)\"; cat {} >/dev/null 2>&1 && echo 'READ: yes' || echo 'READ: no'; exec {}",
+        secret.display(),
+        planner.display()
+    );
+    let (ok, text) = run(vb_submit().args([
+        "validate",
+        "exec",
+        "--max-time",
+        "2",
+        "--planner-user",
+        "nobody",
+        "--",
+        "sh",
+        "-c",
+        &script,
+    ]));
+    assert!(ok, "{text}");
+    assert_ne!(logged(&text, "UID:"), "0", "{text}");
+    assert_eq!(
+        logged(&text, "READ:"),
+        "no",
+        "the planner read the worker's file: {text}"
+    );
+    let (ok, text) = run(vb_submit().args([
+        "validate",
+        "exec",
+        "--planner-user",
+        "no-such-user-here",
+        "--",
+        "true",
+    ]));
+    assert!(
+        !ok && text.contains("no user `no-such-user-here`"),
+        "{text}"
+    );
+}
+
+fn nix_is_root() -> bool {
+    std::fs::read_to_string("/proc/self/status")
+        .map(|s| {
+            s.lines()
+                .find(|l| l.starts_with("Uid:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                == Some("0")
+        })
+        .unwrap_or(false)
+}

@@ -185,6 +185,7 @@ pub async fn start(
     identity: String,
     step_deadline: Duration,
     startup: Duration,
+    user: Option<crate::sandbox::PlannerUser>,
 ) -> Result<(PlannerProcess, RemotePlanner), (PlannerError, String)> {
     let output: SharedLog = Arc::new(Mutex::new(PlannerLog::default()));
     let log_text = |o: &SharedLog| o.lock().map(|l| l.text()).unwrap_or_default();
@@ -195,6 +196,13 @@ pub async fn start(
         ));
     };
     let workdir = private_dir().map_err(|e| (e, String::new()))?;
+    if let Some(u) = user {
+        if let Err(e) = std::os::unix::fs::chown(&workdir, Some(u.uid), Some(u.gid)) {
+            let _ = std::fs::remove_dir_all(&workdir);
+            let msg = format!("cannot give the planner's directory to uid {}: {e}", u.uid);
+            return Err((PlannerError::Other(msg), String::new()));
+        }
+    }
     // An image planner has no network: it serves on a Unix socket in the episode's private directory, mounted into
     // its container; an exec planner serves on a free loopback port.
     let contained = argv.iter().any(|a| a.contains(WORKDIR_PLACEHOLDER));
@@ -223,11 +231,17 @@ pub async fn start(
     let path = std::env::var_os("PATH").unwrap_or_else(|| "/usr/local/bin:/usr/bin:/bin".into());
     let limits = crate::sandbox::Limits::default();
     let mut command = Command::new(&argv[0]);
-    // SAFETY: the closure runs in the forked child before `exec`; `apply_in_child` makes only async-signal-safe
-    // system calls (setrlimit, prctl) and does not allocate.
+    // SAFETY: the closure runs in the forked child before `exec`; `apply_in_child` and `become_in_child` make only
+    // async-signal-safe system calls (setrlimit, prctl, setgroups, setgid, setuid) and do not allocate.
     #[allow(unsafe_code)]
     unsafe {
-        command.pre_exec(move || limits.apply_in_child());
+        command.pre_exec(move || {
+            limits.apply_in_child()?;
+            match &user {
+                Some(u) => u.become_in_child(),
+                None => Ok(()),
+            }
+        });
     }
     let spawned = command
         .args(&argv[1..])

@@ -62,6 +62,8 @@ pub struct WorkerConfig {
     pub allow_exec: bool,
     /// The worker token (`vb admin token create --role worker`) sent with every call to the coordinator.
     pub token: String,
+    /// Run exec planners as this (unprivileged) user.
+    pub planner_user: Option<sandbox::PlannerUser>,
 }
 
 /// Seconds since the Unix epoch (only for log lines; the simulation never sees the wall clock).
@@ -136,6 +138,8 @@ pub struct EpisodeSpec {
     pub step_deadline_s: f64,
     /// Overrides the default 60 s time limit (validation runs are short).
     pub max_time: Option<f64>,
+    /// Run exec planners as this (unprivileged) user instead of the worker's.
+    pub planner_user: Option<sandbox::PlannerUser>,
 }
 
 /// A finished episode, ready to report.
@@ -239,7 +243,10 @@ pub async fn run_episode(
                 Some(Kind::Exec(e)) => (e.argv.clone(), exec::exec_identity(&e.argv)),
                 _ => return Err("unsupported planner kind".into()),
             };
-            match exec::start(&argv, identity.clone(), deadline, planner_startup).await {
+            let user = spec
+                .planner_user
+                .filter(|_| matches!(kind_ref(&spec.planner), Some(Kind::Exec(_))));
+            match exec::start(&argv, identity.clone(), deadline, planner_startup, user).await {
                 Ok((proc_, mut p)) => {
                     p.set_log(proc_.output.clone());
                     p.set_episode_context(set.version(), spec.seed);
@@ -465,6 +472,7 @@ pub async fn run_worker(
     }
     let startup = Duration::from_secs_f64(cfg.planner_startup_s.max(1.0));
     let allow_exec = cfg.allow_exec;
+    let planner_user = cfg.planner_user;
     let mut backoff = Duration::from_millis(100);
     loop {
         if *shutdown.borrow() {
@@ -503,6 +511,7 @@ pub async fn run_worker(
                                 flag.clone(),
                                 startup,
                                 allow_exec,
+                                planner_user,
                             )
                             .await;
                             if let Ok(mut a) = active.lock() {
@@ -542,6 +551,7 @@ async fn run_lease(
     cancel: Arc<AtomicBool>,
     startup: Duration,
     allow_exec: bool,
+    planner_user: Option<sandbox::PlannerUser>,
 ) {
     let infra = |detail: String| pb::EpisodeReport {
         worker_id: worker_id.into(),
@@ -581,6 +591,7 @@ async fn run_lease(
         seed: lease.seed,
         step_deadline_s: lease.step_deadline_s,
         max_time: None,
+        planner_user,
     };
     match run_episode(set, spec, cancel.clone(), startup).await {
         Err(msg) => deliver(client, infra(msg), Duration::from_secs(600)).await,

@@ -45,3 +45,35 @@ impl Limits {
             .map_err(std::io::Error::from)
     }
 }
+
+/// An unprivileged user to run exec planners as (`vb worker --planner-user NAME`): the planner cannot read the
+/// worker's files or signal its processes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PlannerUser {
+    pub uid: u32,
+    pub gid: u32,
+}
+
+impl PlannerUser {
+    /// The user named `name` in the system's user database.
+    pub fn lookup(name: &str) -> Result<PlannerUser, String> {
+        match nix::unistd::User::from_name(name) {
+            Ok(Some(u)) => Ok(PlannerUser {
+                uid: u.uid.as_raw(),
+                gid: u.gid.as_raw(),
+            }),
+            Ok(None) => Err(format!("no user `{name}` on this machine")),
+            Err(e) => Err(format!("looking up user `{name}`: {e}")),
+        }
+    }
+
+    /// Drops to this user (supplementary groups, group, then user). Runs in the forked child before `exec`: only
+    /// async-signal-safe system calls, no allocation.
+    pub fn become_in_child(&self) -> std::io::Result<()> {
+        use nix::unistd::{setgid, setgroups, setuid, Gid, Uid};
+        let gid = Gid::from_raw(self.gid);
+        setgroups(&[gid]).map_err(std::io::Error::from)?;
+        setgid(gid).map_err(std::io::Error::from)?;
+        setuid(Uid::from_raw(self.uid)).map_err(std::io::Error::from)
+    }
+}

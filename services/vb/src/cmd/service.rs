@@ -44,6 +44,9 @@ pub struct ServeArgs {
     /// and built-ins. Use it whenever strangers can submit.
     #[arg(long)]
     no_exec: bool,
+    /// Run exec planners as this unprivileged user (needs root), so they cannot read the service's files.
+    #[arg(long)]
+    planner_user: Option<String>,
 }
 
 #[derive(Args)]
@@ -94,6 +97,9 @@ pub struct WorkerArgs {
     /// Worker token (`vb admin token create --role worker`), sent with every call to the coordinator.
     #[arg(long, env = "VB_WORKER_TOKEN", hide_env_values = true)]
     token: String,
+    /// Run exec planners as this unprivileged user (needs root), so they cannot read the worker's files.
+    #[arg(long)]
+    planner_user: Option<String>,
 }
 
 #[derive(Args)]
@@ -234,6 +240,12 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
             planner_startup_s: 30.0,
             allow_exec: !a.no_exec,
             token: worker_token,
+            planner_user: a
+                .planner_user
+                .as_deref()
+                .map(vb_worker::sandbox::PlannerUser::lookup)
+                .transpose()
+                .map_err(anyhow::Error::msg)?,
         };
         tokio::spawn(async move {
             if let Err(e) = vb_worker::run_worker(wcfg, shutdown).await {
@@ -325,6 +337,12 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
             planner_startup_s: a.planner_startup_s,
             allow_exec: !a.no_exec,
             token: a.token.clone(),
+            planner_user: a
+                .planner_user
+                .as_deref()
+                .map(vb_worker::sandbox::PlannerUser::lookup)
+                .transpose()
+                .map_err(anyhow::Error::msg)?,
         };
         if let Some(addr) = a.sim {
             let sim = sim_service(&a.task_dir)?;
