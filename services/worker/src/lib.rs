@@ -378,6 +378,17 @@ async fn deliver(client: &mut Client, r: pb::EpisodeReport, give_up: Duration) {
 
 type Active = Arc<Mutex<HashMap<String, Arc<AtomicBool>>>>;
 
+/// How this worker runs planners.
+#[derive(Clone, Copy, Debug)]
+struct PlannerPolicy {
+    /// How long a started planner process may take to serve.
+    startup: Duration,
+    /// Whether it runs exec and image planners.
+    allow_exec: bool,
+    /// The user exec planners run as.
+    user: Option<sandbox::PlannerUser>,
+}
+
 /// Runs a worker until `shutdown` turns true.
 pub async fn run_worker(
     cfg: WorkerConfig,
@@ -470,9 +481,12 @@ pub async fn run_worker(
             }
         });
     }
-    let startup = Duration::from_secs_f64(cfg.planner_startup_s.max(1.0));
-    let allow_exec = cfg.allow_exec;
-    let planner_user = cfg.planner_user;
+    let policy = PlannerPolicy {
+        startup: Duration::from_secs_f64(cfg.planner_startup_s.max(1.0)),
+        allow_exec: cfg.allow_exec,
+        user: cfg.planner_user,
+    };
+    let allow_exec = policy.allow_exec;
     let mut backoff = Duration::from_millis(100);
     loop {
         if *shutdown.borrow() {
@@ -509,9 +523,7 @@ pub async fn run_worker(
                                 &worker_id,
                                 lease.clone(),
                                 flag.clone(),
-                                startup,
-                                allow_exec,
-                                planner_user,
+                                policy,
                             )
                             .await;
                             if let Ok(mut a) = active.lock() {
@@ -549,10 +561,13 @@ async fn run_lease(
     worker_id: &str,
     lease: pb::EpisodeLease,
     cancel: Arc<AtomicBool>,
-    startup: Duration,
-    allow_exec: bool,
-    planner_user: Option<sandbox::PlannerUser>,
+    policy: PlannerPolicy,
 ) {
+    let PlannerPolicy {
+        startup,
+        allow_exec,
+        user: planner_user,
+    } = policy;
     let infra = |detail: String| pb::EpisodeReport {
         worker_id: worker_id.into(),
         lease_id: lease.lease_id.clone(),
