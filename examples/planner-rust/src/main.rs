@@ -4,8 +4,8 @@
 //! ```text
 //! example-planner [--addr HOST:PORT] [--fault KIND] [--fault-after N] [--delay-ms MS]
 //! ```
-//! The address defaults to `$VB_PLANNER_ADDR` (set by workers that start the planner for an `exec` submission),
-//! else `127.0.0.1:50061`. `--fault` makes it misbehave after N control steps, to test how the service copes:
+//! The address defaults to `$VB_PLANNER_ADDR` (set by workers that start the planner for an `exec` or `image`
+//! submission: `127.0.0.1:PORT`, or `unix:PATH` in a container without network), else `127.0.0.1:50061`. `--fault` makes it misbehave after N control steps, to test how the service copes:
 //! `crash` (exit 3), `hang` (never answer), `nan` (a NaN steering command), `range` (throttle 5.0).
 //! `--delay-ms` sleeps before every answer (a slow but well-behaved planner).
 
@@ -268,17 +268,24 @@ fn parse_args() -> anyhow::Result<(String, Options)> {
 #[tokio::main]
 async fn main() -> anyhow::Result<()> {
     let (addr, opts) = parse_args()?;
-    let sock: std::net::SocketAddr = addr
-        .parse()
-        .with_context(|| format!("bad address `{addr}`"))?;
-    eprintln!("example-planner: serving vertibench.v1.Planner on {sock}");
-    tonic::transport::Server::builder()
+    let service = PlannerServer::new(ExamplePlanner { opts }).max_decoding_message_size(16 << 20);
+    let server = tonic::transport::Server::builder()
         .tcp_nodelay(true)
-        .add_service(
-            PlannerServer::new(ExamplePlanner { opts }).max_decoding_message_size(16 << 20),
-        )
-        .serve(sock)
-        .await
-        .context("planner server failed")?;
+        .add_service(service);
+    if let Some(path) = addr.strip_prefix("unix:") {
+        // Image planners have no network: the worker gives them a Unix socket.
+        let listener = tokio::net::UnixListener::bind(path)
+            .with_context(|| format!("cannot listen on {addr}"))?;
+        eprintln!("example-planner: serving vertibench.v1.Planner on {addr}");
+        let incoming = tokio_stream::wrappers::UnixListenerStream::new(listener);
+        server.serve_with_incoming(incoming).await
+    } else {
+        let sock: std::net::SocketAddr = addr
+            .parse()
+            .with_context(|| format!("bad address `{addr}`"))?;
+        eprintln!("example-planner: serving vertibench.v1.Planner on {sock}");
+        server.serve(sock).await
+    }
+    .context("planner server failed")?;
     Ok(())
 }
