@@ -4,6 +4,8 @@
 // tonic::Status is large (176 bytes) and is the error type of every gRPC handler; boxing it everywhere buys nothing.
 #![allow(clippy::result_large_err)]
 
+pub mod cli;
+
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;

@@ -157,8 +157,7 @@ async fn do_submit(
     default_name: String,
     o: &SubmitOpts,
 ) -> anyhow::Result<()> {
-    let mut client = vb_submit::connect(&cli.coordinator, &token(cli)?).await?;
-    let task_ids = if o.tasks.trim() == "all" {
+    let task_ids: Vec<String> = if o.tasks.trim() == "all" {
         Vec::new()
     } else {
         o.tasks
@@ -167,6 +166,10 @@ async fn do_submit(
             .filter(|s| !s.is_empty())
             .collect()
     };
+    if task_ids.is_empty() && o.tasks.trim() != "all" {
+        bail!("--tasks is empty: pass `all`, or world ids and task ids (17,w018-t3)");
+    }
+    let mut client = vb_submit::connect(&cli.coordinator, &token(cli)?).await?;
     let r = vb_submit::submit(
         &mut client,
         pb::SubmitRequest {
@@ -199,8 +202,15 @@ async fn do_submit(
     Ok(())
 }
 
-#[tokio::main]
-async fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
+    vb_submit::cli::restore_sigpipe();
+    let result = tokio::runtime::Runtime::new()
+        .map_err(anyhow::Error::from)
+        .and_then(|rt| rt.block_on(run()));
+    vb_submit::cli::exit_code(result)
+}
+
+async fn run() -> anyhow::Result<()> {
     let cli = Cli::parse();
     use pb::planner_ref::Kind;
     match &cli.command {

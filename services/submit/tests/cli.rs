@@ -377,3 +377,39 @@ fn nix_is_root() -> bool {
         })
         .unwrap_or(false)
 }
+
+#[test]
+fn user_errors_are_one_line_without_a_backtrace_and_a_closed_pipe_is_quiet() {
+    let out = vb_submit()
+        .env("RUST_BACKTRACE", "1")
+        .args([
+            "--token",
+            "x",
+            "--coordinator",
+            "http://127.0.0.1:9",
+            "builtin",
+            "pid",
+            "--tasks",
+            " , ",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.starts_with("error: --tasks is empty"), "{err}");
+    assert!(
+        !err.contains("backtrace") && !err.contains("Backtrace"),
+        "{err}"
+    );
+    // Printing into a pipe the reader closed ends the program quietly (SIGPIPE), not with a panic.
+    let mut child = vb_submit()
+        .args(["--help"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+}

@@ -50,7 +50,12 @@ enum Command {
     Bench(cmd::bench::BenchCmd),
 }
 
-fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
+    vb_submit::cli::restore_sigpipe();
+    vb_submit::cli::exit_code(run())
+}
+
+fn run() -> anyhow::Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Command::Tasks(c) => cmd::tasks::run(c),
