@@ -9,9 +9,9 @@ use tasks::TaskSet;
 pub enum TasksCmd {
     /// Generate the 100-world task set from a seed (byte-identical for the same seed and generator).
     Generate {
-        /// Output directory (default: the committed set, tasks/data/v1).
+        /// Output directory (required: the benchmark's committed set is tasks/data/v1; name it to regenerate it).
         #[arg(long)]
-        out: Option<PathBuf>,
+        out: PathBuf,
         #[arg(long, default_value_t = tasks::generate::DEFAULT_SEED)]
         seed: u64,
         /// Height source: `interim` (the spectral generator of the committed set) or `swae` (the SWAE decoder with
@@ -62,6 +62,11 @@ fn parse_kind(s: &str) -> Result<SemanticsKind, String> {
         .ok_or_else(|| format!("unknown semantics kind `{s}`: use rigid, mixed or deformable"))
 }
 
+/// Whether two paths name the same directory (when both exist).
+fn same_dir(a: &std::path::Path, b: &std::path::Path) -> bool {
+    matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
+}
+
 fn open(dir: Option<PathBuf>) -> anyhow::Result<TaskSet> {
     Ok(TaskSet::load(&dir.unwrap_or_else(TaskSet::default_dir))?)
 }
@@ -76,10 +81,9 @@ pub fn run(cmd: TasksCmd) -> anyhow::Result<()> {
             surface,
         } => {
             anyhow::ensure!(
-                surface.is_none() || out.is_some(),
-                "--surface makes a counterfactual, never the benchmark's committed set: give --out DIR"
+                surface.is_none() || !same_dir(&out, &TaskSet::default_dir()),
+                "--surface makes a counterfactual, never the benchmark's committed set: give another --out DIR"
             );
-            let out = out.unwrap_or_else(TaskSet::default_dir);
             let source: Box<dyn tasks::generate::HeightSource> = match (generator.as_str(), weights)
             {
                 ("swae", None) => Box::new(swae::SwaeSource::committed()?),
