@@ -141,6 +141,13 @@ fn eventually(secs: f64, pred: impl Fn() -> bool) -> bool {
     pred()
 }
 
+/// Whether process `pid` has ended (gone, or a zombie waiting for its parent).
+fn gone(pid: &str) -> bool {
+    std::fs::read_to_string(format!("/proc/{pid}/stat"))
+        .map(|s| s.contains(") Z"))
+        .unwrap_or(true)
+}
+
 /// The value after `key` on the line of the planner log that has it.
 fn logged<'a>(text: &'a str, key: &str) -> &'a str {
     text.lines()
@@ -198,11 +205,7 @@ fn exec_planners_run_contained_and_leave_nothing_behind() {
     );
     let child = logged(&text, "CHILD:");
     assert!(
-        eventually(5.0, || {
-            std::fs::read_to_string(format!("/proc/{child}/stat"))
-                .map(|s| s.contains(") Z"))
-                .unwrap_or(true)
-        }),
+        eventually(5.0, || gone(child)),
         "the planner's child {child} was killed with its process group"
     );
 }
@@ -303,11 +306,7 @@ fn exec_planners_run_under_resource_limits_and_die_with_their_worker() {
     child.kill().unwrap();
     child.wait().unwrap();
     assert!(
-        eventually(5.0, || {
-            std::fs::read_to_string(format!("/proc/{pid}/stat"))
-                .map(|s| s.contains(") Z"))
-                .unwrap_or(true)
-        }),
+        eventually(5.0, || gone(&pid)),
         "planner {pid} outlived its killed worker"
     );
 }

@@ -141,6 +141,13 @@ pub enum TokenCmd {
     },
 }
 
+/// The user named by `--planner-user`, if any.
+fn planner_user(name: Option<&str>) -> anyhow::Result<Option<vb_worker::sandbox::PlannerUser>> {
+    name.map(vb_worker::sandbox::PlannerUser::lookup)
+        .transpose()
+        .map_err(anyhow::Error::msg)
+}
+
 fn parse_role(s: &str) -> Result<vb_store::TokenRole, String> {
     vb_store::TokenRole::parse(s).ok_or_else(|| format!("`{s}` is not user, admin or worker"))
 }
@@ -240,12 +247,7 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
             planner_startup_s: 30.0,
             allow_exec: !a.no_exec,
             token: worker_token,
-            planner_user: a
-                .planner_user
-                .as_deref()
-                .map(vb_worker::sandbox::PlannerUser::lookup)
-                .transpose()
-                .map_err(anyhow::Error::msg)?,
+            planner_user: planner_user(a.planner_user.as_deref())?,
         };
         tokio::spawn(async move {
             if let Err(e) = vb_worker::run_worker(wcfg, shutdown).await {
@@ -337,12 +339,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
             planner_startup_s: a.planner_startup_s,
             allow_exec: !a.no_exec,
             token: a.token.clone(),
-            planner_user: a
-                .planner_user
-                .as_deref()
-                .map(vb_worker::sandbox::PlannerUser::lookup)
-                .transpose()
-                .map_err(anyhow::Error::msg)?,
+            planner_user: planner_user(a.planner_user.as_deref())?,
         };
         if let Some(addr) = a.sim {
             let sim = sim_service(&a.task_dir)?;
