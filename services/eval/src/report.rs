@@ -174,13 +174,13 @@ pub fn summary_text(s: &Summary) -> String {
     t += "(time: traversal time of successes, s, mean and variance; roll, pitch: per-episode mean |angle|, deg, mean and variance over episodes)\n";
     t += "group          tasks success  [95% CI]      time  time_var   roll roll_var  pitch pitch_var rollover  stuck  timeout  other\n";
     t += &line("overall", &s.overall);
-    for (title, map) in [
-        ("elevation", &s.by_level),
-        ("semantics", &s.by_semantics),
-        ("obstacles", &s.by_density),
+    for (title, map, order) in [
+        ("elevation", &s.by_level, LEVELS),
+        ("semantics", &s.by_semantics, SEMANTICS),
+        ("obstacles", &s.by_density, DENSITIES),
     ] {
         t += &format!("-- {title}\n");
-        for (k, a) in map.iter() {
+        for (k, a) in in_order(map, &order) {
             t += &line(k, a);
         }
     }
@@ -212,6 +212,19 @@ pub fn summary_text(s: &Summary) -> String {
     t
 }
 
+/// The levels of each factor in their natural order (tables and charts list them so, not alphabetically).
+pub const LEVELS: [&str; 3] = ["low", "medium", "high"];
+pub const SEMANTICS: [&str; 3] = ["rigid", "deformable", "mixed"];
+pub const DENSITIES: [&str; 3] = ["sparse", "medium", "dense"];
+
+/// The entries of `map` in `order`, then any others alphabetically.
+pub fn in_order<'a, V>(map: &'a BTreeMap<String, V>, order: &[&str]) -> Vec<(&'a String, &'a V)> {
+    let rank = |k: &str| order.iter().position(|o| *o == k).unwrap_or(order.len());
+    let mut v: Vec<_> = map.iter().collect();
+    v.sort_by(|a, b| rank(a.0).cmp(&rank(b.0)).then(a.0.cmp(b.0)));
+    v
+}
+
 /// Text made safe inside HTML and SVG elements and quoted attributes (`& < > " '`). Every user-controlled value in
 /// a page or chart goes through it: submission and planner names, reasons, logs, commands.
 pub fn escape_html(s: &str) -> String {
@@ -231,10 +244,10 @@ pub fn escape_html(s: &str) -> String {
 
 /// SVG bar charts of the success rate (with its interval) by elevation, semantics and obstacle density.
 pub fn charts_svg(s: &Summary) -> String {
-    let groups: [(&str, &BTreeMap<String, Aggregate>); 3] = [
-        ("elevation level", &s.by_level),
-        ("terrain semantics", &s.by_semantics),
-        ("obstacle density", &s.by_density),
+    let groups: [(&str, &BTreeMap<String, Aggregate>, [&str; 3]); 3] = [
+        ("elevation level", &s.by_level, LEVELS),
+        ("terrain semantics", &s.by_semantics, SEMANTICS),
+        ("obstacle density", &s.by_density, DENSITIES),
     ];
     let (w, h, pad) = (900.0, 320.0, 40.0);
     let mut svg = format!("<svg xmlns='http://www.w3.org/2000/svg' width='{w}' height='{h}' font-family='sans-serif' font-size='12'>\n");
@@ -244,7 +257,7 @@ pub fn charts_svg(s: &Summary) -> String {
         escape_html(&s.planner)
     );
     let panel = (w - pad) / 3.0;
-    for (gi, (title, map)) in groups.iter().enumerate() {
+    for (gi, (title, map, order)) in groups.iter().enumerate() {
         let x0 = pad / 2.0 + gi as f64 * panel;
         let _ = writeln!(
             svg,
@@ -254,7 +267,7 @@ pub fn charts_svg(s: &Summary) -> String {
         );
         let n = map.len().max(1) as f64;
         let bw = (panel - 40.0) / n;
-        for (k, (name, a)) in map.iter().enumerate() {
+        for (k, (name, a)) in in_order(map, order).into_iter().enumerate() {
             let bx = x0 + 20.0 + k as f64 * bw;
             let plot_h = h - 90.0;
             let y = |v: f64| 40.0 + plot_h * (1.0 - v);
@@ -332,8 +345,8 @@ pub fn leaderboard_html(summaries: &[Summary]) -> String {
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1}%</td><td>[{:.1}, {:.1}]</td><td>{:.1}</td><td>{:.2}</td><td>{:.2}</td><td>{:.1}%</td><td>{:.1}%</td><td>{:.1}%</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             i + 1, escape_html(&s.planner), escape_html(&s.vehicle), a.episodes, 100.0 * a.success_rate, 100.0 * a.success_ci95.0, 100.0 * a.success_ci95.1,
             a.traversal_time_mean, a.roll_mean, a.pitch_mean, a.rollover_pct, a.stuck_pct, a.timeout_pct,
-            trio(&s.by_level, ["low", "medium", "high"]), trio(&s.by_semantics, ["rigid", "deformable", "mixed"]),
-            trio(&s.by_density, ["sparse", "medium", "dense"]), escape_html(&s.task_set_version),
+            trio(&s.by_level, LEVELS), trio(&s.by_semantics, SEMANTICS),
+            trio(&s.by_density, DENSITIES), escape_html(&s.task_set_version),
             escape_html(&s.sim_version)
         );
     }

@@ -98,9 +98,9 @@ pub fn index(entries: &[SubmissionEntry]) -> String {
             e.progress.finished,
             e.progress.total,
             agg_cells(&e.summary.overall),
-            trio(&e.summary.by_level, ["low", "medium", "high"]),
-            trio(&e.summary.by_semantics, ["rigid", "deformable", "mixed"]),
-            trio(&e.summary.by_density, ["sparse", "medium", "dense"]),
+            trio(&e.summary.by_level, eval::report::LEVELS),
+            trio(&e.summary.by_semantics, eval::report::SEMANTICS),
+            trio(&e.summary.by_density, eval::report::DENSITIES),
             id = esc(&s.id),
             st = esc(&s.state),
         );
@@ -193,19 +193,19 @@ pub fn submission(e: &SubmissionEntry, eps: &[EpisodeRecord]) -> String {
             "elevation level",
             "by-level",
             &sum.by_level,
-            ["low", "medium", "high"],
+            eval::report::LEVELS,
         ));
         b.push_str(&breakdown_table(
             "terrain semantics",
             "by-semantics",
             &sum.by_semantics,
-            ["rigid", "deformable", "mixed"],
+            eval::report::SEMANTICS,
         ));
         b.push_str(&breakdown_table(
             "obstacle density",
             "by-density",
             &sum.by_density,
-            ["sparse", "medium", "dense"],
+            eval::report::DENSITIES,
         ));
         b.push_str(&matched_density_table(&sum.density_matched));
     }

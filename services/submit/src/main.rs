@@ -306,8 +306,8 @@ async fn run() -> anyhow::Result<()> {
             )
             .await?;
             println!(
-                "task {}: outcome {} ({}) after {} control steps; round trip p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
-                v.task, r.outcome, r.reason, r.control_steps, r.round_trip_p50_ms, r.round_trip_p99_ms, r.round_trip_max_ms
+                "task {}: {} control steps, then the episode ended ({}: {}); round trip p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
+                v.task, r.control_steps, r.outcome, r.reason, r.round_trip_p50_ms, r.round_trip_p99_ms, r.round_trip_max_ms
             );
             if !r.detail.is_empty() {
                 println!("detail: {}", r.detail);
@@ -316,7 +316,7 @@ async fn run() -> anyhow::Result<()> {
                 println!("planner log:\n{}", r.planner_log.trim_end());
             }
             if r.ok {
-                println!("OK: the planner follows the protocol");
+                println!("OK: the planner follows the protocol (a short episode's outcome says nothing of its skill)");
                 Ok(())
             } else {
                 bail!("the planner failed validation: {} ({})", r.reason, r.detail)

@@ -129,15 +129,17 @@ pub enum TokenCmd {
         /// give it to `vb worker --token`).
         #[arg(long, default_value = "user", value_parser = parse_role)]
         role: vb_store::TokenRole,
-        #[arg(long, default_value = "sqlite://out/vb.db")]
-        db: String,
+        /// The service's store (default: `sqlite://out/vb.db`, which must exist: run this where `vb serve` runs).
+        #[arg(long)]
+        db: Option<String>,
     },
     /// Revoke every token with this name.
     Revoke {
         #[arg(long)]
         name: String,
-        #[arg(long, default_value = "sqlite://out/vb.db")]
-        db: String,
+        /// The service's store (default: `sqlite://out/vb.db`, which must exist).
+        #[arg(long)]
+        db: Option<String>,
     },
 }
 
@@ -178,6 +180,31 @@ async fn open_store(url: &str) -> anyhow::Result<Store> {
     Store::open(url)
         .await
         .with_context(|| format!("opening the store at {url}"))
+}
+
+/// The store to administer: the one `--db` names, or the default `sqlite://out/vb.db`, which must already exist (run
+/// from another directory it would be a new, empty store, and its token one no service knows).
+async fn admin_store(db: Option<&str>) -> anyhow::Result<Store> {
+    let Some(url) = db else {
+        return open_existing_store(DEFAULT_DB).await;
+    };
+    open_store(url).await
+}
+
+const DEFAULT_DB: &str = "sqlite://out/vb.db";
+
+async fn open_existing_store(url: &str) -> anyhow::Result<Store> {
+    if let Some(path) = url.strip_prefix("sqlite://") {
+        let path = path.split('?').next().unwrap_or(path);
+        if !std::path::Path::new(path).exists() {
+            bail!(
+                "no store at {path} (in {}): run this where `vb serve` or `vb coordinator` runs, or pass --db \
+                 with their store",
+                std::env::current_dir().map_or("?".into(), |d| d.display().to_string())
+            );
+        }
+    }
+    open_store(url).await
 }
 
 async fn bind(addr: SocketAddr, what: &str) -> anyhow::Result<TcpListener> {
@@ -376,7 +403,7 @@ pub fn admin(c: AdminCmd) -> anyhow::Result<()> {
                 if name.trim().is_empty() {
                     bail!("--name must not be empty");
                 }
-                let store = open_store(&db).await?;
+                let store = admin_store(db.as_deref()).await?;
                 let token = store
                     .create_token(&name, role, vb_coordinator::now())
                     .await?;
@@ -387,7 +414,7 @@ pub fn admin(c: AdminCmd) -> anyhow::Result<()> {
                 println!("{token}");
             }
             AdminCmd::Token(TokenCmd::Revoke { name, db }) => {
-                let store = open_store(&db).await?;
+                let store = admin_store(db.as_deref()).await?;
                 let n = store.revoke_tokens(&name).await?;
                 println!("revoked {n} token(s) named `{name}`");
             }
