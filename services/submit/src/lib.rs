@@ -6,6 +6,22 @@
 
 pub mod cli;
 
+/// A planner command with every argument that names an existing file or directory relative to the caller's
+/// directory made absolute: workers start planners in a private directory of their own, so `python my_planner.py`
+/// must say where `my_planner.py` is.
+pub fn absolute_paths(argv: &[String]) -> Vec<String> {
+    argv.iter()
+        .map(|a| {
+            let p = Path::new(a);
+            if a.starts_with('-') || p.is_absolute() || !p.exists() || !a.contains(['/', '.']) {
+                return a.clone();
+            }
+            p.canonicalize()
+                .map_or_else(|_| a.clone(), |c| c.display().to_string())
+        })
+        .collect()
+}
+
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;

@@ -222,7 +222,7 @@ async fn run() -> anyhow::Result<()> {
             do_submit(
                 &cli,
                 Kind::Exec(pb::ExecPlanner {
-                    argv: command.clone(),
+                    argv: vb_submit::absolute_paths(command),
                 }),
                 name,
                 opts,
@@ -289,7 +289,7 @@ async fn run() -> anyhow::Result<()> {
                 ValidateCmd::Endpoint { url, v } => (Kind::Endpoint(url.clone()), v),
                 ValidateCmd::Exec { v, command } => (
                     Kind::Exec(pb::ExecPlanner {
-                        argv: command.clone(),
+                        argv: vb_submit::absolute_paths(command),
                     }),
                     v,
                 ),

@@ -412,3 +412,26 @@ fn user_errors_are_one_line_without_a_backtrace_and_a_closed_pipe_is_quiet() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("panicked"), "{err}");
 }
+
+#[test]
+fn a_planner_script_given_by_a_relative_path_is_found() {
+    // Workers start planners in a private directory: vb-submit makes `planner.sh` absolute first.
+    let dir = std::env::temp_dir().join(format!("vb-relative-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let planner = example_planner().display().to_string();
+    std::fs::write(dir.join("planner.sh"), format!("exec {planner}\n")).unwrap();
+    let (ok, text) = run(vb_submit().current_dir(&dir).args([
+        "validate",
+        "exec",
+        "--max-time",
+        "2",
+        "--",
+        "sh",
+        "planner.sh",
+    ]));
+    assert!(ok, "{text}");
+    assert_eq!(
+        vb_submit::absolute_paths(&["sh".into(), "-c".into(), "nonexistent.sh".into()]),
+        ["sh", "-c", "nonexistent.sh"]
+    );
+}
