@@ -154,6 +154,16 @@ fn parse_role(s: &str) -> Result<vb_store::TokenRole, String> {
     vb_store::TokenRole::parse(s).ok_or_else(|| format!("`{s}` is not user, admin or worker"))
 }
 
+/// Waits for Ctrl-C (SIGINT) or SIGTERM (what `docker stop`, systemd and Kubernetes send).
+async fn stop_signal() -> anyhow::Result<()> {
+    let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
+    tokio::select! {
+        r = tokio::signal::ctrl_c() => r?,
+        _ = term.recv() => {}
+    }
+    Ok(())
+}
+
 fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_multi_thread()
         .enable_all()
@@ -317,8 +327,8 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
                 return Ok(());
             }
         }
-        println!("leaderboard: http://{http_addr}/  (Ctrl-C to stop)");
-        tokio::signal::ctrl_c().await?;
+        println!("leaderboard: http://{http_addr}/  (Ctrl-C or SIGTERM to stop)");
+        stop_signal().await?;
         Ok(())
     })
 }
@@ -347,14 +357,20 @@ pub fn coordinator(a: CoordinatorArgs) -> anyhow::Result<()> {
             a.task_dir.display()
         );
         start_coordinator(store, cfg, listener, None).await?;
-        tokio::signal::ctrl_c().await?;
+        stop_signal().await?;
         Ok(())
     })
 }
 
 pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
     runtime()?.block_on(async move {
-        let (_stop, shutdown) = tokio::sync::watch::channel(false);
+        let (stop, shutdown) = tokio::sync::watch::channel(false);
+        tokio::spawn(async move {
+            if stop_signal().await.is_ok() {
+                eprintln!("worker: stopping (its planners are stopped with it)");
+                let _ = stop.send(true);
+            }
+        });
         let cfg = vb_worker::WorkerConfig {
             coordinator: a.coordinator.clone(),
             name: a.name.clone().unwrap_or_else(|| {
@@ -391,7 +407,10 @@ pub fn leaderboard(a: LeaderboardArgs) -> anyhow::Result<()> {
         let set = tasks::TaskSet::load(&a.task_dir).ok();
         let listener = bind(a.listen, "leaderboard").await?;
         eprintln!("leaderboard on http://{}/", listener.local_addr()?);
-        vb_leaderboard::serve(Leaderboard::new(reader, set), listener).await?;
+        tokio::select! {
+            r = vb_leaderboard::serve(Leaderboard::new(reader, set), listener) => r?,
+            r = stop_signal() => r?,
+        }
         Ok(())
     })
 }
