@@ -635,7 +635,7 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
             let _g = self.0.lease_lock.lock().await;
             self.0
                 .store
-                .release(&r.worker_id, &r.lease_id, t)
+                .release(&r.worker_id, &r.lease_id, &r.detail, t)
                 .await
                 .map_err(store_status)?;
             return Ok(Response::new(pb::ReportAck {

@@ -575,7 +575,8 @@ impl Store {
         let b = sqlx::query(
             "UPDATE episodes SET state = 'done', outcome = 'error', reason = 'infrastructure', \
              detail = 'the episode was lost by a worker ' || CAST(attempts AS TEXT) || ' times (worker died or \
-             could not run it)', lease_id = NULL, lease_expires = NULL, finished_at = $1 \
+             could not run it)' || CASE WHEN detail IS NULL THEN '' ELSE '; last error: ' || detail END, \
+             lease_id = NULL, lease_expires = NULL, finished_at = $1 \
              WHERE state = 'leased' AND lease_expires < $1 AND attempts >= $2",
         )
         .bind(now)
@@ -708,15 +709,24 @@ impl Store {
         Ok(n as u64)
     }
 
-    /// Worker `worker_id` could not run its leased episode (not the planner's fault): it goes back to the queue.
-    pub async fn release(&self, worker_id: &str, lease_id: &str, now: f64) -> Result<()> {
+    /// Worker `worker_id` could not run its leased episode (not the planner's fault; `why`, kept for the record if
+    /// the episode finally fails this way): it goes back to the queue.
+    pub async fn release(
+        &self,
+        worker_id: &str,
+        lease_id: &str,
+        why: &str,
+        now: f64,
+    ) -> Result<()> {
         let _w = self.write.lock().await;
         sqlx::query(
-            "UPDATE episodes SET lease_expires = $1 WHERE lease_id = $2 AND worker_id = $3 AND state = 'leased'",
+            "UPDATE episodes SET lease_expires = $1, detail = $4 WHERE lease_id = $2 AND worker_id = $3 \
+             AND state = 'leased'",
         )
         .bind(now - 1.0)
         .bind(lease_id)
         .bind(worker_id)
+        .bind(why)
         .execute(&self.pool)
         .await?;
         self.expire_leases_locked(now).await?;

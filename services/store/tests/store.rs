@@ -269,11 +269,37 @@ async fn lost_episodes_are_retried_then_recorded_as_infrastructure_failures() ->
             .create_submission(&new_submission("b"), &episodes(1), t)
             .await?;
         let l = store.lease(&w, 1, 60.0, true, t).await?;
-        store.release(&w, &l[0].lease_id, t + 1.0).await?;
+        store
+            .release(&w, &l[0].lease_id, "no such image", t + 1.0)
+            .await?;
         let again = store.lease(&w, 1, 60.0, true, t + 2.0).await?;
         assert_eq!(
             (again[0].submission.id.as_str(), again[0].attempt),
             (id2.as_str(), 2)
+        );
+        // Workers that cannot run it, again and again: the recorded failure says why.
+        let mut t = t + 3.0;
+        store
+            .release(&w, &again[0].lease_id, "no such image", t)
+            .await?;
+        for k in 0..MAX_ATTEMPTS {
+            let w = store
+                .register_worker("w", 1, "sim-core test", &format!("tk-img-{k}"), t)
+                .await?;
+            if let Some(l) = store.lease(&w, 1, 60.0, true, t).await?.pop() {
+                store
+                    .release(&w, &l.lease_id, "docker image inspect x failed", t + 0.5)
+                    .await?;
+            }
+            t += 1.0;
+        }
+        let e = &store.reader().episodes(&id2).await?[0];
+        assert_eq!(e.reason.as_deref(), Some("infrastructure"), "{url}");
+        let detail = e.detail.as_deref().unwrap_or("");
+        assert!(
+            detail.contains("lost by a worker")
+                && detail.contains("last error: docker image inspect x failed"),
+            "{url}: {detail}"
         );
     }
     Ok(())
