@@ -45,6 +45,7 @@ struct SubmitOpts {
     /// Per-control-step deadline of the planner, s.
     #[arg(long, default_value_t = 1.0)]
     step_deadline: f64,
+    /// Seed of the episodes (none of the default physics is random).
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Follow the progress until the submission ends.
@@ -64,10 +65,11 @@ enum Cmd {
     Exec {
         #[command(flatten)]
         opts: SubmitOpts,
+        /// The command that serves the planner on $VB_PLANNER_ADDR (relative file arguments are made absolute).
         #[arg(last = true, required = true)]
         command: Vec<String>,
     },
-    /// Submit a container image that serves the Planner API on $VB_PLANNER_ADDR (host network).
+    /// Submit a container image that serves the Planner API on $VB_PLANNER_ADDR (a Unix socket: no network).
     Image {
         image: String,
         #[command(flatten)]
@@ -89,6 +91,7 @@ enum Cmd {
     /// Results of a submission, one row per episode.
     Results {
         id: String,
+        /// Output format.
         #[arg(long, default_value = "csv", value_parser = ["csv", "json"])]
         format: String,
         /// Write to a file instead of stdout.
@@ -116,6 +119,7 @@ enum ValidateCmd {
     Exec {
         #[command(flatten)]
         v: ValidateOpts,
+        /// The command that serves the planner on $VB_PLANNER_ADDR.
         #[arg(last = true, required = true)]
         command: Vec<String>,
     },
@@ -123,15 +127,17 @@ enum ValidateCmd {
 
 #[derive(Args, Clone)]
 struct ValidateOpts {
+    /// The task to run.
     #[arg(long, default_value = "w001-t0")]
     task: String,
     /// Simulated seconds to run.
     #[arg(long, default_value_t = 15.0)]
     max_time: f64,
+    /// Per-control-step deadline of the planner, s.
     #[arg(long, default_value_t = 1.0)]
     step_deadline: f64,
-    /// Task set directory.
-    #[arg(long, default_value_os_t = tasks::TaskSet::default_dir())]
+    /// Task-set directory (default: the benchmark's committed set, tasks/data/v1).
+    #[arg(long, default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
     task_dir: PathBuf,
     /// Run an exec planner as this user, as a worker with `--planner-user` does (needs root).
     #[arg(long)]

@@ -28,8 +28,8 @@ pub struct ServeArgs {
     /// Episodes run at once by the in-process worker pool.
     #[arg(long, default_value_t = default_slots())]
     slots: usize,
-    /// Task set directory.
-    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir())]
+    /// Task-set directory (default: the benchmark's committed set, tasks/data/v1).
+    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
     task_dir: PathBuf,
     /// Submit this built-in planner through the gRPC API and follow it to the end.
     #[arg(long)]
@@ -51,11 +51,14 @@ pub struct ServeArgs {
 
 #[derive(Args)]
 pub struct CoordinatorArgs {
+    /// Results store: a SQLite file (`sqlite://PATH`) or a PostgreSQL URL; the coordinator is its only writer.
     #[arg(long, default_value = "sqlite://out/vb.db")]
     db: String,
+    /// gRPC address of the submission and worker APIs.
     #[arg(long, default_value = "127.0.0.1:50051")]
     listen: SocketAddr,
-    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir())]
+    /// Task-set directory (default: the benchmark's committed set, tasks/data/v1).
+    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
     task_dir: PathBuf,
     /// Lease length without a heartbeat, s: a dead worker's episodes are re-queued after this.
     #[arg(long, default_value_t = 30.0)]
@@ -70,20 +73,24 @@ pub struct CoordinatorArgs {
     /// --drop-window-s gets no new leases until the window has passed.
     #[arg(long, default_value_t = 32)]
     max_dropped_leases: u64,
+    /// The window of --max-dropped-leases, s.
     #[arg(long, default_value_t = 600.0)]
     drop_window_s: f64,
 }
 
 #[derive(Args)]
 pub struct WorkerArgs {
+    /// The coordinator's URL.
     #[arg(long, default_value = "http://127.0.0.1:50051")]
     coordinator: String,
+    /// Episodes run at once (default: the number of cores).
     #[arg(long, default_value_t = default_slots())]
     slots: usize,
     /// Name shown in the coordinator's logs.
     #[arg(long)]
     name: Option<String>,
-    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir())]
+    /// Task-set directory (default: the benchmark's committed set, tasks/data/v1).
+    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
     task_dir: PathBuf,
     /// How long a planner process may take to start serving, s.
     #[arg(long, default_value_t = 30.0)]
@@ -104,11 +111,14 @@ pub struct WorkerArgs {
 
 #[derive(Args)]
 pub struct LeaderboardArgs {
+    /// Results store to read (the coordinator's).
     #[arg(long, default_value = "sqlite://out/vb.db")]
     db: String,
+    /// HTTP address of the pages and the JSON API.
     #[arg(long, default_value = "127.0.0.1:8080")]
     listen: SocketAddr,
-    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir())]
+    /// Task-set directory (default: the benchmark's committed set, tasks/data/v1).
+    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
     task_dir: PathBuf,
 }
 
@@ -123,6 +133,7 @@ pub enum AdminCmd {
 pub enum TokenCmd {
     /// Create a token (printed once; the store keeps only its hash).
     Create {
+        /// Who the token is for (shown as the owner of its submissions).
         #[arg(long)]
         name: String,
         /// `user` (submits; sees its own submissions), `admin` (sees and cancels all) or `worker` (the worker API:
@@ -135,6 +146,7 @@ pub enum TokenCmd {
     },
     /// Revoke every token with this name.
     Revoke {
+        /// Name of the tokens to revoke.
         #[arg(long)]
         name: String,
         /// The service's store (default: `sqlite://out/vb.db`, which must exist).
