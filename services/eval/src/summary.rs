@@ -177,8 +177,10 @@ pub struct Summary {
     /// Density contrasts on matched tasks: the same terrain group and start/goal pair at two densities.
     #[serde(default)]
     pub density_matched: Vec<DensityContrast>,
-    /// Sum of per-episode wall times (CPU time spent in episodes), s.
-    pub episode_cpu_s: f64,
+    /// Sum of the episodes' wall times, s (each episode runs on one thread: on an idle machine this is close to
+    /// the CPU time spent in episodes, on a loaded one it is more). Read from older files as `episode_cpu_s`.
+    #[serde(alias = "episode_cpu_s")]
+    pub episode_wall_s: f64,
 }
 
 /// Summarises the rows of one evaluation.
@@ -211,7 +213,7 @@ pub fn summarise(rows: &[EpisodeRow]) -> Summary {
         by_density: by(|r| &r.density),
         semantics_level_adjusted: semantics_level_adjusted(rows),
         density_matched: density_matched(rows),
-        episode_cpu_s: rows.iter().map(|r| r.wall_time_s).sum(),
+        episode_wall_s: rows.iter().map(|r| r.wall_time_s).sum(),
     }
 }
 
