@@ -166,12 +166,23 @@ impl Leaderboard {
         })
     }
 
-    /// Every submission, ranked by success rate over finished episodes (submissions with none come last).
+    /// Every submission. Only complete runs are ranked (by success rate): submissions that finished every task of
+    /// the task set. Partial ones (fewer tasks, cancelled, still running) follow, unranked, so three lucky episodes
+    /// never top the board.
     pub async fn ranked(&self) -> Result<Vec<SubmissionEntry>, WebError> {
         let mut out = Vec::new();
         for s in public::submissions(&self.reader).await? {
             out.push(self.entry(s).await?);
         }
+        let full = match &self.set {
+            Some(set) => set.world_ids().len() as u32 * 10,
+            None => out.iter().map(|e| e.progress.total).max().unwrap_or(0),
+        };
+        let complete = |e: &SubmissionEntry| {
+            e.submission.state == "done"
+                && e.progress.total == full
+                && e.progress.finished == e.progress.total
+        };
         out.sort_by(|a, b| {
             let key = |e: &SubmissionEntry| {
                 if e.summary.overall.episodes == 0 {
@@ -180,13 +191,14 @@ impl Leaderboard {
                     e.summary.overall.success_rate
                 }
             };
-            key(b)
-                .total_cmp(&key(a))
+            complete(b)
+                .cmp(&complete(a))
+                .then(key(b).total_cmp(&key(a)))
                 .then(a.submission.seq.cmp(&b.submission.seq))
         });
         let mut rank = 0;
         for e in &mut out {
-            if e.summary.overall.episodes > 0 {
+            if complete(e) {
                 rank += 1;
                 e.rank = Some(rank);
             }

@@ -66,7 +66,10 @@ fn progress_bar(done: u32, total: u32) -> String {
 }
 
 pub fn index(entries: &[SubmissionEntry]) -> String {
-    let mut b = String::from("<h1>Leaderboard</h1>\n");
+    let mut b = String::from(
+        "<h1>Leaderboard</h1>\n<p class='note'>Ranked: submissions that finished every task of the task set. \
+         Partial runs (fewer tasks, cancelled or still running) are listed after them, unranked (-).</p>\n",
+    );
     if entries.is_empty() {
         b.push_str("<p class='empty'>No submissions yet. Submit one with <code>vb-submit builtin pid</code>.</p>");
         return layout("leaderboard", &b, false);
