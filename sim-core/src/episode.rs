@@ -71,7 +71,47 @@ impl Default for EpisodeConfig {
     }
 }
 
+/// Which named set of rules an [`EpisodeConfig`] follows (results carry it: runs under different rules are
+/// different runs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Rules {
+    /// The paper's definitions ([`EpisodeConfig::default`]).
+    #[default]
+    Paper,
+    /// The original release's ([`EpisodeConfig::release`]).
+    Release,
+    /// Anything else (a changed time limit, goal radius, ...).
+    Custom,
+}
+
+impl Rules {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Paper => "paper",
+            Self::Release => "release",
+            Self::Custom => "custom",
+        }
+    }
+}
+
 impl EpisodeConfig {
+    /// The named rules this configuration follows (the seed and the trajectory recording do not count).
+    pub fn rules(&self) -> Rules {
+        let plain = EpisodeConfig {
+            seed: 0,
+            record_hz: None,
+            ..self.clone()
+        };
+        if plain == EpisodeConfig::default() {
+            Rules::Paper
+        } else if plain == EpisodeConfig::release() {
+            Rules::Release
+        } else {
+            Rules::Custom
+        }
+    }
+
     /// The original release's rules: 8 m goal radius, speed-based stuck (below 2 m/s for 10 s) and its post-hoc
     /// rollover classification (a failed trial whose |roll| or |pitch| ever exceeded 30 degrees).
     pub fn release() -> Self {

@@ -168,8 +168,13 @@ fn line(name: &str, a: &Aggregate) -> String {
 /// Human-readable summary table.
 pub fn summary_text(s: &Summary) -> String {
     let mut t = format!(
-        "planner {} | vehicle {} (scale {}) | task set {} | {}\n",
-        s.planner, s.vehicle, s.scale, s.task_set_version, s.sim_version
+        "planner {} | vehicle {} (scale {}) | task set {} | {} | {} rules\n",
+        s.planner,
+        s.vehicle,
+        s.scale,
+        s.task_set_version,
+        s.sim_version,
+        s.rules.as_str()
     );
     t += "(time: traversal time of successes, s, mean and variance; roll, pitch: per-episode mean |angle|, deg, mean and variance over episodes)\n";
     t += "group          tasks success  [95% CI]      time  time_var   roll roll_var  pitch pitch_var rollover  stuck  timeout  other\n";
@@ -327,7 +332,7 @@ pub fn write(dir: &Path, rows: &[EpisodeRow], s: &Summary) -> Result<(), EvalErr
 pub fn leaderboard_html(summaries: &[Summary]) -> String {
     let mut ranked: Vec<&Summary> = summaries.iter().collect();
     ranked.sort_by(|a, b| b.overall.success_rate.total_cmp(&a.overall.success_rate));
-    let mut h = String::from("<!doctype html><html><head><meta charset='utf-8'><meta http-equiv='Content-Security-Policy' content=\"default-src 'none'; style-src 'unsafe-inline'; img-src 'self' data:\"><title>vertibench leaderboard</title><style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:4px 8px;text-align:right}th{background:#eee}</style></head><body><h1>vertibench leaderboard</h1>\n<table><tr><th>rank</th><th>planner</th><th>vehicle</th><th>tasks</th><th>success</th><th>95% CI</th><th>time (s)</th><th>roll</th><th>pitch</th><th>rollover</th><th>stuck</th><th>timeout</th><th>low / medium / high</th><th>rigid / deformable / mixed</th><th>sparse / medium / dense</th><th>task set</th><th>simulator</th></tr>\n");
+    let mut h = String::from("<!doctype html><html><head><meta charset='utf-8'><meta http-equiv='Content-Security-Policy' content=\"default-src 'none'; style-src 'unsafe-inline'; img-src 'self' data:\"><title>vertibench leaderboard</title><style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:4px 8px;text-align:right}th{background:#eee}</style></head><body><h1>vertibench leaderboard</h1>\n<table><tr><th>rank</th><th>planner</th><th>vehicle</th><th>tasks</th><th>success</th><th>95% CI</th><th>time (s)</th><th>roll</th><th>pitch</th><th>rollover</th><th>stuck</th><th>timeout</th><th>low / medium / high</th><th>rigid / deformable / mixed</th><th>sparse / medium / dense</th><th>task set</th><th>simulator</th><th>rules</th></tr>\n");
     let trio = |m: &BTreeMap<String, Aggregate>, keys: [&str; 3]| {
         keys.iter()
             .map(|k| {
@@ -342,12 +347,12 @@ pub fn leaderboard_html(summaries: &[Summary]) -> String {
         let a = &s.overall;
         let _ = writeln!(
             h,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1}%</td><td>[{:.1}, {:.1}]</td><td>{:.1}</td><td>{:.2}</td><td>{:.2}</td><td>{:.1}%</td><td>{:.1}%</td><td>{:.1}%</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1}%</td><td>[{:.1}, {:.1}]</td><td>{:.1}</td><td>{:.2}</td><td>{:.2}</td><td>{:.1}%</td><td>{:.1}%</td><td>{:.1}%</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             i + 1, escape_html(&s.planner), escape_html(&s.vehicle), a.episodes, 100.0 * a.success_rate, 100.0 * a.success_ci95.0, 100.0 * a.success_ci95.1,
             a.traversal_time_mean, a.roll_mean, a.pitch_mean, a.rollover_pct, a.stuck_pct, a.timeout_pct,
             trio(&s.by_level, LEVELS), trio(&s.by_semantics, SEMANTICS),
             trio(&s.by_density, DENSITIES), escape_html(&s.task_set_version),
-            escape_html(&s.sim_version)
+            escape_html(&s.sim_version), s.rules.as_str()
         );
     }
     h + "</table></body></html>\n"

@@ -3,7 +3,7 @@
 use crate::{io_err, EvalError};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use sim_core::episode::{EpisodeConfig, EpisodeMetrics};
+use sim_core::episode::{EpisodeConfig, EpisodeMetrics, Rules};
 use sim_core::planner::Planner;
 use std::collections::BTreeSet;
 use std::io::Write;
@@ -49,6 +49,9 @@ pub struct EpisodeRow {
     pub seed: u64,
     pub task_set_version: String,
     pub sim_version: String,
+    /// The episode rules (`--release-rules`: release); older rows without it followed the paper's.
+    #[serde(default)]
+    pub rules: Rules,
     pub outcome: String,
     pub reason: String,
     pub detail: String,
@@ -75,6 +78,7 @@ impl EpisodeRow {
             seed: 0,
             task_set_version: "v".into(),
             sim_version: "s".into(),
+            rules: Default::default(),
             outcome: outcome.into(),
             reason: String::new(),
             detail: String::new(),
@@ -251,10 +255,11 @@ pub fn run_with(
             || (r.scale - scale).abs() > 1e-12
             || r.task_set_version != set.version()
             || r.sim_version != SIM_VERSION
+            || r.rules != cfg.episode.rules()
         {
             return Err(EvalError::Param {
                 field: "out".into(),
-                message: format!("{} holds results of planner {} / vehicle {} / scale {} / task set {} / {}; use another --out", results_path.display(), r.planner, r.vehicle, r.scale, r.task_set_version, r.sim_version),
+                message: format!("{} holds results of planner {} / vehicle {} / scale {} / task set {} / {} / {} rules; use another --out", results_path.display(), r.planner, r.vehicle, r.scale, r.task_set_version, r.sim_version, r.rules.as_str()),
             });
         }
     }
@@ -305,6 +310,7 @@ pub fn run_with(
                 seed: cfg.episode.seed,
                 task_set_version: set.version().into(),
                 sim_version: SIM_VERSION.into(),
+                rules: cfg.episode.rules(),
                 outcome: r.outcome.as_str().into(),
                 reason: r.reason,
                 detail: r.detail,

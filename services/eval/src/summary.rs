@@ -164,6 +164,9 @@ pub struct Summary {
     pub scale: f64,
     pub task_set_version: String,
     pub sim_version: String,
+    /// The episode rules the rows followed (older summaries without it: the paper's).
+    #[serde(default)]
+    pub rules: sim_core::episode::Rules,
     pub overall: Aggregate,
     pub by_level: BTreeMap<String, Aggregate>,
     pub by_semantics: BTreeMap<String, Aggregate>,
@@ -207,6 +210,7 @@ pub fn summarise(rows: &[EpisodeRow]) -> Summary {
             .map(|r| r.task_set_version.clone())
             .unwrap_or_default(),
         sim_version: first.map(|r| r.sim_version.clone()).unwrap_or_default(),
+        rules: first.map(|r| r.rules).unwrap_or_default(),
         overall: aggregate(rows),
         by_level: by(|r| &r.level),
         by_semantics: by(|r| &r.semantics),

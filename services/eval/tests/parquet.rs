@@ -35,6 +35,7 @@ fn row(task: u32, outcome: &str, time: f64) -> EpisodeRow {
         seed: 7,
         task_set_version: "v1-abc".into(),
         sim_version: "sim-core 0.1.0".into(),
+        rules: Default::default(),
         outcome: outcome.into(),
         reason: outcome.into(),
         detail: String::new(),

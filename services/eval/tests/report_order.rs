@@ -18,6 +18,7 @@ fn row(task: &str, level: &str, semantics: &str, density: &str) -> EpisodeRow {
         seed: 0,
         task_set_version: "v".into(),
         sim_version: "s".into(),
+        rules: Default::default(),
         outcome: "success".into(),
         reason: "success".into(),
         detail: String::new(),

@@ -121,3 +121,33 @@ fn results_of_another_physics_revision_are_never_resumed() {
     );
     std::fs::remove_dir_all(&out).unwrap();
 }
+
+#[test]
+fn results_of_other_rules_are_never_resumed() {
+    let out = std::env::temp_dir().join(format!("vb-rules-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let paper = EvalConfig {
+        episode: EpisodeConfig::default(),
+        ..cfg(&out, "w001-t0")
+    };
+    let rows = run(&paper, &|_, _, _| {}).unwrap();
+    assert_eq!(rows[0].rules, sim_core::episode::Rules::Paper);
+    assert_eq!(
+        eval::summary::summarise(&rows).rules,
+        sim_core::episode::Rules::Paper
+    );
+    let release = EvalConfig {
+        episode: EpisodeConfig::release(),
+        ..cfg(&out, "w001-t0")
+    };
+    let e = run(&release, &|_, _, _| {}).unwrap_err().to_string();
+    assert!(e.contains("paper rules"), "{e}");
+    assert_eq!(
+        EpisodeConfig::release().rules(),
+        sim_core::episode::Rules::Release
+    );
+    assert_eq!(
+        cfg(&out, "1").episode.rules(),
+        sim_core::episode::Rules::Custom
+    );
+}

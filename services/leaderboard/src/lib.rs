@@ -109,6 +109,8 @@ pub fn rows(sub: &Submission, eps: &[EpisodeRecord], set: Option<&TaskSet>) -> V
                 .sim_version
                 .clone()
                 .unwrap_or_else(|| sub.sim_version.clone()),
+            // The service runs every episode under the paper's rules.
+            rules: Default::default(),
             outcome: e.outcome.clone().unwrap_or_default(),
             reason: e.reason.clone().unwrap_or_default(),
             detail: e.detail.clone().unwrap_or_default(),
