@@ -183,3 +183,16 @@ def test_vb_worker_serves_the_sim_api_on_its_own_address():
     finally:
         proc.terminate()
         proc.wait(timeout=30)
+
+
+def test_wait_fails_when_the_planner_never_worked(service, tmp_path):
+    url, token = service
+    env = dict(os.environ, VB_COORDINATOR=url, VB_TOKEN=token)
+    broken = tmp_path / "broken.py"
+    broken.write_text("raise SystemExit('this planner cannot start')\n")
+    r = subprocess.run(
+        [binary("VB_SUBMIT_BIN"), "exec", "--tasks", "w001-t0,w001-t1", "--wait", "--", sys.executable, str(broken)],
+        capture_output=True, text=True, timeout=600, env=env,
+    )
+    assert r.returncode != 0, r.stdout + r.stderr
+    assert "every finished episode failed because of the planner" in r.stderr, r.stderr

@@ -199,6 +199,22 @@ async fn do_submit(
         .await?;
         eprintln!();
         println!("{}", vb_submit::status_line(&last));
+        // A run in which the planner never worked is a failure of the command, not a result.
+        let results = vb_submit::results(&mut client, &r.submission_id).await?;
+        let broken = |o: &str| o == "planner_failure" || o == "error";
+        let done: Vec<_> = results
+            .episodes
+            .iter()
+            .filter(|e| !e.outcome.is_empty())
+            .collect();
+        if !done.is_empty() && done.iter().all(|e| broken(&e.outcome)) {
+            bail!(
+                "every finished episode failed because of the planner or the infrastructure ({}, ...): see \
+                 `vb-submit results {}`",
+                done[0].reason,
+                r.submission_id
+            );
+        }
     } else {
         println!(
             "follow it with: vb-submit status {} --watch",
@@ -224,7 +240,15 @@ async fn run() -> anyhow::Result<()> {
             do_submit(&cli, Kind::Endpoint(url.clone()), url.clone(), opts).await
         }
         Cmd::Exec { opts, command } => {
-            let name = command.join(" ");
+            // The command's file names, at most 100 characters (the coordinator's limit on names).
+            let name: String = command
+                .iter()
+                .map(|a| a.rsplit('/').next().unwrap_or(a))
+                .collect::<Vec<_>>()
+                .join(" ")
+                .chars()
+                .take(100)
+                .collect();
             do_submit(
                 &cli,
                 Kind::Exec(pb::ExecPlanner {
