@@ -33,7 +33,9 @@ pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
 /// to it). Revision 2: wheels climb out of soil ruts onto rigid patches instead of being fired out. Revision 3
 /// (issue 13): whole-vehicle translational inertia, wheel vertical DOF implicit in its stiff terms, symmetric wheel
 /// contact, the release's HMMWV (mass, CoG, steering), start poses fitted over the footprint and settled at rest,
-/// soil pressure along the wheel's surface normal.
-pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r3");
+/// soil pressure along the wheel's surface normal. Revision 4: the handling tyre's Magic Formula has Pacejka's
+/// curvature factor E (changes the vehicles on handling tyres only; the rigid-tyre HMMWV's trajectories, and so
+/// every quoted benchmark result, are bit-identical to r3).
+pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r4");
 pub use vehicle::{Simulation, VehicleSpec};
 pub mod world;
