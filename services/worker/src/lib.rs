@@ -277,9 +277,8 @@ pub async fn run_episode(
     })
     .await;
     let (result, round_trips) = joined.map_err(|e| format!("episode thread failed: {e}"))?;
-    if let Some(p) = &process {
+    if process.is_some() {
         // Give the process a moment to flush what it printed about the episode's end.
-        let _ = &p.addr;
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
     let planner_log = match &process {
@@ -383,7 +382,7 @@ type Active = Arc<Mutex<HashMap<String, Arc<AtomicBool>>>>;
 struct PlannerPolicy {
     /// How long a started planner process may take to serve.
     startup: Duration,
-    /// Whether it runs exec and image planners.
+    /// Whether it runs exec and image planners (the coordinator then leases it none: `runs_exec_planners`).
     allow_exec: bool,
     /// The user exec planners run as.
     user: Option<sandbox::PlannerUser>,
@@ -565,8 +564,8 @@ async fn run_lease(
 ) {
     let PlannerPolicy {
         startup,
-        allow_exec,
         user: planner_user,
+        ..
     } = policy;
     let infra = |detail: String| pb::EpisodeReport {
         worker_id: worker_id.into(),
@@ -586,13 +585,6 @@ async fn run_lease(
             set.version(),
             lease.task_set_version
         );
-        deliver(client, infra(msg), Duration::from_secs(600)).await;
-        return;
-    }
-    use pb::planner_ref::Kind;
-    let kind = lease.planner.as_ref().and_then(|p| p.kind.as_ref());
-    if !allow_exec && matches!(kind, Some(Kind::Exec(_) | Kind::Image(_))) {
-        let msg = "this worker does not run exec or image planners (--no-exec)".to_string();
         deliver(client, infra(msg), Duration::from_secs(600)).await;
         return;
     }
