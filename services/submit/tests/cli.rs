@@ -141,6 +141,20 @@ fn eventually(secs: f64, pred: impl Fn() -> bool) -> bool {
     pred()
 }
 
+/// `vb-submit validate exec` of a `sh -c` script, 2 simulated seconds.
+fn validate_script(script: &str) -> (bool, String) {
+    run(vb_submit().args([
+        "validate",
+        "exec",
+        "--max-time",
+        "2",
+        "--",
+        "sh",
+        "-c",
+        script,
+    ]))
+}
+
 /// Whether process `pid` has ended (gone, or a zombie waiting for its parent).
 fn gone(pid: &str) -> bool {
     std::fs::read_to_string(format!("/proc/{pid}/stat"))
@@ -217,16 +231,7 @@ fn a_planner_flooding_its_output_gets_a_bounded_log() {
     let script = format!(
         "head -c 67108864 /dev/zero | tr '\\000' x; echo; echo after the flood; exec {planner}"
     );
-    let (ok, text) = run(vb_submit().args([
-        "validate",
-        "exec",
-        "--max-time",
-        "2",
-        "--",
-        "sh",
-        "-c",
-        &script,
-    ]));
+    let (ok, text) = validate_script(&script);
     assert!(ok, "{text}");
     assert!(
         text.contains("[line cut at 4096 bytes]"),
@@ -248,16 +253,7 @@ fn a_planner_flooding_its_output_gets_a_bounded_log() {
 fn exec_planners_run_under_resource_limits_and_die_with_their_worker() {
     let planner = example_planner().display().to_string();
     let script = format!("echo \"LIMITS: $(ulimit -n) $(ulimit -t) $(ulimit -v)\"; exec {planner}");
-    let (ok, text) = run(vb_submit().args([
-        "validate",
-        "exec",
-        "--max-time",
-        "2",
-        "--",
-        "sh",
-        "-c",
-        &script,
-    ]));
+    let (ok, text) = validate_script(&script);
     assert!(ok, "{text}");
     let limits: Vec<&str> = logged(&text, "LIMITS:").split_whitespace().collect();
     // Open files, CPU seconds and address space (KiB) of `vb_worker::sandbox::Limits::default()`.
