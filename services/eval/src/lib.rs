@@ -6,10 +6,12 @@
 //! - [`summary`]: success rate with a 95% Wilson interval, traversal time (successes only), roll and pitch, failure
 //!   mix, each broken down by elevation level, semantics kind and obstacle density; semantics success standardised
 //!   over levels; and the paired density contrasts on matched tasks (same terrain group and start/goal pair).
-//! - [`report`] and [`parquet_file`]: `episodes.csv` and `episodes.parquet` (the same columns), `summary.json`, `summary.txt` and SVG charts of the breakdowns.
+//! - [`report`] and [`parquet_file`]: `episodes.csv` and `episodes.parquet` (the same columns), `summary.json`, `summary.txt` and
+//!   [`charts`], SVG charts of the breakdowns (an auto-escaping template).
 //! - [`compare`]: paired comparison of two evaluations (difference in success rate with a 95% interval, exact
 //!   McNemar test).
 
+pub mod charts;
 pub mod compare;
 pub mod parquet_file;
 pub mod report;

@@ -1,5 +1,5 @@
-//! Files of an evaluation: `episodes.csv` (and `episodes.parquet`, [`crate::parquet_file`]), `summary.json`, `summary.txt`, `charts.svg`; and a static leaderboard
-//! page over several evaluations.
+//! Files of an evaluation: `episodes.csv` (and `episodes.parquet`, [`crate::parquet_file`]), `summary.json`,
+//! `summary.txt` and `charts.svg` ([`crate::charts`]).
 
 use crate::summary::{Aggregate, Summary};
 use crate::{io_err, EpisodeRow, EvalError};
@@ -230,86 +230,6 @@ pub fn in_order<'a, V>(map: &'a BTreeMap<String, V>, order: &[&str]) -> Vec<(&'a
     v
 }
 
-/// Text made safe inside HTML and SVG elements and quoted attributes (`& < > " '`). Every user-controlled value in
-/// a page or chart goes through it: submission and planner names, reasons, logs, commands.
-pub fn escape_html(s: &str) -> String {
-    let mut o = String::with_capacity(s.len());
-    for c in s.chars() {
-        match c {
-            '&' => o.push_str("&amp;"),
-            '<' => o.push_str("&lt;"),
-            '>' => o.push_str("&gt;"),
-            '"' => o.push_str("&quot;"),
-            '\'' => o.push_str("&#39;"),
-            c => o.push(c),
-        }
-    }
-    o
-}
-
-/// SVG bar charts of the success rate (with its interval) by elevation, semantics and obstacle density.
-pub fn charts_svg(s: &Summary) -> String {
-    let groups: [(&str, &BTreeMap<String, Aggregate>, [&str; 3]); 3] = [
-        ("elevation level", &s.by_level, LEVELS),
-        ("terrain semantics", &s.by_semantics, SEMANTICS),
-        ("obstacle density", &s.by_density, DENSITIES),
-    ];
-    let (w, h, pad) = (900.0, 320.0, 40.0);
-    let mut svg = format!("<svg xmlns='http://www.w3.org/2000/svg' width='{w}' height='{h}' font-family='sans-serif' font-size='12'>\n");
-    let _ = writeln!(
-        svg,
-        "<text x='10' y='18' font-size='14'>success rate of {} (95% CI)</text>",
-        escape_html(&s.planner)
-    );
-    let panel = (w - pad) / 3.0;
-    for (gi, (title, map, order)) in groups.iter().enumerate() {
-        let x0 = pad / 2.0 + gi as f64 * panel;
-        let _ = writeln!(
-            svg,
-            "<text x='{:.0}' y='{:.0}'>{title}</text>",
-            x0 + 10.0,
-            h - 8.0
-        );
-        let n = map.len().max(1) as f64;
-        let bw = (panel - 40.0) / n;
-        for (k, (name, a)) in in_order(map, order).into_iter().enumerate() {
-            let bx = x0 + 20.0 + k as f64 * bw;
-            let plot_h = h - 90.0;
-            let y = |v: f64| 40.0 + plot_h * (1.0 - v);
-            let _ = writeln!(
-                svg,
-                "<rect x='{:.1}' y='{:.1}' width='{:.1}' height='{:.1}' fill='#4a7fb5'/>",
-                bx + 4.0,
-                y(a.success_rate),
-                bw - 8.0,
-                plot_h * a.success_rate
-            );
-            let cx = bx + bw / 2.0;
-            let _ = writeln!(
-                svg,
-                "<line x1='{cx:.1}' x2='{cx:.1}' y1='{:.1}' y2='{:.1}' stroke='black'/>",
-                y(a.success_ci95.0),
-                y(a.success_ci95.1)
-            );
-            let _ = writeln!(
-                svg,
-                "<text x='{:.1}' y='{:.1}' text-anchor='middle'>{}</text>",
-                cx,
-                h - 30.0,
-                escape_html(name)
-            );
-            let _ = writeln!(
-                svg,
-                "<text x='{:.1}' y='{:.1}' text-anchor='middle'>{:.0}%</text>",
-                cx,
-                y(a.success_rate) - 4.0,
-                100.0 * a.success_rate
-            );
-        }
-    }
-    svg + "</svg>\n"
-}
-
 /// Writes every file of an evaluation into `dir`.
 pub fn write(dir: &Path, rows: &[EpisodeRow], s: &Summary) -> Result<(), EvalError> {
     let files = [
@@ -319,41 +239,11 @@ pub fn write(dir: &Path, rows: &[EpisodeRow], s: &Summary) -> Result<(), EvalErr
             serde_json::to_string_pretty(s).map_err(|e| io_err(dir, e))? + "\n",
         ),
         ("summary.txt", summary_text(s)),
-        ("charts.svg", charts_svg(s)),
+        ("charts.svg", crate::charts::charts_svg(s).into_string()),
     ];
     for (name, text) in files {
         let p = dir.join(name);
         std::fs::write(&p, text).map_err(|e| io_err(&p, e))?;
     }
     crate::parquet_file::write_episodes(&dir.join("episodes.parquet"), rows)
-}
-
-/// A static leaderboard page ranking evaluations by success rate, with their breakdowns.
-pub fn leaderboard_html(summaries: &[Summary]) -> String {
-    let mut ranked: Vec<&Summary> = summaries.iter().collect();
-    ranked.sort_by(|a, b| b.overall.success_rate.total_cmp(&a.overall.success_rate));
-    let mut h = String::from("<!doctype html><html><head><meta charset='utf-8'><meta http-equiv='Content-Security-Policy' content=\"default-src 'none'; style-src 'unsafe-inline'; img-src 'self' data:\"><title>vertibench leaderboard</title><style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:4px 8px;text-align:right}th{background:#eee}</style></head><body><h1>vertibench leaderboard</h1>\n<table><tr><th>rank</th><th>planner</th><th>vehicle</th><th>tasks</th><th>success</th><th>95% CI</th><th>time (s)</th><th>roll</th><th>pitch</th><th>rollover</th><th>stuck</th><th>timeout</th><th>low / medium / high</th><th>rigid / deformable / mixed</th><th>sparse / medium / dense</th><th>task set</th><th>simulator</th><th>rules</th></tr>\n");
-    let trio = |m: &BTreeMap<String, Aggregate>, keys: [&str; 3]| {
-        keys.iter()
-            .map(|k| {
-                m.get(*k).map_or("-".to_string(), |a| {
-                    format!("{:.0}%", 100.0 * a.success_rate)
-                })
-            })
-            .collect::<Vec<_>>()
-            .join(" / ")
-    };
-    for (i, s) in ranked.iter().enumerate() {
-        let a = &s.overall;
-        let _ = writeln!(
-            h,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1}%</td><td>[{:.1}, {:.1}]</td><td>{:.1}</td><td>{:.2}</td><td>{:.2}</td><td>{:.1}%</td><td>{:.1}%</td><td>{:.1}%</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-            i + 1, escape_html(&s.planner), escape_html(&s.vehicle), a.episodes, 100.0 * a.success_rate, 100.0 * a.success_ci95.0, 100.0 * a.success_ci95.1,
-            a.traversal_time_mean, a.roll_mean, a.pitch_mean, a.rollover_pct, a.stuck_pct, a.timeout_pct,
-            trio(&s.by_level, LEVELS), trio(&s.by_semantics, SEMANTICS),
-            trio(&s.by_density, DENSITIES), escape_html(&s.task_set_version),
-            escape_html(&s.sim_version), s.rules.as_str()
-        );
-    }
-    h + "</table></body></html>\n"
 }

@@ -36,7 +36,7 @@ fn levels_come_in_their_natural_order() {
     ];
     let s = eval::summary::summarise(&rows);
     let text = eval::report::summary_text(&s);
-    let svg = eval::report::charts_svg(&s);
+    let svg = eval::charts::charts_svg(&s).into_string();
     for (doc, what) in [(&text, "summary.txt"), (&svg, "charts.svg")] {
         let at = |w: &str| doc.find(w).unwrap_or_else(|| panic!("{what} lacks {w}"));
         assert!(

@@ -2,12 +2,13 @@
 //! density (tables and SVG charts), reproducibility facts, a live progress page, a page per episode (path over the
 //! map; roll, pitch and speed over time) and a JSON API described by an OpenAPI document. It only reads the store.
 //!
-//! Pages are rendered on the server from `web/` (compiled in); no JavaScript.
+//! Pages are rendered on the server by askama templates in `web/templates/` ([`pages`], compiled in and escaping
+//! every value); no JavaScript.
 
-mod pages;
+pub mod pages;
 pub mod public;
 
-use axum::extract::{Path, State};
+use axum::extract::{Path, Query, State};
 use axum::http::{header, StatusCode};
 use axum::response::{Html, IntoResponse, Response};
 use axum::routing::get;
@@ -20,7 +21,6 @@ use tasks::TaskSet;
 use vb_store::{EpisodeRecord, Progress, Reader, StoreError, Submission};
 
 pub const OPENAPI: &str = include_str!("../../../web/openapi.json");
-const STYLE: &str = include_str!("../../../web/static/style.css");
 
 /// Shared state of the leaderboard.
 pub struct Leaderboard {
@@ -238,14 +238,28 @@ type St = State<Arc<Leaderboard>>;
 
 async fn index(State(lb): St) -> Result<Html<String>, WebError> {
     let entries = lb.ranked().await?;
-    Ok(Html(pages::index(&entries)))
+    Ok(Html(pages::board::index(&entries)))
 }
 
-async fn submission_page(State(lb): St, Path(id): Path<String>) -> Result<Html<String>, WebError> {
+/// `?page=N` (from 1) of a submission's episode table.
+#[derive(serde::Deserialize)]
+struct PageQuery {
+    page: Option<usize>,
+}
+
+async fn submission_page(
+    State(lb): St,
+    Path(id): Path<String>,
+    Query(q): Query<PageQuery>,
+) -> Result<Html<String>, WebError> {
     let sub = public::submission(&lb.reader, &id).await?;
     let entry = lb.entry(sub).await?;
     let eps = public::episodes(&lb.reader, &id).await?;
-    Ok(Html(pages::submission(&entry, &eps)))
+    Ok(Html(pages::submission::page(
+        &entry,
+        &eps,
+        q.page.unwrap_or(1),
+    )))
 }
 
 async fn episode_page(
@@ -262,7 +276,11 @@ async fn episode_page(
         let world = set.world(w, 1.0).ok()?;
         Some((world, task))
     });
-    Ok(Html(pages::episode(&sub, &detail, world_task.as_ref())))
+    Ok(Html(pages::episode::page(
+        &sub,
+        &detail,
+        world_task.as_ref(),
+    )))
 }
 
 async fn world_png(State(lb): St, Path(file): Path<String>) -> Result<Response, WebError> {
@@ -285,7 +303,7 @@ async fn world_png(State(lb): St, Path(file): Path<String>) -> Result<Response, 
 }
 
 async fn style() -> Response {
-    ([(header::CONTENT_TYPE, "text/css")], STYLE).into_response()
+    ([(header::CONTENT_TYPE, "text/css")], pages::style_css()).into_response()
 }
 
 async fn openapi() -> Response {

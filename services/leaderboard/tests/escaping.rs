@@ -83,6 +83,7 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
     let pages = [
         "/".to_string(),
         format!("/submissions/{id}"),
+        format!("/submissions/{id}?page=2"),
         format!("/submissions/{id}/episodes/w001-t0"),
         "/api/submissions".to_string(),
         format!("/api/submissions/{id}"),
@@ -115,17 +116,79 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
     }
     let (_, index) = tokio::task::spawn_blocking(move || get(port, "/")).await?;
     assert!(
-        index.contains("&lt;script&gt;alert(1)&lt;/script&gt;"),
+        index.contains("&#60;script&#62;alert(1)&#60;/script&#62;"),
         "the name is shown, escaped"
     );
-    // The static leaderboard and the charts of `vb eval` escape too.
+    // The static leaderboard and the charts of `vb eval` escape too: the same board template, standalone.
     let mut summary = eval::summary::summarise(&[]);
     summary.planner = EVIL.into();
     summary.vehicle = EVIL.into();
-    assert_clean("charts.svg", &eval::report::charts_svg(&summary));
-    assert_clean(
-        "leaderboard.html",
-        &eval::report::leaderboard_html(&[summary]),
-    );
+    summary.task_set_version = EVIL.into();
+    summary.sim_version = EVIL.into();
+    let svg = eval::charts::charts_svg(&summary).into_string();
+    assert_clean("charts.svg", &svg);
+    assert!(svg.contains("&#60;script&#62;"), "{svg}");
+    let page =
+        vb_leaderboard::pages::board::standalone(&[vb_leaderboard::pages::board::Evaluation {
+            name: EVIL.into(),
+            summary,
+            full_tasks: None,
+        }]);
+    assert_clean("leaderboard.html", &page);
+    assert!(page.contains("&#60;script&#62;alert(1)"), "{page}");
     Ok(())
+}
+
+/// A standalone page allows exactly its inline style by hash (CSP level 2: base64 SHA-256 of the element's
+/// text), and nothing else: no script source, no other style.
+#[test]
+fn standalone_page_allows_only_its_own_style() {
+    use sha2::Digest;
+    let page = vb_leaderboard::pages::board::standalone(&[]);
+    let css = page
+        .split_once("<style>")
+        .and_then(|(_, rest)| rest.split_once("</style>"))
+        .map(|(css, _)| css)
+        .expect("an inline style");
+    let hash = sha2::Sha256::digest(css.as_bytes());
+    let b64 = base64(&hash);
+    let csp = vb_leaderboard::pages::standalone_csp();
+    assert!(csp.contains(&format!("style-src 'sha256-{b64}'")), "{csp}");
+    assert!(csp.starts_with("default-src 'none'"), "{csp}");
+    // The page's <meta> carries the policy (its quotes escaped as an attribute value is).
+    let meta = page
+        .split_once("http-equiv=\"Content-Security-Policy\" content=\"")
+        .and_then(|(_, rest)| rest.split_once('"'))
+        .map(|(v, _)| v.replace("&#39;", "'"))
+        .expect("a CSP meta element");
+    assert_eq!(meta, csp);
+    assert!(!page.contains("<script"));
+}
+
+/// Base64 written out independently of the crate's encoder (RFC 4648, bit by bit).
+fn base64(bytes: &[u8]) -> String {
+    let alphabet: Vec<char> = ('A'..='Z')
+        .chain('a'..='z')
+        .chain('0'..='9')
+        .chain(['+', '/'])
+        .collect();
+    let bits: Vec<u8> = bytes
+        .iter()
+        .flat_map(|b| (0..8).rev().map(move |i| (b >> i) & 1))
+        .collect();
+    let mut s: String = bits
+        .chunks(6)
+        .map(|c| {
+            let v = c
+                .iter()
+                .chain(std::iter::repeat(&0))
+                .take(6)
+                .fold(0usize, |a, b| a * 2 + *b as usize);
+            alphabet[v]
+        })
+        .collect();
+    while !s.len().is_multiple_of(4) {
+        s.push('=');
+    }
+    s
 }

@@ -85,5 +85,57 @@ async fn only_complete_runs_are_ranked() -> anyhow::Result<()> {
             > by_name("full").summary.overall.success_rate
     );
     assert_eq!(ranked[0].submission.name, "full");
+
+    // The full run's page shows its 1000 episodes 100 at a time.
+    let full = by_name("full");
+    let eps = vb_leaderboard::public::episodes(&store.reader(), &full.submission.id)
+        .await
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    assert_eq!(eps.len(), 1000);
+    let rows = |html: &str| {
+        html.matches("<tr><td class=\"l\"><a href=\"/submissions/")
+            .count()
+    };
+    let link = |n: usize| format!("/submissions/{}?page={n}", full.submission.id);
+    let first = vb_leaderboard::pages::submission::page(full, &eps, 1);
+    assert_eq!(rows(&first), 100);
+    assert!(first.contains("Episodes 1-100 of 1000 (page 1 of 10)."));
+    assert!(first.contains(&link(2)) && !first.contains("rel=\"prev\""));
+    let second = vb_leaderboard::pages::submission::page(full, &eps, 2);
+    assert!(second.contains("Episodes 101-200 of 1000"));
+    assert!(
+        second.contains(&eps[100].task_id) && !second.contains(&format!(">{}<", eps[99].task_id))
+    );
+    // Past the end shows the last page.
+    let last = vb_leaderboard::pages::submission::page(full, &eps, 99);
+    assert!(last.contains("Episodes 901-1000 of 1000 (page 10 of 10)."));
+    assert!(!last.contains("rel=\"next\""));
     Ok(())
+}
+
+/// `vb leaderboard-static` ranks the same way: a partial evaluation is listed, unranked, after the full one.
+#[test]
+fn the_static_board_ranks_only_full_evaluations() {
+    use vb_leaderboard::pages::board::{standalone, Evaluation};
+    let eval = |name: &str, episodes: usize, rate: f64| {
+        let mut summary = eval::summary::summarise(&[]);
+        summary.overall.episodes = episodes;
+        summary.overall.success_rate = rate;
+        Evaluation {
+            name: name.into(),
+            summary,
+            full_tasks: Some(1000),
+        }
+    };
+    let page = standalone(&[eval("partial-run", 330, 0.9), eval("full-run", 1000, 0.4)]);
+    let at = |s: &str| page.find(s).unwrap_or_else(|| panic!("{s} missing"));
+    assert!(at("full-run") < at("partial-run"));
+    assert!(
+        page.contains("<tr><td>1</td><td class=\"l\">full-run"),
+        "{page}"
+    );
+    assert!(
+        page.contains("<tr><td>-</td><td class=\"l\">partial-run"),
+        "{page}"
+    );
 }

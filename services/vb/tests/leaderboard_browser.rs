@@ -173,4 +173,50 @@ fn leaderboard_pages_render_in_headless_chromium() {
         "the map picture did not render ({} colours)",
         colours.len()
     );
+
+    // `vb leaderboard-static`: one file whose inline style its own Content-Security-Policy allows (by hash). Were
+    // the hash wrong, Chromium would refuse the style and the header would not be drawn in its dark blue.
+    let evals = dir.join("evals");
+    let status = Command::new(vb())
+        .args([
+            "eval",
+            "--planner",
+            "pid",
+            "--tasks",
+            "1",
+            "--threads",
+            "1",
+            "--out",
+        ])
+        .arg(evals.join("pid"))
+        .output()
+        .expect("running vb eval");
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
+    let page = evals.join("leaderboard.html");
+    assert!(
+        page.is_file(),
+        "vb eval writes the static board next to its results"
+    );
+    let shot = dir.join("static.png");
+    let out = headless(
+        &browser,
+        &dir,
+        &[
+            format!("--screenshot={}", shot.display()),
+            "--window-size=1400,600".into(),
+            "--enable-logging=stderr".into(),
+        ],
+        &format!("file://{}", page.display()),
+    );
+    let log = String::from_utf8_lossy(&out.stderr);
+    assert!(!log.contains("Refused to apply"), "{log}");
+    let header = count_colour(&shot, [0x24, 0x31, 0x3f], 4);
+    assert!(
+        header > 20_000,
+        "the static page's style did not apply ({header} px of header colour)"
+    );
 }

@@ -105,11 +105,11 @@ async fn workers_die_and_the_coordinator_restarts_yet_every_task_has_exactly_one
     assert!(index.contains(&id) && index.contains("example"), "{index}");
     let page = http_text(http, &format!("/submissions/{id}"));
     for needle in [
-        "id='by-level'",
-        "id='by-semantics'",
-        "id='by-density'",
+        "id=\"by-level\"",
+        "id=\"by-semantics\"",
+        "id=\"by-density\"",
         "<svg",
-        "id='repro'",
+        "id=\"repro\"",
         "sha256:",
         "w001-t0",
     ] {
@@ -135,10 +135,10 @@ async fn workers_die_and_the_coordinator_restarts_yet_every_task_has_exactly_one
         .is_some_and(|m| !m.is_empty()));
     let ep = http_text(http, &format!("/submissions/{id}/episodes/w002-t3"));
     for needle in [
-        "id='trajectory'",
-        "id='roll-chart'",
-        "id='pitch-chart'",
-        "id='speed-chart'",
+        "id=\"trajectory\"",
+        "id=\"roll-chart\"",
+        "id=\"pitch-chart\"",
+        "id=\"speed-chart\"",
         "/worlds/2.png",
     ] {
         assert!(ep.contains(needle), "episode page lacks {needle}");
@@ -283,7 +283,7 @@ async fn misbehaving_planners_fail_their_own_episodes_and_nothing_else() -> anyh
         &format!("/submissions/{}/episodes/w006-t0", crash.submission_id),
     );
     assert!(
-        page.contains("id='log'") && page.contains("crashing on purpose"),
+        page.contains("id=\"log\"") && page.contains("crashing on purpose"),
         "{page}"
     );
     Ok(())
@@ -737,7 +737,7 @@ async fn a_submission_completes_on_postgres() -> anyhow::Result<()> {
         &["leaderboard", "--db", &db, "--listen", &listen],
     );
     wait_port(http, Duration::from_secs(30));
-    assert!(http_text(http, &format!("/submissions/{id}")).contains("id='by-density'"));
+    assert!(http_text(http, &format!("/submissions/{id}")).contains("id=\"by-density\""));
     Ok(())
 }
 

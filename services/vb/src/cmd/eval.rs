@@ -47,7 +47,10 @@ pub fn run(a: EvalArgs) -> anyhow::Result<()> {
     };
     let cfg = eval::EvalConfig {
         planner: a.planner,
-        task_dir: a.task_dir.unwrap_or_else(tasks::TaskSet::default_dir),
+        task_dir: a
+            .task_dir
+            .clone()
+            .unwrap_or_else(tasks::TaskSet::default_dir),
         tasks: a.tasks,
         vehicle: a.vehicle,
         scale: a.scale,
@@ -96,5 +99,9 @@ pub fn run(a: EvalArgs) -> anyhow::Result<()> {
         .collect();
     dirs.sort();
     let page = parent.join("leaderboard.html");
-    super::leaderboard::run(super::leaderboard::LeaderboardArgs { dirs, out: page })
+    super::leaderboard::run(super::leaderboard::LeaderboardArgs {
+        dirs,
+        out: page,
+        task_dir: a.task_dir.clone(),
+    })
 }

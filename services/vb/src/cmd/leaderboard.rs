@@ -1,30 +1,51 @@
-//! `vb leaderboard DIR... --out FILE`: a static leaderboard page over evaluation directories.
+//! `vb leaderboard-static DIR... --out FILE`: a standalone leaderboard page over evaluation directories, rendered by
+//! the service's own board template.
 
 use std::path::PathBuf;
+use vb_leaderboard::pages::board::{standalone, Evaluation};
 
 #[derive(clap::Args)]
 pub struct LeaderboardArgs {
     /// Evaluation directories (each with a summary.json written by `vb eval`).
     #[arg(required = true)]
     pub dirs: Vec<PathBuf>,
+    /// The page to write (one self-contained HTML file).
     #[arg(long, default_value = "out/leaderboard.html")]
     pub out: PathBuf,
+    /// Task-set directory that tells how many tasks a full run has (default: the committed set). Evaluations on
+    /// another task set count as full when they ran as many tasks as the largest evaluation on it.
+    #[arg(long, hide_default_value = true)]
+    pub task_dir: Option<PathBuf>,
 }
 
 pub fn run(a: LeaderboardArgs) -> anyhow::Result<()> {
-    let mut summaries = Vec::new();
+    let set = tasks::TaskSet::load(&a.task_dir.unwrap_or_else(tasks::TaskSet::default_dir)).ok();
+    let mut evals = Vec::new();
     for d in &a.dirs {
         let p = d.join("summary.json");
         let text =
             std::fs::read_to_string(&p).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
-        summaries.push(
-            serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?,
-        );
+        let summary: eval::summary::Summary =
+            serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
+        let full_tasks = set
+            .as_ref()
+            .filter(|s| s.version() == summary.task_set_version)
+            .map(|s| s.world_ids().len() * 10);
+        let name = d
+            .canonicalize()
+            .ok()
+            .and_then(|c| c.file_name().map(|n| n.to_string_lossy().into_owned()))
+            .unwrap_or_else(|| d.display().to_string());
+        evals.push(Evaluation {
+            name,
+            summary,
+            full_tasks,
+        });
     }
     if let Some(parent) = a.out.parent() {
         std::fs::create_dir_all(parent)?;
     }
-    std::fs::write(&a.out, eval::report::leaderboard_html(&summaries))?;
+    std::fs::write(&a.out, standalone(&evals))?;
     println!("leaderboard: {}", a.out.canonicalize()?.display());
     Ok(())
 }

@@ -1,0 +1,182 @@
+//! An episode's page (`episode.html`): its result, metrics, the global path and the driven trajectory over the
+//! world's map, roll, pitch and speed over time, and the planner's log.
+
+use super::{render, Frame, MAP_PPM};
+use askama::Template;
+use sim_core::world::{Task, World};
+use std::fmt::Write;
+use vb_store::{EpisodeDetail, Submission};
+
+struct MapView {
+    width: String,
+    height: String,
+    image: String,
+    path: String,
+    trajectory: String,
+    start: (String, String),
+    goal: (String, String),
+}
+
+struct Plot {
+    hi: String,
+    lo: String,
+    tmax: String,
+    points: String,
+}
+
+struct LineChart {
+    id: &'static str,
+    title: &'static str,
+    unit: &'static str,
+    plot: Option<Plot>,
+}
+
+#[derive(Template)]
+#[template(path = "episode.html")]
+struct Page {
+    frame: Frame,
+    back_href: String,
+    submission_name: String,
+    task: String,
+    world: u32,
+    task_index: u32,
+    level: String,
+    semantics: String,
+    density: String,
+    result: Vec<(&'static str, String)>,
+    metrics: Option<Vec<String>>,
+    map: Option<MapView>,
+    charts: Vec<LineChart>,
+    log: String,
+}
+
+/// Parsed trajectory: time and (x, y, roll°, pitch°, speed).
+fn parse_trajectory(csv: &str) -> Vec<[f64; 6]> {
+    csv.lines()
+        .skip(1)
+        .filter_map(|l| {
+            let v: Vec<f64> = l.split(',').filter_map(|x| x.parse().ok()).collect();
+            (v.len() >= 8).then(|| [v[0], v[1], v[2], v[4].to_degrees(), v[5].to_degrees(), v[7]])
+        })
+        .collect()
+}
+
+/// A line chart's polyline in the plot area of `episode.html`'s charts (420 x 180 px: the axes run from x 44 to
+/// 410 and from y 22 to 156).
+fn plot(pts: &[(f64, f64)]) -> Option<Plot> {
+    if pts.is_empty() {
+        return None;
+    }
+    let (l, r, t, b) = (44.0, 410.0, 22.0, 156.0);
+    let tmax = pts.iter().map(|p| p.0).fold(0.0, f64::max).max(1e-6);
+    let (mut lo, mut hi) = pts
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    if hi - lo < 1e-6 {
+        lo -= 1.0;
+        hi += 1.0;
+    }
+    let mut points = String::new();
+    for p in pts {
+        let x = l + (r - l) * p.0 / tmax;
+        let y = t + (b - t) * (1.0 - (p.1 - lo) / (hi - lo));
+        let _ = write!(points, "{x:.1},{y:.1} ");
+    }
+    Some(Plot {
+        hi: format!("{hi:.1}"),
+        lo: format!("{lo:.1}"),
+        tmax: format!("{tmax:.0}"),
+        points,
+    })
+}
+
+fn map_view(sub: &Submission, world: &World, task: &Task, traj: &[[f64; 6]]) -> MapView {
+    let h = &world.heightmap;
+    let ppm = MAP_PPM as f64;
+    let s = if sub.scale > 0.0 { sub.scale } else { 1.0 };
+    // Full-scale world coordinates to picture pixels (the picture is drawn at full scale).
+    let px = |x: f64, y: f64| {
+        let (fx, fy) = h.grid_coords(x / s, y / s);
+        ((fx + 0.5) * ppm, (h.ny as f64 - 1.0 - fy + 0.5) * ppm)
+    };
+    let pxw = |x: f64, y: f64| px(x * s, y * s);
+    let polyline = |pts: &mut dyn Iterator<Item = (f64, f64)>| {
+        let mut o = String::new();
+        for (a, c) in pts {
+            let _ = write!(o, "{a:.1},{c:.1} ");
+        }
+        o
+    };
+    let pair = |(a, c): (f64, f64)| (format!("{a:.1}"), format!("{c:.1}"));
+    MapView {
+        width: format!("{:.0}", h.nx as f64 * ppm),
+        height: format!("{:.0}", h.ny as f64 * ppm),
+        image: format!("/worlds/{}.png", world.id),
+        path: polyline(&mut task.path.iter().map(|p| pxw(p[0], p[1]))),
+        trajectory: polyline(&mut traj.iter().map(|p| px(p[1], p[2]))),
+        start: pair(pxw(task.start[0], task.start[1])),
+        goal: pair(pxw(task.goal[0], task.goal[1])),
+    }
+}
+
+pub fn page(sub: &Submission, d: &EpisodeDetail, world_task: Option<&(World, Task)>) -> String {
+    let r = &d.record;
+    let traj = parse_trajectory(&d.trajectory_csv);
+    let metrics = r
+        .metrics_json
+        .as_deref()
+        .and_then(|m| serde_json::from_str::<sim_core::episode::EpisodeMetrics>(m).ok())
+        .map(|m| {
+            vec![
+                format!("{:.1}", m.time),
+                format!("{:.1}", m.path_length),
+                format!("{:.2}", m.roll_abs.mean),
+                format!("{:.1}", m.roll_abs.max),
+                format!("{:.2}", m.pitch_abs.mean),
+                format!("{:.1}", m.pitch_abs.max),
+                format!("{:.1}", m.energy / 1000.0),
+                m.obstacle_contacts.to_string(),
+                format!("{:.1}", m.final_goal_distance),
+            ]
+        });
+    let opt = |v: &Option<String>| v.clone().unwrap_or_default();
+    let chart = |id, title, unit, k: usize| LineChart {
+        id,
+        title,
+        unit,
+        plot: plot(&traj.iter().map(|p| (p[0], p[k])).collect::<Vec<_>>()),
+    };
+    let live = r.state == "queued" || r.state == "leased";
+    render(&Page {
+        frame: Frame::served(&r.task_id, live),
+        back_href: format!("/submissions/{}", sub.id),
+        submission_name: sub.name.clone(),
+        task: r.task_id.clone(),
+        world: r.world_id,
+        task_index: r.task_index,
+        level: r.level.clone(),
+        semantics: r.semantics.clone(),
+        density: r.density.clone(),
+        result: vec![
+            ("state", super::submission::state_label(&r.state)),
+            ("outcome", opt(&r.outcome)),
+            ("reason", opt(&r.reason)),
+            ("detail", opt(&r.detail)),
+            ("attempts", r.attempts.to_string()),
+            ("planner identity", opt(&r.planner_identity)),
+            ("simulator", opt(&r.sim_version)),
+            (
+                "worker wall time",
+                r.wall_time_s.map_or("-".into(), |t| format!("{t:.2} s")),
+            ),
+        ],
+        metrics,
+        map: world_task.map(|(w, t)| map_view(sub, w, t, &traj)),
+        charts: vec![
+            chart("roll-chart", "roll", "°", 3),
+            chart("pitch-chart", "pitch", "°", 4),
+            chart("speed-chart", "speed", "m/s", 5),
+        ],
+        log: d.planner_log.clone(),
+    })
+}

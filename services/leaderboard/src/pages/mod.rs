@@ -1,0 +1,164 @@
+//! Every page of the leaderboard, rendered by askama from `web/templates/` (compiled in and checked at build
+//! time). Askama escapes every `{{ value }}` for HTML; the only unescaped insertions are the page frame's own
+//! style sheet and SVG charts that our templates rendered ([`eval::charts::Markup`]).
+//!
+//! Why askama: templates are checked against their Rust view structs when the crate compiles (a missing field or a
+//! typo fails the build, not a request), escaping is on by default for `.html` and `.svg`, the templates stay
+//! plain HTML files in `web/templates/`, and nothing is read from disk at run time. maud escapes too but writes
+//! pages as Rust macros; minijinja checks templates only at run time.
+//!
+//! Pages: [`board`] (the service's `/` and `vb leaderboard-static`, one template), [`submission`] and
+//! [`episode`].
+
+pub mod board;
+pub mod episode;
+pub mod submission;
+
+use askama::Template;
+use eval::summary::Aggregate;
+use sha2::Digest;
+
+/// Pixels per heightmap sample of world pictures.
+pub const MAP_PPM: u32 = 4;
+
+const STYLE: &str = include_str!("../../../../web/static/style.css");
+
+/// The style sheet, served at `/static/style.css`.
+pub fn style_css() -> &'static str {
+    STYLE
+}
+
+/// The frame every page shares (`layout.html`).
+pub struct Frame {
+    pub title: String,
+    /// A running submission's pages refresh themselves.
+    pub refresh: bool,
+    /// The brand link's target.
+    pub home: &'static str,
+    /// A page that stands alone as a file (`vb leaderboard-static`): the style inline, allowed by its hash.
+    pub inline: Option<Inline>,
+}
+
+impl Frame {
+    /// A page of the service (its style sheet and Content-Security-Policy come from the server).
+    pub fn served(title: &str, refresh: bool) -> Frame {
+        Frame {
+            title: title.to_string(),
+            refresh,
+            home: "/",
+            inline: None,
+        }
+    }
+
+    /// A page opened from a file: the style inline and a Content-Security-Policy in a `<meta>` that allows only
+    /// that style (by its SHA-256) and nothing else.
+    pub fn standalone(title: &str) -> Frame {
+        Frame {
+            title: title.to_string(),
+            refresh: false,
+            home: "#",
+            inline: Some(Inline {
+                csp: standalone_csp(),
+                css: STYLE,
+            }),
+        }
+    }
+}
+
+pub struct Inline {
+    pub csp: String,
+    pub css: &'static str,
+}
+
+/// The Content-Security-Policy of a standalone page: no scripts, no sources, only the inline style with this hash.
+pub fn standalone_csp() -> String {
+    let hash = sha2::Sha256::digest(STYLE.as_bytes());
+    format!(
+        "default-src 'none'; style-src 'sha256-{}'; base-uri 'none'; form-action 'none'",
+        base64(&hash)
+    )
+}
+
+/// Standard base64 with padding (the CSP hash source's encoding).
+fn base64(bytes: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut s = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for c in bytes.chunks(3) {
+        let n = (c[0] as u32) << 16
+            | (*c.get(1).unwrap_or(&0) as u32) << 8
+            | *c.get(2).unwrap_or(&0) as u32;
+        for i in 0..4 {
+            if i <= c.len() {
+                s.push(A[(n >> (18 - 6 * i) & 63) as usize] as char);
+            } else {
+                s.push('=');
+            }
+        }
+    }
+    s
+}
+
+/// The cells of one aggregate, formatted (`macros.html`, `agg_cells`).
+pub struct AggView {
+    pub episodes: u32,
+    pub success: String,
+    pub ci: String,
+    pub time: String,
+    pub roll: String,
+    pub pitch: String,
+    pub rollover: String,
+    pub stuck: String,
+    pub timeout: String,
+    pub other: String,
+}
+
+impl AggView {
+    pub fn new(a: &Aggregate) -> AggView {
+        AggView {
+            episodes: a.episodes as u32,
+            success: format!("{:.1}%", 100.0 * a.success_rate),
+            ci: format!(
+                "[{:.1}, {:.1}]",
+                100.0 * a.success_ci95.0,
+                100.0 * a.success_ci95.1
+            ),
+            time: if a.success_rate > 0.0 {
+                format!("{:.1}", a.traversal_time_mean)
+            } else {
+                "-".into()
+            },
+            roll: format!("{:.2}", a.roll_mean),
+            pitch: format!("{:.2}", a.pitch_mean),
+            rollover: format!("{:.1}%", a.rollover_pct),
+            stuck: format!("{:.1}%", a.stuck_pct),
+            timeout: format!("{:.1}%", a.timeout_pct),
+            other: format!("{:.1}%", a.planner_failure_pct + a.off_map_pct),
+        }
+    }
+}
+
+/// Renders a page. Rendering fails only when a value's `Display` fails, which none of ours does; the error is
+/// then the page (escaped by the caller's response type as plain text would be).
+pub(crate) fn render(t: &impl Template) -> String {
+    t.render()
+        .unwrap_or_else(|e| format!("rendering the page failed: {e}"))
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn base64_matches_rfc_4648_vectors() {
+        // RFC 4648, section 10.
+        for (plain, enc) in [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ] {
+            assert_eq!(super::base64(plain.as_bytes()), enc);
+        }
+    }
+}

@@ -1,0 +1,231 @@
+//! A submission's page (`submission.html`): state and progress, reproducibility facts, summary, breakdowns with
+//! charts, matched density contrasts and its episodes, a page of [`PAGE_SIZE`] at a time.
+
+use super::{render, AggView, Frame};
+use crate::SubmissionEntry;
+use askama::Template;
+use eval::report::{DENSITIES, LEVELS, SEMANTICS};
+use eval::summary::Aggregate;
+use std::collections::BTreeMap;
+use vb_store::{EpisodeRecord, Submission};
+
+/// Episodes per page of a submission's episode table.
+pub const PAGE_SIZE: usize = 100;
+
+struct Breakdown {
+    title: &'static str,
+    id: &'static str,
+    rows: Vec<(String, AggView)>,
+}
+
+struct Contrast {
+    sparser: String,
+    denser: String,
+    tasks: usize,
+    rate_sparser: String,
+    rate_denser: String,
+    difference: String,
+    ci: String,
+    mcnemar: String,
+}
+
+struct EpisodeLine {
+    href: String,
+    task: String,
+    level: String,
+    semantics: String,
+    density: String,
+    state: String,
+    outcome: String,
+    reason: String,
+    time: String,
+    attempts: i64,
+    detail: String,
+}
+
+struct Pager {
+    info: String,
+    prev: Option<String>,
+    next: Option<String>,
+}
+
+#[derive(Template)]
+#[template(path = "submission.html")]
+struct Page {
+    frame: Frame,
+    name: String,
+    state: String,
+    finished: u32,
+    total: u32,
+    total_max: u32,
+    live: Option<String>,
+    not_run: u32,
+    repro: Vec<(&'static str, String)>,
+    overall: AggView,
+    charts: Option<eval::charts::Markup>,
+    breakdowns: Vec<Breakdown>,
+    matched: Vec<Contrast>,
+    page: Pager,
+    episodes: Vec<EpisodeLine>,
+}
+
+/// `builtin:pid`, or the kind alone (the public does not see command lines, URLs or image names).
+pub fn planner_label(s: &Submission) -> String {
+    if s.planner_spec.is_empty() {
+        s.planner_kind.clone()
+    } else {
+        format!("{}:{}", s.planner_kind, s.planner_spec)
+    }
+}
+
+/// `not_run` reads `not run`.
+pub fn state_label(state: &str) -> String {
+    state.replace('_', " ")
+}
+
+fn repro(s: &Submission) -> Vec<(&'static str, String)> {
+    vec![
+        ("submission", s.id.clone()),
+        ("owner", s.owner.clone()),
+        ("planner", planner_label(s)),
+        ("planner identity", s.planner_identity.clone()),
+        ("vehicle", format!("{} at scale {}", s.vehicle, s.scale)),
+        ("seed", s.seed.to_string()),
+        ("per-step deadline", format!("{} s", s.step_deadline_s)),
+        ("task set", s.task_set_version.clone()),
+        ("simulator", s.sim_version.clone()),
+    ]
+}
+
+fn breakdown(
+    title: &'static str,
+    id: &'static str,
+    map: &BTreeMap<String, Aggregate>,
+    order: [&str; 3],
+) -> Breakdown {
+    Breakdown {
+        title,
+        id,
+        rows: eval::report::in_order(map, &order)
+            .into_iter()
+            .map(|(k, a)| (k.clone(), AggView::new(a)))
+            .collect(),
+    }
+}
+
+fn contrast(c: &eval::summary::DensityContrast) -> Contrast {
+    let m = &c.comparison;
+    Contrast {
+        sparser: c.sparser.clone(),
+        denser: c.denser.clone(),
+        tasks: m.paired_tasks,
+        rate_sparser: format!("{:.1}%", 100.0 * m.success_b),
+        rate_denser: format!("{:.1}%", 100.0 * m.success_a),
+        difference: format!("{:+.1}", 100.0 * m.difference),
+        ci: format!(
+            "[{:+.1}, {:+.1}]",
+            100.0 * m.difference_ci95.0,
+            100.0 * m.difference_ci95.1
+        ),
+        mcnemar: format!(
+            "{}{}",
+            eval::compare::p_text(m.mcnemar_p),
+            if m.significant { " *" } else { "" }
+        ),
+    }
+}
+
+/// At most `max` bytes of `s`, cut at a character boundary and marked with `…`.
+fn cut(s: &str, max: usize) -> String {
+    if s.len() <= max {
+        return s.to_string();
+    }
+    let mut at = max;
+    while !s.is_char_boundary(at) {
+        at -= 1;
+    }
+    format!("{}…", &s[..at])
+}
+
+fn episode_line(sub_id: &str, ep: &EpisodeRecord) -> EpisodeLine {
+    let time = ep
+        .metrics_json
+        .as_deref()
+        .and_then(|m| serde_json::from_str::<sim_core::episode::EpisodeMetrics>(m).ok())
+        .map_or("-".into(), |m| format!("{:.1}", m.time));
+    EpisodeLine {
+        href: format!("/submissions/{sub_id}/episodes/{}", ep.task_id),
+        task: ep.task_id.clone(),
+        level: ep.level.clone(),
+        semantics: ep.semantics.clone(),
+        density: ep.density.clone(),
+        state: state_label(&ep.state),
+        outcome: ep.outcome.clone().unwrap_or_default(),
+        reason: ep.reason.clone().unwrap_or_default(),
+        time,
+        attempts: ep.attempts,
+        detail: cut(ep.detail.as_deref().unwrap_or(""), 160),
+    }
+}
+
+/// The page of a submission; `page` (from 1) selects which [`PAGE_SIZE`] episodes the table shows.
+pub fn page(e: &SubmissionEntry, eps: &[EpisodeRecord], page: usize) -> String {
+    let s = &e.submission;
+    let p = &e.progress;
+    let live = s.state == "queued" || s.state == "running";
+    let sum = &e.summary;
+    let pages = eps.len().div_ceil(PAGE_SIZE).max(1);
+    let page = page.clamp(1, pages);
+    let from = (page - 1) * PAGE_SIZE;
+    let shown = &eps[from.min(eps.len())..(from + PAGE_SIZE).min(eps.len())];
+    let link = |n: usize| format!("/submissions/{}?page={n}", s.id);
+    let has_charts = sum.overall.episodes > 0;
+    render(&Page {
+        frame: Frame::served(&s.name, live),
+        name: s.name.clone(),
+        state: state_label(&s.state),
+        finished: p.finished,
+        total: p.total,
+        total_max: p.total.max(1),
+        live: live.then(|| {
+            format!(
+                "running {} · queued {} · submissions ahead in the queue: {}",
+                p.running, p.queued, p.queue_position
+            )
+        }),
+        not_run: p.not_run,
+        repro: repro(s),
+        overall: AggView::new(&sum.overall),
+        charts: has_charts.then(|| eval::charts::charts_svg(sum)),
+        breakdowns: if has_charts {
+            vec![
+                breakdown("elevation level", "by-level", &sum.by_level, LEVELS),
+                breakdown(
+                    "terrain semantics",
+                    "by-semantics",
+                    &sum.by_semantics,
+                    SEMANTICS,
+                ),
+                breakdown("obstacle density", "by-density", &sum.by_density, DENSITIES),
+            ]
+        } else {
+            Vec::new()
+        },
+        matched: sum.density_matched.iter().map(contrast).collect(),
+        page: Pager {
+            info: if eps.is_empty() {
+                "No episodes.".into()
+            } else {
+                format!(
+                    "Episodes {}-{} of {} (page {page} of {pages}).",
+                    from + 1,
+                    from + shown.len(),
+                    eps.len()
+                )
+            },
+            prev: (page > 1).then(|| link(page - 1)),
+            next: (page < pages).then(|| link(page + 1)),
+        },
+        episodes: shown.iter().map(|ep| episode_line(&s.id, ep)).collect(),
+    })
+}
