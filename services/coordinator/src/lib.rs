@@ -142,6 +142,30 @@ impl Coordinator {
         }
     }
 
+    /// Keeps each submission's stored aggregates current, forever (spawn it): every second it refreshes those that
+    /// cover fewer finished episodes than the submission has (results arrived, leases expired into recorded
+    /// failures, or an older store without them). O(one submission) per refresh.
+    pub async fn run_summary_keeper(self: Arc<Self>) {
+        loop {
+            match self.store.stale_summaries().await {
+                Ok(ids) => {
+                    for id in ids {
+                        self.refresh_summary(&id).await;
+                    }
+                }
+                Err(e) => eprintln!("coordinator: summary sweep failed: {e}"),
+            }
+            tokio::time::sleep(Duration::from_secs(1)).await;
+        }
+    }
+
+    /// Stores a submission's aggregates now (a failure is logged: the keeper tries again).
+    async fn refresh_summary(&self, id: &str) {
+        if let Err(e) = self.store.refresh_summary(id, Some(&self.set), now()).await {
+            eprintln!("coordinator: summarising {id} failed: {e}");
+        }
+    }
+
     /// The token a request carries (`authorization: Bearer <token>`).
     async fn authenticate<T>(&self, req: &Request<T>) -> Result<Token, Status> {
         let header = req
@@ -450,6 +474,7 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
             let _g = self.0.lease_lock.lock().await;
             self.0.store.cancel(id, now()).await.map_err(store_status)?;
         }
+        self.0.refresh_summary(id).await;
         Ok(Response::new(self.0.status_of(id).await?))
     }
 
@@ -671,6 +696,19 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
                 .await
                 .map_err(store_status)?
         };
+        // A submission's last result: its final aggregates are stored before the worker hears back.
+        if outcome == ReportOutcome::Accepted {
+            let ended = self
+                .0
+                .store
+                .reader()
+                .submission(&r.submission_id)
+                .await
+                .map_err(store_status)?;
+            if ended.state == "done" {
+                self.0.refresh_summary(&r.submission_id).await;
+            }
+        }
         Ok(Response::new(pb::ReportAck {
             accepted: outcome == ReportOutcome::Accepted,
             duplicate: outcome == ReportOutcome::Duplicate,

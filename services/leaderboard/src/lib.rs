@@ -5,6 +5,7 @@
 //! Pages are rendered on the server by askama templates in `web/templates/` ([`pages`], compiled in and escaping
 //! every value); no JavaScript.
 
+pub mod bench;
 pub mod pages;
 pub mod public;
 
@@ -13,12 +14,12 @@ use axum::http::{header, StatusCode};
 use axum::response::{Html, IntoResponse, Response};
 use axum::routing::get;
 use axum::{Json, Router};
-use eval::EpisodeRow;
 use serde::Serialize;
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::{Duration, Instant};
 use tasks::TaskSet;
-use vb_store::{EpisodeRecord, Progress, Reader, StoreError, Submission};
+use vb_store::{EpisodeRecord, Progress, Reader, StoreError, StoredSummary, Submission};
 
 pub const OPENAPI: &str = include_str!("../../../web/openapi.json");
 
@@ -27,6 +28,20 @@ pub struct Leaderboard {
     reader: Reader,
     set: Option<Arc<TaskSet>>,
     world_png: Mutex<HashMap<u32, Arc<Vec<u8>>>>,
+    /// The ranking, at most [`SNAPSHOT_TTL`] old, with its page and JSON rendered once.
+    snapshot: tokio::sync::Mutex<Option<Arc<Snapshot>>>,
+}
+
+/// How long the ranking (`/`, `/api/submissions`, a submission's rank) is reused before it is read again: pages
+/// may be this much behind the store, and the store is read at most once per period however many requests come.
+pub const SNAPSHOT_TTL: Duration = Duration::from_secs(1);
+
+/// The ranking as read at `at`, and its renderings (made on first use).
+struct Snapshot {
+    at: Instant,
+    entries: Vec<SubmissionEntry>,
+    html: OnceLock<String>,
+    json: OnceLock<String>,
 }
 
 /// One submission with its progress and summary, as the API returns it.
@@ -84,46 +99,6 @@ impl IntoResponse for WebError {
     }
 }
 
-/// Turns stored finished episodes into the evaluation rows the summaries are computed from. `set`, when it is the
-/// submission's task set, gives each world's terrain group (for the matched density contrasts).
-pub fn rows(sub: &Submission, eps: &[EpisodeRecord], set: Option<&TaskSet>) -> Vec<EpisodeRow> {
-    let set = set.filter(|s| s.version() == sub.task_set_version);
-    eps.iter()
-        .filter(|e| e.state == "done")
-        .map(|e| EpisodeRow {
-            task_id: e.task_id.clone(),
-            world_id: e.world_id,
-            task_index: e.task_index,
-            level: e.level.clone(),
-            semantics: e.semantics.clone(),
-            density: e.density.clone(),
-            terrain: set
-                .and_then(|s| s.world_meta(e.world_id).ok())
-                .and_then(|m| m.terrain),
-            planner: sub.name.clone(),
-            vehicle: sub.vehicle.clone(),
-            scale: sub.scale,
-            seed: sub.seed,
-            task_set_version: sub.task_set_version.clone(),
-            sim_version: e
-                .sim_version
-                .clone()
-                .unwrap_or_else(|| sub.sim_version.clone()),
-            // The service runs every episode under the paper's rules.
-            rules: Default::default(),
-            outcome: e.outcome.clone().unwrap_or_default(),
-            reason: e.reason.clone().unwrap_or_default(),
-            detail: e.detail.clone().unwrap_or_default(),
-            metrics: e
-                .metrics_json
-                .as_deref()
-                .and_then(|m| serde_json::from_str(m).ok())
-                .unwrap_or_default(),
-            wall_time_s: e.wall_time_s.unwrap_or(0.0),
-        })
-        .collect()
-}
-
 impl Leaderboard {
     /// `set` gives the maps drawn under episode paths (pages work without it, minus the map).
     pub fn new(reader: Reader, set: Option<TaskSet>) -> Arc<Leaderboard> {
@@ -131,6 +106,7 @@ impl Leaderboard {
             reader,
             set: set.map(Arc::new),
             world_png: Mutex::new(HashMap::new()),
+            snapshot: tokio::sync::Mutex::new(None),
         })
     }
 
@@ -151,15 +127,34 @@ impl Leaderboard {
             .layer(axum::middleware::map_response(security_headers))
     }
 
-    async fn entry(&self, sub: Submission) -> Result<SubmissionEntry, WebError> {
-        let progress = self.reader.progress(&sub.id).await?;
-        let eps = public::episodes(&self.reader, &sub.id).await?;
-        let mut summary = eval::summary::summarise(&rows(&sub, &eps, self.set.as_deref()));
-        summary.planner = sub.name.clone();
-        summary.vehicle = sub.vehicle.clone();
-        summary.scale = sub.scale;
-        summary.task_set_version = sub.task_set_version.clone();
-        summary.sim_version = sub.sim_version.clone();
+    /// A submission's entry from its stored aggregates (computed from its episodes only when the coordinator has
+    /// not stored them yet). Progress is counted for a submission still running; an ended one's is final and comes
+    /// from the stored counts.
+    async fn entry(
+        &self,
+        sub: Submission,
+        stored: Option<StoredSummary>,
+    ) -> Result<SubmissionEntry, WebError> {
+        let ended = sub.state == "done" || sub.state == "cancelled";
+        // An ended submission's aggregates count only when written after it ended (the coordinator writes them then).
+        let stored = stored.filter(|m| !ended || sub.finished_at.is_none_or(|f| m.updated_at >= f));
+        let summary = match &stored {
+            Some(m) => m.summary.clone(),
+            None => {
+                let eps = public::episodes(&self.reader, &sub.id).await?;
+                vb_store::aggregate::summary_of(&sub, &eps, self.set.as_deref())
+            }
+        };
+        let progress = match &stored {
+            Some(m) if ended => Progress {
+                total: sub.tasks,
+                finished: m.finished,
+                not_run: sub.tasks.saturating_sub(m.finished),
+                successes: m.successes,
+                ..Progress::default()
+            },
+            _ => self.reader.progress(&sub.id).await?,
+        };
         Ok(SubmissionEntry {
             rank: None,
             submission: sub,
@@ -170,11 +165,11 @@ impl Leaderboard {
 
     /// Every submission. Only complete runs are ranked (by success rate): submissions that finished every task of
     /// the task set. Partial ones (fewer tasks, cancelled, still running) follow, unranked, so three lucky episodes
-    /// never top the board.
+    /// never top the board. Reads one row per submission (plus the progress of running ones).
     pub async fn ranked(&self) -> Result<Vec<SubmissionEntry>, WebError> {
         let mut out = Vec::new();
-        for s in public::submissions(&self.reader).await? {
-            out.push(self.entry(s).await?);
+        for (s, m) in public::board(&self.reader).await? {
+            out.push(self.entry(s, m).await?);
         }
         let full = match &self.set {
             Some(set) => set.world_ids().len() as u32 * 10,
@@ -208,6 +203,35 @@ impl Leaderboard {
         Ok(out)
     }
 
+    /// The ranking, read again only when the last reading is older than [`SNAPSHOT_TTL`] (or `fresh` asks for it).
+    async fn snapshot(&self, fresh: bool) -> Result<Arc<Snapshot>, WebError> {
+        let mut guard = self.snapshot.lock().await;
+        if let Some(s) = guard.as_ref() {
+            if !fresh && s.at.elapsed() < SNAPSHOT_TTL {
+                return Ok(s.clone());
+            }
+        }
+        let snap = Arc::new(Snapshot {
+            at: Instant::now(),
+            entries: self.ranked().await?,
+            html: OnceLock::new(),
+            json: OnceLock::new(),
+        });
+        *guard = Some(snap.clone());
+        Ok(snap)
+    }
+
+    /// One submission's entry with its rank (from the ranking snapshot, read again once if the submission is newer).
+    async fn ranked_entry(&self, id: &str) -> Result<SubmissionEntry, WebError> {
+        for fresh in [false, true] {
+            let snap = self.snapshot(fresh).await?;
+            if let Some(e) = snap.entries.iter().find(|e| e.submission.id == id) {
+                return Ok(e.clone());
+            }
+        }
+        Err(WebError::NotFound(format!("no submission `{id}`")))
+    }
+
     fn world_png_bytes(&self, id: u32) -> Result<Arc<Vec<u8>>, WebError> {
         if let Some(b) = self.world_png.lock().ok().and_then(|m| m.get(&id).cloned()) {
             return Ok(b);
@@ -237,8 +261,12 @@ impl Leaderboard {
 type St = State<Arc<Leaderboard>>;
 
 async fn index(State(lb): St) -> Result<Html<String>, WebError> {
-    let entries = lb.ranked().await?;
-    Ok(Html(pages::board::index(&entries)))
+    let snap = lb.snapshot(false).await?;
+    Ok(Html(
+        snap.html
+            .get_or_init(|| pages::board::index(&snap.entries))
+            .clone(),
+    ))
 }
 
 /// `?page=N` (from 1) of a submission's episode table.
@@ -253,13 +281,12 @@ async fn submission_page(
     Query(q): Query<PageQuery>,
 ) -> Result<Html<String>, WebError> {
     let sub = public::submission(&lb.reader, &id).await?;
-    let entry = lb.entry(sub).await?;
-    let eps = public::episodes(&lb.reader, &id).await?;
-    Ok(Html(pages::submission::page(
-        &entry,
-        &eps,
-        q.page.unwrap_or(1),
-    )))
+    let stored = lb.reader.stored_summary(&id).await?;
+    let (page, offset) = pages::submission::page_offset(q.page.unwrap_or(1), sub.tasks as usize);
+    let eps =
+        public::episodes_range(&lb.reader, &sub, offset, pages::submission::PAGE_SIZE).await?;
+    let entry = lb.entry(sub, stored).await?;
+    Ok(Html(pages::submission::page(&entry, &eps, page, offset)))
 }
 
 async fn episode_page(
@@ -310,20 +337,20 @@ async fn openapi() -> Response {
     ([(header::CONTENT_TYPE, "application/json")], OPENAPI).into_response()
 }
 
-async fn api_submissions(State(lb): St) -> Result<Json<Vec<SubmissionEntry>>, WebError> {
-    Ok(Json(lb.ranked().await?))
+async fn api_submissions(State(lb): St) -> Result<Response, WebError> {
+    let snap = lb.snapshot(false).await?;
+    let json = snap.json.get_or_init(|| {
+        serde_json::to_string(&snap.entries).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+    });
+    Ok(([(header::CONTENT_TYPE, "application/json")], json.clone()).into_response())
 }
 
 async fn api_submission(
     State(lb): St,
     Path(id): Path<String>,
 ) -> Result<Json<SubmissionEntry>, WebError> {
-    let ranked = lb.ranked().await?;
-    ranked
-        .into_iter()
-        .find(|e| e.submission.id == id)
-        .map(Json)
-        .ok_or_else(|| WebError::NotFound(format!("no submission `{id}`")))
+    public::submission(&lb.reader, &id).await?;
+    Ok(Json(lb.ranked_entry(&id).await?))
 }
 
 async fn api_episodes(

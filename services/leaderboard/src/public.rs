@@ -3,7 +3,7 @@
 //! leaderboard goes through here.
 
 use sha2::{Digest, Sha256};
-use vb_store::{EpisodeDetail, EpisodeRecord, Reader, StoreError, Submission};
+use vb_store::{EpisodeDetail, EpisodeRecord, Reader, StoreError, StoredSummary, Submission};
 
 /// A short hash of a planner identity (`sha256:` and 12 hex digits): equal identities, equal hashes.
 pub fn identity_hash(identity: &str) -> String {
@@ -42,6 +42,29 @@ pub async fn submission(r: &Reader, id: &str) -> Result<Submission, StoreError> 
 
 pub async fn submissions(r: &Reader) -> Result<Vec<Submission>, StoreError> {
     Ok(r.submissions().await?.into_iter().map(redact).collect())
+}
+
+/// Every submission with its stored aggregates, newest first.
+pub async fn board(r: &Reader) -> Result<Vec<(Submission, Option<StoredSummary>)>, StoreError> {
+    Ok(r.board()
+        .await?
+        .into_iter()
+        .map(|(s, m)| (redact(s), m))
+        .collect())
+}
+
+/// A page of a submission's episodes (`limit` from `offset`).
+pub async fn episodes_range(
+    r: &Reader,
+    sub: &Submission,
+    offset: usize,
+    limit: usize,
+) -> Result<Vec<EpisodeRecord>, StoreError> {
+    Ok(r.episodes_range(&sub.id, offset, limit)
+        .await?
+        .into_iter()
+        .map(|e| redact_episode(&sub.planner_kind, e))
+        .collect())
 }
 
 pub async fn episodes(r: &Reader, id: &str) -> Result<Vec<EpisodeRecord>, StoreError> {

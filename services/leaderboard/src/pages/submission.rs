@@ -168,16 +168,21 @@ fn episode_line(sub_id: &str, ep: &EpisodeRecord) -> EpisodeLine {
     }
 }
 
-/// The page of a submission; `page` (from 1) selects which [`PAGE_SIZE`] episodes the table shows.
-pub fn page(e: &SubmissionEntry, eps: &[EpisodeRecord], page: usize) -> String {
+/// The page of the episode table that `page` (from 1) asks for among `total` episodes (past the end: the last),
+/// and the position of its first episode.
+pub fn page_offset(page: usize, total: usize) -> (usize, usize) {
+    let page = page.clamp(1, total.div_ceil(PAGE_SIZE).max(1));
+    (page, (page - 1) * PAGE_SIZE)
+}
+
+/// The page of a submission showing `shown`, its episodes from position `from` (page `page` of its table).
+pub fn page(e: &SubmissionEntry, shown: &[EpisodeRecord], page: usize, from: usize) -> String {
     let s = &e.submission;
     let p = &e.progress;
     let live = s.state == "queued" || s.state == "running";
     let sum = &e.summary;
-    let pages = eps.len().div_ceil(PAGE_SIZE).max(1);
-    let page = page.clamp(1, pages);
-    let from = (page - 1) * PAGE_SIZE;
-    let shown = &eps[from.min(eps.len())..(from + PAGE_SIZE).min(eps.len())];
+    let total = (s.tasks as usize).max(from + shown.len());
+    let pages = total.div_ceil(PAGE_SIZE).max(1);
     let link = |n: usize| format!("/submissions/{}?page={n}", s.id);
     let has_charts = sum.overall.episodes > 0;
     render(&Page {
@@ -213,14 +218,14 @@ pub fn page(e: &SubmissionEntry, eps: &[EpisodeRecord], page: usize) -> String {
         },
         matched: sum.density_matched.iter().map(contrast).collect(),
         page: Pager {
-            info: if eps.is_empty() {
+            info: if total == 0 {
                 "No episodes.".into()
             } else {
                 format!(
                     "Episodes {}-{} of {} (page {page} of {pages}).",
                     from + 1,
                     from + shown.len(),
-                    eps.len()
+                    total
                 )
             },
             prev: (page > 1).then(|| link(page - 1)),

@@ -24,6 +24,30 @@ pub enum BenchCmd {
         #[arg(last = true, required = true)]
         command: Vec<String>,
     },
+    /// Latency of the leaderboard's pages and API at a fixed request rate on loopback, over a throw-away store seeded
+    /// with finished submissions through the store's own API.
+    Leaderboard {
+        /// Finished submissions to seed.
+        #[arg(long, default_value_t = 100)]
+        submissions: usize,
+        /// Episodes per submission.
+        #[arg(long, default_value_t = 1000)]
+        episodes: usize,
+        /// Rows of each episode's trajectory (a 60 s episode logged at 10 Hz has 600).
+        #[arg(long, default_value_t = 600)]
+        trajectory_rows: usize,
+        /// Requests per second, per path.
+        #[arg(long, default_value_t = 500.0)]
+        rate: f64,
+        /// Seconds of load per path.
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
+        /// Store to seed: an empty throw-away database (default: a new SQLite file in a temporary directory).
+        #[arg(long)]
+        db: Option<String>,
+        #[arg(long)]
+        task_dir: Option<PathBuf>,
+    },
 }
 
 fn percentile(sorted: &[f64], q: f64) -> f64 {
@@ -104,6 +128,55 @@ fn bench_planner(tasks_spec: &str, task_dir: PathBuf, command: Vec<String>) -> a
 
 pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
     match cmd {
+        BenchCmd::Leaderboard {
+            submissions,
+            episodes,
+            trajectory_rows,
+            rate,
+            seconds,
+            db,
+            task_dir,
+        } => {
+            let set = tasks::TaskSet::load(&task_dir.unwrap_or_else(tasks::TaskSet::default_dir))?;
+            let tmp =
+                std::env::temp_dir().join(format!("vb-bench-leaderboard-{}", std::process::id()));
+            let url = match db {
+                Some(u) => u,
+                None => {
+                    std::fs::create_dir_all(&tmp)?;
+                    format!("sqlite://{}", tmp.join("vb.db").display())
+                }
+            };
+            let rt = tokio::runtime::Runtime::new()?;
+            let result = rt.block_on(async {
+                let store = vb_store::Store::open(&url).await?;
+                let t0 = std::time::Instant::now();
+                let ids = vb_leaderboard::bench::seed(&store, &set, submissions, episodes, trajectory_rows).await?;
+                println!(
+                    "seeded {submissions} submissions x {episodes} episodes ({trajectory_rows}-row trajectories) in {:.0} s on {url}",
+                    t0.elapsed().as_secs_f64()
+                );
+                let lb = vb_leaderboard::Leaderboard::new(store.reader(), Some(set));
+                let addr = vb_leaderboard::bench::serve_loopback(lb).await?;
+                let id = &ids[ids.len() / 2];
+                println!("path                                   rate/s  requests  failed    p50 ms    p99 ms    max ms   bytes");
+                for path in [
+                    "/".to_string(),
+                    "/api/submissions".to_string(),
+                    format!("/api/submissions/{id}"),
+                    format!("/submissions/{id}"),
+                ] {
+                    let r = vb_leaderboard::bench::load(addr, &path, rate, seconds).await;
+                    println!(
+                        "{:<38} {:>6.0} {:>9} {:>7} {:>9.2} {:>9.2} {:>9.2} {:>7}",
+                        r.path, r.rate, r.requests, r.failed, r.p50_ms, r.p99_ms, r.max_ms, r.bytes
+                    );
+                }
+                anyhow::Ok(())
+            });
+            let _ = std::fs::remove_dir_all(&tmp);
+            result
+        }
         BenchCmd::Planner {
             tasks,
             task_dir,

@@ -251,6 +251,7 @@ async fn start_coordinator(
 ) -> anyhow::Result<Arc<Coordinator>> {
     let coord = Coordinator::new(store, cfg)?;
     tokio::spawn(coord.clone().run_lease_sweeper());
+    tokio::spawn(coord.clone().run_summary_keeper());
     let mut grpc = vb_coordinator::grpc_router(&coord);
     if let Some(sim) = sim {
         grpc = grpc.add_service(sim.server());

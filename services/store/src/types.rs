@@ -1,0 +1,240 @@
+//! The store's values: tokens, submissions, episodes, leases, reports and progress, and how rows become them.
+
+use crate::Result;
+use serde::{Deserialize, Serialize};
+use sqlx::any::AnyRow;
+use sqlx::Row;
+
+/// What a token may do.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TokenRole {
+    /// Submits planners and sees, follows and cancels its own submissions.
+    User,
+    /// Everything a user may, on every submission.
+    Admin,
+    /// The worker API only: registers workers, leases, renews and reports for them.
+    Worker,
+}
+
+impl TokenRole {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::User => "user",
+            Self::Admin => "admin",
+            Self::Worker => "worker",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<TokenRole> {
+        match s {
+            "user" => Some(Self::User),
+            "admin" => Some(Self::Admin),
+            "worker" => Some(Self::Worker),
+            _ => None,
+        }
+    }
+}
+
+/// A valid token: its id (what submissions and workers are bound to), name and role.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Token {
+    pub id: String,
+    pub name: String,
+    pub role: TokenRole,
+}
+
+/// Which database a store runs on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Backend {
+    Sqlite,
+    Postgres,
+}
+
+/// A new submission as the coordinator accepted it.
+#[derive(Clone, Debug)]
+pub struct NewSubmission {
+    pub name: String,
+    pub owner: String,
+    /// Id of the token that submitted it: only that token (and admins) may see and cancel it.
+    pub owner_token: String,
+    pub planner_kind: String,
+    pub planner_spec: String,
+    pub planner_identity: String,
+    pub vehicle: String,
+    pub scale: f64,
+    pub seed: u64,
+    pub step_deadline_s: f64,
+    pub task_set_version: String,
+    pub sim_version: String,
+}
+
+/// One task of a new submission, with the factors the leaderboard breaks results down by.
+#[derive(Clone, Debug)]
+pub struct NewEpisode {
+    pub task_id: String,
+    pub world_id: u32,
+    pub task_index: u32,
+    pub level: String,
+    pub semantics: String,
+    pub density: String,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Submission {
+    pub id: String,
+    pub seq: i64,
+    pub name: String,
+    pub owner: String,
+    /// Id of the token that submitted it (empty for submissions made before owners were recorded).
+    #[serde(default)]
+    pub owner_token: String,
+    pub planner_kind: String,
+    pub planner_spec: String,
+    pub planner_identity: String,
+    pub vehicle: String,
+    pub scale: f64,
+    pub seed: u64,
+    pub step_deadline_s: f64,
+    pub task_set_version: String,
+    pub sim_version: String,
+    pub state: String,
+    pub created_at: f64,
+    pub finished_at: Option<f64>,
+    /// How many tasks it has (episodes, whatever their state).
+    #[serde(default)]
+    pub tasks: u32,
+}
+
+/// Progress of a submission.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Progress {
+    pub total: u32,
+    pub finished: u32,
+    pub running: u32,
+    pub queued: u32,
+    pub not_run: u32,
+    pub successes: u32,
+    /// Submissions created earlier that still have queued or running episodes.
+    pub queue_position: u32,
+    /// Episodes that will run before this submission's last one: queued/leased episodes of earlier submissions plus
+    /// this submission's own unfinished ones.
+    pub episodes_ahead: u32,
+}
+
+/// An episode handed to a worker.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lease {
+    pub lease_id: String,
+    /// The worker holding it.
+    pub worker_id: String,
+    pub submission: Submission,
+    pub task_id: String,
+    pub attempt: i64,
+}
+
+/// A finished episode as a worker reported it.
+#[derive(Clone, Debug, Default)]
+pub struct EpisodeResultIn {
+    pub lease_id: String,
+    pub submission_id: String,
+    pub task_id: String,
+    pub outcome: String,
+    pub reason: String,
+    pub detail: String,
+    pub metrics_json: String,
+    pub trajectory_csv: String,
+    pub planner_log: String,
+    pub sim_version: String,
+    pub planner_identity: String,
+    pub wall_time_s: f64,
+}
+
+/// What happened to a reported result.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReportOutcome {
+    /// Stored: the first result of this (submission, task).
+    Accepted,
+    /// This (submission, task) already has a result; the report was ignored.
+    Duplicate,
+    /// The episode is not leased (cancelled and marked not run, or unknown); the report was ignored.
+    Rejected,
+}
+
+/// A stored episode (everything but the trajectory and the planner log, which [`Reader::episode_detail`] adds).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeRecord {
+    pub submission_id: String,
+    pub task_id: String,
+    pub world_id: u32,
+    pub task_index: u32,
+    pub level: String,
+    pub semantics: String,
+    pub density: String,
+    pub state: String,
+    pub attempts: i64,
+    pub outcome: Option<String>,
+    pub reason: Option<String>,
+    pub detail: Option<String>,
+    pub metrics_json: Option<String>,
+    pub sim_version: Option<String>,
+    pub planner_identity: Option<String>,
+    pub wall_time_s: Option<f64>,
+    pub finished_at: Option<f64>,
+}
+
+/// One episode with its trajectory (CSV) and the planner's log.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeDetail {
+    pub record: EpisodeRecord,
+    pub trajectory_csv: String,
+    pub planner_log: String,
+}
+
+pub(crate) fn submission_from_row(r: &AnyRow) -> Result<Submission> {
+    Ok(Submission {
+        id: r.try_get("id")?,
+        seq: r.try_get("seq")?,
+        name: r.try_get("name")?,
+        owner: r.try_get("owner")?,
+        owner_token: r.try_get("owner_token")?,
+        planner_kind: r.try_get("planner_kind")?,
+        planner_spec: r.try_get("planner_spec")?,
+        planner_identity: r.try_get("planner_identity")?,
+        vehicle: r.try_get("vehicle")?,
+        scale: r.try_get("scale")?,
+        seed: r.try_get::<i64, _>("seed")? as u64,
+        step_deadline_s: r.try_get("step_deadline_s")?,
+        task_set_version: r.try_get("task_set_version")?,
+        sim_version: r.try_get("sim_version")?,
+        state: r.try_get("state")?,
+        created_at: r.try_get("created_at")?,
+        finished_at: r.try_get("finished_at")?,
+        tasks: r.try_get::<i64, _>("tasks")? as u32,
+    })
+}
+
+pub(crate) const EPISODE_COLUMNS: &str = "submission_id, task_id, world_id, task_index, level, semantics, density, state, \
+     attempts, outcome, reason, detail, metrics_json, sim_version, planner_identity, wall_time_s, finished_at";
+
+pub(crate) fn episode_from_row(r: &AnyRow) -> Result<EpisodeRecord> {
+    Ok(EpisodeRecord {
+        submission_id: r.try_get("submission_id")?,
+        task_id: r.try_get("task_id")?,
+        world_id: r.try_get::<i64, _>("world_id")? as u32,
+        task_index: r.try_get::<i64, _>("task_index")? as u32,
+        level: r.try_get("level")?,
+        semantics: r.try_get("semantics")?,
+        density: r.try_get("density")?,
+        state: r.try_get("state")?,
+        attempts: r.try_get("attempts")?,
+        outcome: r.try_get("outcome")?,
+        reason: r.try_get("reason")?,
+        detail: r.try_get("detail")?,
+        metrics_json: r.try_get("metrics_json")?,
+        sim_version: r.try_get("sim_version")?,
+        planner_identity: r.try_get("planner_identity")?,
+        wall_time_s: r.try_get("wall_time_s")?,
+        finished_at: r.try_get("finished_at")?,
+    })
+}

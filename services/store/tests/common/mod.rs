@@ -1,0 +1,76 @@
+//! Databases and values the store's tests share.
+
+use vb_store::*;
+
+/// Fresh, empty databases to test on: a SQLite file, and a new PostgreSQL database when a server is configured.
+pub async fn backends(test: &str) -> anyhow::Result<Vec<String>> {
+    let dir = std::env::temp_dir().join(format!("vb-store-test-{}-{test}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir)?;
+    let mut urls = vec![format!("sqlite://{}", dir.join("vb.db").display())];
+    match std::env::var("VB_TEST_POSTGRES_URL") {
+        Ok(admin) if !admin.is_empty() => {
+            sqlx::any::install_default_drivers();
+            let pool = sqlx::AnyPool::connect(&admin).await?;
+            let db = format!("vbtest_{}_{test}", std::process::id());
+            sqlx::query(&format!("DROP DATABASE IF EXISTS {db}"))
+                .execute(&pool)
+                .await?;
+            sqlx::query(&format!("CREATE DATABASE {db}"))
+                .execute(&pool)
+                .await?;
+            pool.close().await;
+            let base = admin.rsplit_once('/').map_or(admin.as_str(), |(b, _)| b);
+            urls.push(format!("{base}/{db}"));
+        }
+        _ => eprintln!("SKIPPED on PostgreSQL: VB_TEST_POSTGRES_URL is unset (only SQLite tested)"),
+    }
+    Ok(urls)
+}
+
+pub fn new_submission(name: &str) -> NewSubmission {
+    NewSubmission {
+        name: name.into(),
+        owner: "tester".into(),
+        owner_token: "tk-1".into(),
+        planner_kind: "builtin".into(),
+        planner_spec: "pid".into(),
+        planner_identity: "builtin:pid".into(),
+        vehicle: "hmmwv".into(),
+        scale: 1.0,
+        seed: 7,
+        step_deadline_s: 1.0,
+        task_set_version: "abc".into(),
+        sim_version: "sim-core test".into(),
+    }
+}
+
+pub fn episodes(n: u32) -> Vec<NewEpisode> {
+    (0..n)
+        .map(|i| NewEpisode {
+            task_id: format!("w001-t{i}"),
+            world_id: 1,
+            task_index: i,
+            level: "low".into(),
+            semantics: "rigid".into(),
+            density: "sparse".into(),
+        })
+        .collect()
+}
+
+pub fn result(lease: &Lease, outcome: &str) -> EpisodeResultIn {
+    EpisodeResultIn {
+        lease_id: lease.lease_id.clone(),
+        submission_id: lease.submission.id.clone(),
+        task_id: lease.task_id.clone(),
+        outcome: outcome.into(),
+        reason: outcome.into(),
+        metrics_json: "{}".into(),
+        trajectory_csv: "time,x\n0,0\n".into(),
+        planner_log: "hello".into(),
+        sim_version: "sim-core test".into(),
+        planner_identity: "builtin:pid".into(),
+        wall_time_s: 0.5,
+        ..Default::default()
+    }
+}
