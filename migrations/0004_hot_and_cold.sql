@@ -3,7 +3,7 @@
 --    existing ones when it opens, and empties the old columns);
 -- 2. each submission's aggregates (overall and per factor, with intervals and matched contrasts: eval's Summary as
 --    JSON) are stored, written by the coordinator while results arrive and when the submission ends;
--- 3. a submission knows its number of tasks.
+-- 3. a submission knows its number of tasks, and its episodes are indexed in their order (pages of its table).
 CREATE TABLE episode_blobs (
     submission_id   TEXT NOT NULL,
     task_id         TEXT NOT NULL,
@@ -22,3 +22,4 @@ CREATE TABLE submission_summaries (
 
 ALTER TABLE submissions ADD COLUMN tasks BIGINT NOT NULL DEFAULT 0;
 UPDATE submissions SET tasks = (SELECT COUNT(*) FROM episodes e WHERE e.submission_id = submissions.id);
+CREATE INDEX episodes_by_order ON episodes (submission_id, ord);

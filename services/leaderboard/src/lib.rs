@@ -6,6 +6,8 @@
 //! every value); no JavaScript.
 
 pub mod bench;
+pub mod cache;
+pub mod metrics;
 pub mod pages;
 pub mod public;
 
@@ -16,8 +18,7 @@ use axum::routing::get;
 use axum::{Json, Router};
 use serde::Serialize;
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex, OnceLock};
-use std::time::{Duration, Instant};
+use std::sync::{Arc, Mutex};
 use tasks::TaskSet;
 use vb_store::{EpisodeRecord, Progress, Reader, StoreError, StoredSummary, Submission};
 
@@ -28,20 +29,10 @@ pub struct Leaderboard {
     reader: Reader,
     set: Option<Arc<TaskSet>>,
     world_png: Mutex<HashMap<u32, Arc<Vec<u8>>>>,
-    /// The ranking, at most [`SNAPSHOT_TTL`] old, with its page and JSON rendered once.
-    snapshot: tokio::sync::Mutex<Option<Arc<Snapshot>>>,
-}
-
-/// How long the ranking (`/`, `/api/submissions`, a submission's rank) is reused before it is read again: pages
-/// may be this much behind the store, and the store is read at most once per period however many requests come.
-pub const SNAPSHOT_TTL: Duration = Duration::from_secs(1);
-
-/// The ranking as read at `at`, and its renderings (made on first use).
-struct Snapshot {
-    at: Instant,
-    entries: Vec<SubmissionEntry>,
-    html: OnceLock<String>,
-    json: OnceLock<String>,
+    /// The ranking, at most [`cache::TTL`] old, with its page and JSON.
+    snapshot: cache::SnapshotCell,
+    /// Rendered submission pages.
+    pages: cache::PageCache,
 }
 
 /// One submission with its progress and summary, as the API returns it.
@@ -106,7 +97,8 @@ impl Leaderboard {
             reader,
             set: set.map(Arc::new),
             world_png: Mutex::new(HashMap::new()),
-            snapshot: tokio::sync::Mutex::new(None),
+            snapshot: Default::default(),
+            pages: Default::default(),
         })
     }
 
@@ -118,6 +110,7 @@ impl Leaderboard {
             .route("/worlds/:file", get(world_png))
             .route("/static/style.css", get(style))
             .route("/api/openapi.json", get(openapi))
+            .route("/metrics", get(metrics_text))
             .route("/api/submissions", get(api_submissions))
             .route("/api/submissions/:id", get(api_submission))
             .route("/api/submissions/:id/episodes", get(api_episodes))
@@ -203,22 +196,13 @@ impl Leaderboard {
         Ok(out)
     }
 
-    /// The ranking, read again only when the last reading is older than [`SNAPSHOT_TTL`] (or `fresh` asks for it).
-    async fn snapshot(&self, fresh: bool) -> Result<Arc<Snapshot>, WebError> {
-        let mut guard = self.snapshot.lock().await;
-        if let Some(s) = guard.as_ref() {
-            if !fresh && s.at.elapsed() < SNAPSHOT_TTL {
-                return Ok(s.clone());
-            }
-        }
-        let snap = Arc::new(Snapshot {
-            at: Instant::now(),
-            entries: self.ranked().await?,
-            html: OnceLock::new(),
-            json: OnceLock::new(),
-        });
-        *guard = Some(snap.clone());
-        Ok(snap)
+    /// The ranking, read again only when the last reading is older than [`cache::TTL`] (or `fresh` asks for it).
+    async fn snapshot(&self, fresh: bool) -> Result<Arc<cache::Snapshot>, WebError> {
+        self.snapshot
+            .get(fresh, || async {
+                Ok(cache::Snapshot::new(self.ranked().await?))
+            })
+            .await
     }
 
     /// One submission's entry with its rank (from the ranking snapshot, read again once if the submission is newer).
@@ -261,12 +245,7 @@ impl Leaderboard {
 type St = State<Arc<Leaderboard>>;
 
 async fn index(State(lb): St) -> Result<Html<String>, WebError> {
-    let snap = lb.snapshot(false).await?;
-    Ok(Html(
-        snap.html
-            .get_or_init(|| pages::board::index(&snap.entries))
-            .clone(),
-    ))
+    Ok(Html(lb.snapshot(false).await?.html.clone()))
 }
 
 /// `?page=N` (from 1) of a submission's episode table.
@@ -280,13 +259,21 @@ async fn submission_page(
     Path(id): Path<String>,
     Query(q): Query<PageQuery>,
 ) -> Result<Html<String>, WebError> {
-    let sub = public::submission(&lb.reader, &id).await?;
-    let stored = lb.reader.stored_summary(&id).await?;
-    let (page, offset) = pages::submission::page_offset(q.page.unwrap_or(1), sub.tasks as usize);
-    let eps =
-        public::episodes_range(&lb.reader, &sub, offset, pages::submission::PAGE_SIZE).await?;
-    let entry = lb.entry(sub, stored).await?;
-    Ok(Html(pages::submission::page(&entry, &eps, page, offset)))
+    let page = lb
+        .pages
+        .get((id.clone(), q.page.unwrap_or(1)), || async {
+            let sub = public::submission(&lb.reader, &id).await?;
+            let stored = lb.reader.stored_summary(&id).await?;
+            let (page, offset) =
+                pages::submission::page_offset(q.page.unwrap_or(1), sub.tasks as usize);
+            let eps =
+                public::episodes_range(&lb.reader, &sub, offset, pages::submission::PAGE_SIZE)
+                    .await?;
+            let entry = lb.entry(sub, stored).await?;
+            Ok(pages::submission::page(&entry, &eps, page, offset))
+        })
+        .await?;
+    Ok(Html(page.as_ref().clone()))
 }
 
 async fn episode_page(
@@ -333,16 +320,29 @@ async fn style() -> Response {
     ([(header::CONTENT_TYPE, "text/css")], pages::style_css()).into_response()
 }
 
+async fn metrics_text(State(lb): St) -> Result<Response, WebError> {
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64());
+    let counts = lb.reader.counts(now).await?;
+    Ok((
+        [(header::CONTENT_TYPE, "text/plain; version=0.0.4")],
+        metrics::exposition(&counts),
+    )
+        .into_response())
+}
+
 async fn openapi() -> Response {
     ([(header::CONTENT_TYPE, "application/json")], OPENAPI).into_response()
 }
 
 async fn api_submissions(State(lb): St) -> Result<Response, WebError> {
     let snap = lb.snapshot(false).await?;
-    let json = snap.json.get_or_init(|| {
-        serde_json::to_string(&snap.entries).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
-    });
-    Ok(([(header::CONTENT_TYPE, "application/json")], json.clone()).into_response())
+    Ok((
+        [(header::CONTENT_TYPE, "application/json")],
+        snap.json.clone(),
+    )
+        .into_response())
 }
 
 async fn api_submission(

@@ -46,6 +46,7 @@ pub type Result<T> = std::result::Result<T, StoreError>;
 
 pub mod aggregate;
 mod blobs;
+mod metrics;
 mod reader;
 mod report;
 mod schedule;
@@ -53,6 +54,7 @@ mod summaries;
 mod tokens;
 mod types;
 
+pub use metrics::Counts;
 pub use summaries::StoredSummary;
 pub use types::*;
 

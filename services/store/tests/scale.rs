@@ -147,6 +147,14 @@ async fn summaries_are_stored_kept_current_and_read_one_row_per_submission() -> 
         assert_eq!(m.updated_at, 4.0);
         assert_eq!(store.reader().stored_summary(&a).await?.as_ref(), Some(m));
         assert_eq!(store.reader().stored_summary("sub-none").await?, None);
+        // The operators' counts.
+        let c = store.reader().counts(5.0).await?;
+        assert!(c.episodes_by_state.contains(&("done".into(), 3)), "{c:?}");
+        assert!(c.episodes_by_state.contains(&("queued".into(), 3)), "{c:?}");
+        assert_eq!(c.outcomes, vec![("stuck".into(), 1), ("success".into(), 2)]);
+        assert_eq!(c.finished_last_minute, 3);
+        assert_eq!((c.workers_live, c.slots_live), (1, 8));
+        assert_eq!(store.reader().counts(500.0).await?.workers_live, 0);
         // A page of episodes, in task order.
         let page = store.reader().episodes_range(&a, 1, 2).await?;
         let ids: Vec<&str> = page.iter().map(|e| e.task_id.as_str()).collect();

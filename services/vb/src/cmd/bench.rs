@@ -42,7 +42,8 @@ pub enum BenchCmd {
         /// Seconds of load per path.
         #[arg(long, default_value_t = 10.0)]
         seconds: f64,
-        /// Store to seed: an empty throw-away database (default: a new SQLite file in a temporary directory).
+        /// Store to seed: a throw-away database (default: a new SQLite file in a temporary directory, removed after).
+        /// One that already holds at least `--submissions` submissions is measured as it is.
         #[arg(long)]
         db: Option<String>,
         #[arg(long)]
@@ -150,12 +151,19 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
             let rt = tokio::runtime::Runtime::new()?;
             let result = rt.block_on(async {
                 let store = vb_store::Store::open(&url).await?;
-                let t0 = std::time::Instant::now();
-                let ids = vb_leaderboard::bench::seed(&store, &set, submissions, episodes, trajectory_rows).await?;
-                println!(
-                    "seeded {submissions} submissions x {episodes} episodes ({trajectory_rows}-row trajectories) in {:.0} s on {url}",
-                    t0.elapsed().as_secs_f64()
-                );
+                let existing: Vec<String> = store.reader().submissions().await?.into_iter().map(|s| s.id).collect();
+                let ids = if existing.len() >= submissions.max(1) {
+                    println!("measuring the {} submissions already in {url}", existing.len());
+                    existing
+                } else {
+                    let t0 = std::time::Instant::now();
+                    let ids = vb_leaderboard::bench::seed(&store, &set, submissions, episodes, trajectory_rows).await?;
+                    println!(
+                        "seeded {submissions} submissions x {episodes} episodes ({trajectory_rows}-row trajectories) in {:.0} s on {url}",
+                        t0.elapsed().as_secs_f64()
+                    );
+                    ids
+                };
                 let lb = vb_leaderboard::Leaderboard::new(store.reader(), Some(set));
                 let addr = vb_leaderboard::bench::serve_loopback(lb).await?;
                 let id = &ids[ids.len() / 2];
@@ -174,7 +182,9 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
                 }
                 anyhow::Ok(())
             });
-            let _ = std::fs::remove_dir_all(&tmp);
+            if tmp.exists() {
+                let _ = std::fs::remove_dir_all(&tmp);
+            }
             result
         }
         BenchCmd::Planner {
