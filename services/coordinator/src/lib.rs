@@ -70,6 +70,8 @@ pub enum CoordinatorError {
     Store(#[from] StoreError),
     #[error(transparent)]
     Tasks(#[from] tasks::TasksError),
+    #[error("TLS: {0}")]
+    Tls(String),
 }
 
 /// Seconds since the Unix epoch (the coordinator's clock; only services use wall time).
@@ -716,9 +718,35 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
     }
 }
 
-/// A gRPC server with the coordinator's two services (add more, e.g. the Sim API, before serving).
-pub fn grpc_router(c: &Arc<Coordinator>) -> tonic::transport::server::Router {
-    tonic::transport::Server::builder()
+/// A gRPC server with the coordinator's two services (add more, e.g. the Sim API, before serving), over TLS when
+/// `tls` is given ([`server_tls`]).
+pub fn grpc_router(
+    c: &Arc<Coordinator>,
+    tls: Option<tonic::transport::ServerTlsConfig>,
+) -> Result<tonic::transport::server::Router, CoordinatorError> {
+    let mut server = tonic::transport::Server::builder();
+    if let Some(tls) = tls {
+        server = server
+            .tls_config(tls)
+            .map_err(|e| CoordinatorError::Tls(e.to_string()))?;
+    }
+    Ok(server
         .add_service(c.coordinator_service())
-        .add_service(c.worker_pool_service())
+        .add_service(c.worker_pool_service()))
+}
+
+/// TLS settings of the coordinator's gRPC server from a PEM certificate chain and its PEM private key.
+pub fn server_tls(
+    cert: &std::path::Path,
+    key: &std::path::Path,
+) -> Result<tonic::transport::ServerTlsConfig, CoordinatorError> {
+    let read = |p: &std::path::Path| {
+        std::fs::read(p).map_err(|e| CoordinatorError::Tls(format!("{}: {e}", p.display())))
+    };
+    Ok(
+        tonic::transport::ServerTlsConfig::new().identity(tonic::transport::Identity::from_pem(
+            read(cert)?,
+            read(key)?,
+        )),
+    )
 }

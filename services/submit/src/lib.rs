@@ -28,7 +28,7 @@ use std::sync::Arc;
 use std::time::Duration;
 use tonic::metadata::MetadataValue;
 use tonic::service::interceptor::InterceptedService;
-use tonic::transport::{Channel, Endpoint};
+use tonic::transport::Channel;
 use tonic::{Request, Status};
 use vb_proto::v1 as pb;
 use vb_proto::v1::coordinator_client::CoordinatorClient;
@@ -76,24 +76,38 @@ impl tonic::service::Interceptor for Auth {
     }
 }
 
+/// An error with its causes (`transport error: ... : invalid peer certificate: UnknownIssuer`).
+fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut cur = e.source();
+    while let Some(c) = cur {
+        s += &format!(": {c}");
+        cur = c.source();
+    }
+    s
+}
+
 pub type Client = CoordinatorClient<InterceptedService<Channel, Auth>>;
 
-/// Connects to the coordinator's public API with a token.
-pub async fn connect(url: &str, token: &str) -> Result<Client, SubmitError> {
+/// Connects to the coordinator's public API with a token; `https://` URLs use TLS, verified against `ca` (PEM) when
+/// given, else against the public web PKI roots.
+pub async fn connect(url: &str, token: &str, ca: Option<&Path>) -> Result<Client, SubmitError> {
     let header: MetadataValue<_> = format!("Bearer {}", token.trim()).parse().map_err(|_| {
         SubmitError::Usage("the token contains characters that cannot be sent in a header".into())
     })?;
-    let channel = Endpoint::from_shared(url.to_string())
-        .map_err(|e| SubmitError::Connect {
+    let channel = vb_worker::tls::endpoint(url, ca)
+        .map_err(|message| SubmitError::Connect {
             url: url.into(),
-            message: e.to_string(),
+            message,
         })?
-        .connect_timeout(Duration::from_secs(5))
         .connect()
         .await
         .map_err(|e| SubmitError::Connect {
             url: url.into(),
-            message: format!("{e} (is `vb serve` or `vb coordinator` running there?)"),
+            message: format!(
+                "{} (is `vb serve` or `vb coordinator` running there, with TLS when the URL is https://?)",
+                error_chain(&e)
+            ),
         })?;
     Ok(CoordinatorClient::with_interceptor(channel, Auth(header)))
 }

@@ -24,6 +24,9 @@ struct Cli {
     /// Submission token (from `vb admin token create`); else $VB_TOKEN, else ~/.config/vertibench/token.
     #[arg(long, env = "VB_TOKEN", hide_env_values = true, global = true)]
     token: Option<String>,
+    /// CA certificate (PEM) to verify an https:// coordinator against (default: the public web PKI roots).
+    #[arg(long, env = "VB_TLS_CA", global = true)]
+    tls_ca: Option<std::path::PathBuf>,
     #[command(subcommand)]
     command: Cmd,
 }
@@ -175,7 +178,8 @@ async fn do_submit(
     if task_ids.is_empty() && o.tasks.trim() != "all" {
         bail!("--tasks is empty: pass `all`, or world ids and task ids (17,w018-t3)");
     }
-    let mut client = vb_submit::connect(&cli.coordinator, &token(cli)?).await?;
+    let mut client =
+        vb_submit::connect(&cli.coordinator, &token(cli)?, cli.tls_ca.as_deref()).await?;
     let r = vb_submit::submit(
         &mut client,
         pb::SubmitRequest {
@@ -266,7 +270,8 @@ async fn run() -> anyhow::Result<()> {
             do_submit(&cli, Kind::Builtin(planner.clone()), planner.clone(), opts).await
         }
         Cmd::Status { id, watch } => {
-            let mut client = vb_submit::connect(&cli.coordinator, &token(&cli)?).await?;
+            let mut client =
+                vb_submit::connect(&cli.coordinator, &token(&cli)?, cli.tls_ca.as_deref()).await?;
             match id {
                 None => {
                     let all = vb_submit::list(&mut client).await?;
@@ -293,7 +298,8 @@ async fn run() -> anyhow::Result<()> {
             Ok(())
         }
         Cmd::Results { id, format, out } => {
-            let mut client = vb_submit::connect(&cli.coordinator, &token(&cli)?).await?;
+            let mut client =
+                vb_submit::connect(&cli.coordinator, &token(&cli)?, cli.tls_ca.as_deref()).await?;
             let r = vb_submit::results(&mut client, id).await?;
             let text = if format == "json" {
                 vb_submit::results_json(&r)
@@ -309,7 +315,8 @@ async fn run() -> anyhow::Result<()> {
             Ok(())
         }
         Cmd::Cancel { id } => {
-            let mut client = vb_submit::connect(&cli.coordinator, &token(&cli)?).await?;
+            let mut client =
+                vb_submit::connect(&cli.coordinator, &token(&cli)?, cli.tls_ca.as_deref()).await?;
             let s = vb_submit::cancel(&mut client, id).await?;
             println!("{}", vb_submit::status_line(&s));
             Ok(())

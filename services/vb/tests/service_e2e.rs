@@ -299,7 +299,7 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
     let url = format!("http://127.0.0.1:{port}");
     // Tokens.
     for bad in ["", "vbt_not-a-real-token"] {
-        let mut c = vb_submit::connect(&url, if bad.is_empty() { " " } else { bad }).await?;
+        let mut c = vb_submit::connect(&url, if bad.is_empty() { " " } else { bad }, None).await?;
         let e = vb_submit::list(&mut c).await.unwrap_err().to_string();
         assert!(e.contains("authentication failed"), "{e}");
     }

@@ -15,6 +15,7 @@ pub mod exec;
 pub mod remote;
 pub mod sandbox;
 pub mod sim_service;
+pub mod tls;
 
 use remote::{PlannerLog, RemotePlanner, SharedLog};
 use sim_core::episode::{EpisodeConfig, EpisodeResult, Outcome};
@@ -28,7 +29,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tasks::TaskSet;
-use tonic::transport::{Channel, Endpoint};
+use tonic::transport::Channel;
 use vb_proto::v1 as pb;
 use vb_proto::v1::worker_pool_client::WorkerPoolClient;
 
@@ -50,6 +51,9 @@ pub enum WorkerError {
 
 #[derive(Clone, Debug)]
 pub struct WorkerConfig {
+    /// CA certificate (PEM) that an `https://` coordinator's certificate is verified against (None: the public web
+    /// PKI roots).
+    pub tls_ca: Option<PathBuf>,
     /// Coordinator URL, e.g. `http://127.0.0.1:50051`.
     pub coordinator: String,
     pub name: String,
@@ -394,8 +398,8 @@ pub async fn run_worker(
     mut shutdown: tokio::sync::watch::Receiver<bool>,
 ) -> Result<(), WorkerError> {
     let set = Arc::new(TaskSet::load(&cfg.task_dir)?);
-    let channel = Endpoint::from_shared(cfg.coordinator.clone())
-        .map_err(|e| WorkerError::Address(cfg.coordinator.clone(), e.to_string()))?
+    let channel = tls::endpoint(&cfg.coordinator, cfg.tls_ca.as_deref())
+        .map_err(|e| WorkerError::Address(cfg.coordinator.clone(), e))?
         .connect_timeout(Duration::from_secs(2))
         .tcp_nodelay(true)
         .connect_lazy();

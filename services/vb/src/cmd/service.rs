@@ -76,13 +76,22 @@ pub struct CoordinatorArgs {
     /// The window of --max-dropped-leases, s.
     #[arg(long, default_value_t = 600.0)]
     drop_window_s: f64,
+    /// Serve gRPC over TLS with this certificate chain (PEM); clients then connect to https://.
+    #[arg(long, requires = "tls_key")]
+    tls_cert: Option<PathBuf>,
+    /// The private key (PEM) of --tls-cert.
+    #[arg(long, requires = "tls_cert")]
+    tls_key: Option<PathBuf>,
 }
 
 #[derive(Args)]
 pub struct WorkerArgs {
-    /// The coordinator's URL.
+    /// The coordinator's URL (https:// for TLS).
     #[arg(long, default_value = "http://127.0.0.1:50051")]
     coordinator: String,
+    /// CA certificate (PEM) to verify an https:// coordinator against (default: the public web PKI roots).
+    #[arg(long, env = "VB_TLS_CA")]
+    tls_ca: Option<PathBuf>,
     /// Episodes run at once (default: the number of cores).
     #[arg(long, default_value_t = default_slots())]
     slots: usize,
@@ -248,11 +257,12 @@ async fn start_coordinator(
     cfg: CoordinatorConfig,
     listener: TcpListener,
     sim: Option<vb_worker::sim_service::SimService>,
+    tls: Option<tonic::transport::ServerTlsConfig>,
 ) -> anyhow::Result<Arc<Coordinator>> {
     let coord = Coordinator::new(store, cfg)?;
     tokio::spawn(coord.clone().run_lease_sweeper());
     tokio::spawn(coord.clone().run_summary_keeper());
-    let mut grpc = vb_coordinator::grpc_router(&coord);
+    let mut grpc = vb_coordinator::grpc_router(&coord, tls)?;
     if let Some(sim) = sim {
         grpc = grpc.add_service(sim.server());
     }
@@ -277,7 +287,7 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         let sim = sim_service(&a.task_dir)?;
         let mut ccfg = CoordinatorConfig::new(a.task_dir.clone());
         ccfg.allow_exec = !a.no_exec;
-        let coord = start_coordinator(store.clone(), ccfg, grpc, Some(sim)).await?;
+        let coord = start_coordinator(store.clone(), ccfg, grpc, Some(sim), None).await?;
         let lb = Leaderboard::new(store.reader(), Some(tasks::TaskSet::load(&a.task_dir)?));
         tokio::spawn(async move {
             if let Err(e) = vb_leaderboard::serve(lb, http).await {
@@ -290,6 +300,7 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
             .create_token("vb-serve-worker", vb_store::TokenRole::Worker, vb_coordinator::now())
             .await?;
         let wcfg = vb_worker::WorkerConfig {
+            tls_ca: None,
             coordinator: format!("http://{grpc_addr}"),
             name: "serve-local".into(),
             slots: a.slots.max(1),
@@ -311,7 +322,7 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         eprintln!("coordinator and Sim gRPC APIs on {grpc_addr}, leaderboard on http://{http_addr}/, {} local worker slots", a.slots);
         eprintln!("submit your own planner with: VB_COORDINATOR=http://{grpc_addr} VB_TOKEN={token} vb-submit endpoint URL --name NAME");
         if let Some(planner) = &a.evaluate {
-            let mut client = vb_submit::connect(&format!("http://{grpc_addr}"), &token).await?;
+            let mut client = vb_submit::connect(&format!("http://{grpc_addr}"), &token, None).await?;
             let task_ids = if a.tasks.trim() == "all" {
                 Vec::new()
             } else {
@@ -364,12 +375,21 @@ pub fn coordinator(a: CoordinatorArgs) -> anyhow::Result<()> {
         cfg.max_dropped_leases = a.max_dropped_leases;
         cfg.drop_window_s = a.drop_window_s;
         eprintln!(
-            "coordinator on {} (store {}, task set {})",
+            "coordinator on {} ({}, store {}, task set {})",
             listener.local_addr()?,
+            if a.tls_cert.is_some() {
+                "TLS"
+            } else {
+                "plaintext"
+            },
             a.db,
             a.task_dir.display()
         );
-        start_coordinator(store, cfg, listener, None).await?;
+        let tls = match (&a.tls_cert, &a.tls_key) {
+            (Some(cert), Some(key)) => Some(vb_coordinator::server_tls(cert, key)?),
+            _ => None,
+        };
+        start_coordinator(store, cfg, listener, None, tls).await?;
         stop_signal().await?;
         Ok(())
     })
@@ -385,6 +405,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
             }
         });
         let cfg = vb_worker::WorkerConfig {
+            tls_ca: a.tls_ca.clone(),
             coordinator: a.coordinator.clone(),
             name: a.name.clone().unwrap_or_else(|| {
                 let host = std::env::var("HOSTNAME").unwrap_or_else(|_| "worker".into());

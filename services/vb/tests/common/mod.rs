@@ -236,7 +236,7 @@ pub async fn client(port: u16, token: &str) -> vb_submit::Client {
     let url = format!("http://127.0.0.1:{port}");
     let t0 = Instant::now();
     loop {
-        match vb_submit::connect(&url, token).await {
+        match vb_submit::connect(&url, token, None).await {
             Ok(c) => return c,
             Err(e) if t0.elapsed() > Duration::from_secs(30) => {
                 panic!("coordinator not reachable: {e}")
@@ -256,7 +256,9 @@ pub async fn wait_for(
 ) -> vb_submit::SubmissionStatus {
     let t0 = Instant::now();
     loop {
-        if let Ok(mut c) = vb_submit::connect(&format!("http://127.0.0.1:{port}"), token).await {
+        if let Ok(mut c) =
+            vb_submit::connect(&format!("http://127.0.0.1:{port}"), token, None).await
+        {
             if let Ok(s) = vb_submit::status(&mut c, id).await {
                 if pred(&s) {
                     return s;
