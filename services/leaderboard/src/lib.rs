@@ -33,6 +33,8 @@ pub struct Leaderboard {
     snapshot: cache::SnapshotCell,
     /// Rendered submission pages.
     pages: cache::PageCache,
+    /// Durations of the requests answered (for `/metrics`).
+    latency: metrics::Latency,
 }
 
 /// One submission with its progress and summary, as the API returns it.
@@ -49,6 +51,18 @@ pub struct SubmissionEntry {
 pub const CSP: &str =
     "default-src 'none'; style-src 'self'; img-src 'self'; base-uri 'none'; form-action 'none'; \
                        frame-ancestors 'none'";
+
+/// Records each request's duration in the latency histogram.
+async fn timed(
+    State(lb): State<Arc<Leaderboard>>,
+    req: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> Response {
+    let t0 = std::time::Instant::now();
+    let res = next.run(req).await;
+    lb.latency.record(t0.elapsed());
+    res
+}
 
 async fn security_headers(mut res: Response) -> Response {
     let h = res.headers_mut();
@@ -99,6 +113,7 @@ impl Leaderboard {
             world_png: Mutex::new(HashMap::new()),
             snapshot: Default::default(),
             pages: Default::default(),
+            latency: Default::default(),
         })
     }
 
@@ -118,6 +133,7 @@ impl Leaderboard {
             .fallback(not_found)
             .with_state(self.clone())
             .layer(axum::middleware::map_response(security_headers))
+            .layer(axum::middleware::from_fn_with_state(self.clone(), timed))
     }
 
     /// A submission's entry from its stored aggregates (computed from its episodes only when the coordinator has
@@ -327,7 +343,7 @@ async fn metrics_text(State(lb): St) -> Result<Response, WebError> {
     let counts = lb.reader.counts(now).await?;
     Ok((
         [(header::CONTENT_TYPE, "text/plain; version=0.0.4")],
-        metrics::exposition(&counts),
+        metrics::exposition(&counts, &lb.latency),
     )
         .into_response())
 }

@@ -1,6 +1,54 @@
-//! `/metrics`: the store's counts in Prometheus' text exposition format (version 0.0.4), for operators.
+//! `/metrics`: the store's counts and this leaderboard's request latencies in Prometheus' text exposition format
+//! (version 0.0.4), for operators.
 
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
 use vb_store::Counts;
+
+/// Upper bounds of the request-latency histogram's buckets, s.
+const BUCKETS: [f64; 10] = [0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 1.0, 5.0];
+
+/// A latency histogram of the requests this leaderboard answered (cumulative counts, as Prometheus wants them).
+#[derive(Default)]
+pub struct Latency {
+    /// Requests at most as long as each bucket's bound, then all requests.
+    counts: [AtomicU64; BUCKETS.len() + 1],
+    /// Sum of the durations, µs.
+    sum_us: AtomicU64,
+}
+
+impl Latency {
+    pub fn record(&self, d: Duration) {
+        let s = d.as_secs_f64();
+        for (i, b) in BUCKETS.iter().enumerate() {
+            if s <= *b {
+                self.counts[i].fetch_add(1, Ordering::Relaxed);
+            }
+        }
+        self.counts[BUCKETS.len()].fetch_add(1, Ordering::Relaxed);
+        self.sum_us
+            .fetch_add(d.as_micros() as u64, Ordering::Relaxed);
+    }
+
+    fn exposition(&self) -> String {
+        let name = "vb_http_request_duration_seconds";
+        let mut out =
+            format!("# HELP {name} Requests answered by this leaderboard, by duration.\n# TYPE {name} histogram\n");
+        for (i, b) in BUCKETS.iter().enumerate() {
+            out += &format!(
+                "{name}_bucket{{le=\"{b}\"}} {}\n",
+                self.counts[i].load(Ordering::Relaxed)
+            );
+        }
+        let n = self.counts[BUCKETS.len()].load(Ordering::Relaxed);
+        out += &format!("{name}_bucket{{le=\"+Inf\"}} {n}\n");
+        out += &format!(
+            "{name}_sum {}\n{name}_count {n}\n",
+            self.sum_us.load(Ordering::Relaxed) as f64 / 1e6
+        );
+        out
+    }
+}
 
 /// A label value with `\`, `"` and newlines escaped as the format requires.
 fn label(v: &str) -> String {
@@ -9,8 +57,8 @@ fn label(v: &str) -> String {
         .replace('\n', "\\n")
 }
 
-/// The exposition text of `c`.
-pub fn exposition(c: &Counts) -> String {
+/// The exposition text of `c` and of the request latencies.
+pub fn exposition(c: &Counts, latency: &Latency) -> String {
     let mut out = String::new();
     let mut family = |name: &str, help: &str, key: &str, rows: &[(String, u64)]| {
         out += &format!("# HELP {name} {help}\n# TYPE {name} gauge\n");
@@ -55,7 +103,12 @@ pub fn exposition(c: &Counts) -> String {
     ] {
         out += &format!("# HELP {name} {help}\n# TYPE {name} gauge\n{name} {v}\n");
     }
-    out
+    let name = "vb_lease_drops_total";
+    out += &format!(
+        "# HELP {name} Leases that ended without a result (expired in a worker's hands, or released).\n# TYPE {name} counter\n{name} {}\n",
+        c.lease_drops
+    );
+    out + &latency.exposition()
 }
 
 #[cfg(test)]
@@ -69,8 +122,13 @@ mod tests {
             finished_last_minute: 42,
             workers_live: 2,
             slots_live: 16,
+            lease_drops: 5,
         };
-        let t = super::exposition(&c);
+        let latency = super::Latency::default();
+        for ms in [0.5, 3.0, 30.0, 2000.0, 9000.0] {
+            latency.record(std::time::Duration::from_secs_f64(ms / 1000.0));
+        }
+        let t = super::exposition(&c, &latency);
         assert!(t.contains("# TYPE vb_submissions gauge\nvb_submissions{state=\"done\"} 3\nvb_submissions{state=\"running\"} 1\n"));
         assert!(
             t.contains("vb_episode_outcomes{outcome=\"su\\\"cc\\\\ess\\n\"} 7\n"),
@@ -78,10 +136,23 @@ mod tests {
         );
         assert!(t.contains("vb_episodes_finished_last_minute 42\n"));
         assert!(t.contains("vb_worker_slots_live 16\n"));
+        assert!(t.contains("vb_lease_drops_total 5\n"));
+        // Cumulative buckets: 0.5 ms is under every bound, 9 s under none.
+        for (le, n) in [
+            ("0.001", 1),
+            ("0.005", 2),
+            ("0.05", 3),
+            ("5", 4),
+            ("+Inf", 5),
+        ] {
+            let line = format!("vb_http_request_duration_seconds_bucket{{le=\"{le}\"}} {n}\n");
+            assert!(t.contains(&line), "{line} in {t}");
+        }
+        assert!(t.contains("vb_http_request_duration_seconds_count 5\n"));
         // Every sample line is `name{labels} value` or `name value`.
         for line in t.lines().filter(|l| !l.starts_with('#')) {
             let (_, value) = line.rsplit_once(' ').expect(line);
-            value.parse::<u64>().expect(line);
+            value.parse::<f64>().expect(line);
         }
     }
 }

@@ -89,6 +89,7 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
         format!("/api/submissions/{id}"),
         format!("/api/submissions/{id}/episodes"),
         format!("/api/submissions/{id}/episodes/w001-t0"),
+        "/metrics".to_string(),
         "/no-such-page".to_string(),
     ];
     for path in &pages {

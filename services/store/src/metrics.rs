@@ -4,7 +4,7 @@
 use crate::*;
 use sqlx::Row;
 
-/// What `/metrics` reports, read in four small queries.
+/// What `/metrics` reports, read in a few small queries.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Counts {
     pub submissions_by_state: Vec<(String, u64)>,
@@ -16,6 +16,8 @@ pub struct Counts {
     /// Workers heard from in the last minute, and their slots.
     pub workers_live: u64,
     pub slots_live: u64,
+    /// Leases that ended without a result (expired or released), ever.
+    pub lease_drops: u64,
 }
 
 impl Reader {
@@ -52,7 +54,11 @@ impl Reader {
         .bind(now - 60.0)
         .fetch_one(&self.pool)
         .await?;
+        let drops = sqlx::query("SELECT CAST(COUNT(*) AS BIGINT) AS n FROM lease_drops")
+            .fetch_one(&self.pool)
+            .await?;
         Ok(Counts {
+            lease_drops: drops.try_get::<i64, _>("n")? as u64,
             submissions_by_state,
             episodes_by_state,
             outcomes,
