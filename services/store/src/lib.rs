@@ -50,6 +50,7 @@ mod metrics;
 mod reader;
 mod report;
 mod schedule;
+pub mod seed;
 mod summaries;
 mod tokens;
 mod types;

@@ -157,7 +157,7 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
                     existing
                 } else {
                     let t0 = std::time::Instant::now();
-                    let ids = vb_leaderboard::bench::seed(&store, &set, submissions, episodes, trajectory_rows).await?;
+                    let ids = vb_store::seed::seed(&store, &set, submissions, episodes, trajectory_rows).await?;
                     println!(
                         "seeded {submissions} submissions x {episodes} episodes ({trajectory_rows}-row trajectories) in {:.0} s on {url}",
                         t0.elapsed().as_secs_f64()

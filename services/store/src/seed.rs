@@ -1,0 +1,118 @@
+//! Throw-away stores for benchmarks (`vb bench leaderboard`): finished submissions written through the store's own
+//! API, as the coordinator fills a store.
+
+use crate::{EpisodeResultIn, NewEpisode, NewSubmission, Store, StoreError};
+use tasks::TaskSet;
+
+/// Seeds `submissions` finished submissions of `episodes` episodes each (tasks of `set`, outcomes mixed, a
+/// trajectory of `trajectory_rows` rows and a short log per episode), each with its stored aggregates. Returns
+/// their ids.
+pub async fn seed(
+    store: &Store,
+    set: &TaskSet,
+    submissions: usize,
+    episodes: usize,
+    trajectory_rows: usize,
+) -> Result<Vec<String>, StoreError> {
+    let tasks: Vec<NewEpisode> = set
+        .world_ids()
+        .iter()
+        .flat_map(|&w| (0..10u32).map(move |t| (w, t)))
+        .cycle()
+        .take(episodes)
+        .enumerate()
+        .map(|(i, (w, t))| {
+            let meta = set.world_meta(w).ok();
+            NewEpisode {
+                // Unique even when more episodes than tasks are asked for.
+                task_id: format!("w{w:03}-t{t}-{}", i / (set.world_ids().len() * 10).max(1)),
+                world_id: w,
+                task_index: t,
+                level: meta
+                    .as_ref()
+                    .map_or("low".into(), |m| m.level.as_str().into()),
+                semantics: meta
+                    .as_ref()
+                    .map_or("rigid".into(), |m| m.semantics.as_str().into()),
+                density: meta
+                    .as_ref()
+                    .map_or("sparse".into(), |m| m.density.as_str().into()),
+            }
+        })
+        .collect();
+    let mut trajectory = String::from("time,x,y,z,roll,pitch,yaw,speed,throttle,steering,brake\n");
+    for k in 0..trajectory_rows {
+        let t = k as f64 * 0.1;
+        trajectory += &format!(
+            "{t:.2},{:.3},{:.3},{:.3},{:.4},{:.4},{:.4},{:.3},0.8,{:.3},0\n",
+            10.0 + 2.0 * t,
+            20.0 + 0.5 * t,
+            1.0 + (t * 0.3).sin(),
+            0.05 * (t * 0.7).sin(),
+            0.04 * (t * 0.5).cos(),
+            0.3,
+            3.0 + (t * 0.2).sin(),
+            0.1 * (t * 0.9).sin()
+        );
+    }
+    let metrics = serde_json::to_string(&sim_core::episode::EpisodeMetrics {
+        time: 42.0,
+        path_length: 80.0,
+        ..Default::default()
+    })
+    .unwrap_or_default();
+    let worker = store
+        .register_worker("bench", 256, "bench", "bench-token", 0.0)
+        .await?;
+    let outcomes = [
+        "success", "stuck", "success", "rollover", "timeout", "success",
+    ];
+    let mut ids = Vec::new();
+    for s in 0..submissions {
+        let sub = NewSubmission {
+            name: format!("bench-{s:03}"),
+            owner: "bench".into(),
+            owner_token: "bench".into(),
+            planner_kind: "builtin".into(),
+            planner_spec: "pid".into(),
+            planner_identity: "builtin:pid".into(),
+            vehicle: "hmmwv".into(),
+            scale: 1.0,
+            seed: s as u64,
+            step_deadline_s: 1.0,
+            task_set_version: set.version().into(),
+            sim_version: "bench".into(),
+        };
+        let t = 1.0 + s as f64;
+        let id = store.create_submission(&sub, &tasks, t).await?;
+        let mut k = s;
+        loop {
+            let leases = store.lease(&worker, 256, 600.0, true, t).await?;
+            if leases.is_empty() {
+                break;
+            }
+            for l in leases {
+                let outcome = outcomes[k % outcomes.len()];
+                k += 1;
+                let r = EpisodeResultIn {
+                    lease_id: l.lease_id,
+                    submission_id: l.submission.id,
+                    task_id: l.task_id,
+                    outcome: outcome.into(),
+                    reason: outcome.into(),
+                    detail: String::new(),
+                    metrics_json: metrics.clone(),
+                    trajectory_csv: trajectory.clone(),
+                    planner_log: "planner: ready\n".into(),
+                    sim_version: "bench".into(),
+                    planner_identity: "builtin:pid".into(),
+                    wall_time_s: 0.05,
+                };
+                store.report(&worker, &r, t).await?;
+            }
+        }
+        store.refresh_summary(&id, Some(set), t + 0.5).await?;
+        ids.push(id);
+    }
+    Ok(ids)
+}
