@@ -22,6 +22,18 @@ def containers(image):
     return out.stdout.split()
 
 
+def submit_image(image, tasks, env):
+    """`vb-submit image IMAGE --wait`, then its results as CSV (the finished `vb-submit results` process)."""
+    r = subprocess.run([binary("VB_SUBMIT_BIN"), "image", image, "--tasks", tasks, "--wait"],
+                       capture_output=True, text=True, timeout=600, env=env)
+    assert r.returncode == 0, r.stdout + r.stderr
+    sid = re.search(r"submitted (\S+)", r.stdout).group(1)
+    r = subprocess.run([binary("VB_SUBMIT_BIN"), "results", sid, "--format", "csv"], capture_output=True,
+                       text=True, timeout=60, env=env)
+    assert r.returncode == 0, r.stderr
+    return r
+
+
 def docker_ok():
     if shutil.which("docker") is None:
         return False
@@ -44,13 +56,7 @@ def test_a_python_planner_image_through_the_service(image, service, tmp_path):  
     env = dict(os.environ, VB_COORDINATOR=url, VB_TOKEN=token)
     tasks = "w001-t0,w002-t1"
     try:
-        r = subprocess.run([binary("VB_SUBMIT_BIN"), "image", image, "--tasks", tasks, "--wait"],
-                           capture_output=True, text=True, timeout=600, env=env)
-        assert r.returncode == 0, r.stdout + r.stderr
-        sid = re.search(r"submitted (\S+)", r.stdout).group(1)
-        r = subprocess.run([binary("VB_SUBMIT_BIN"), "results", sid, "--format", "csv"], capture_output=True,
-                           text=True, timeout=60, env=env)
-        assert r.returncode == 0, r.stderr
+        r = submit_image(image, tasks, env)
         # The worker removes each episode's container when the episode ends.
         for _ in range(100):
             if not containers(image):
@@ -113,13 +119,7 @@ def test_an_image_planner_has_no_network(service, tmp_path):  # noqa: F811
     assert r.returncode == 0, r.stdout + r.stderr
     env = dict(os.environ, VB_COORDINATOR=url, VB_TOKEN=token)
     try:
-        r = subprocess.run([binary("VB_SUBMIT_BIN"), "image", tag, "--tasks", "w001-t0", "--wait"],
-                           capture_output=True, text=True, timeout=600, env=env)
-        assert r.returncode == 0, r.stdout + r.stderr
-        sid = re.search(r"submitted (\S+)", r.stdout).group(1)
-        r = subprocess.run([binary("VB_SUBMIT_BIN"), "results", sid, "--format", "csv"], capture_output=True,
-                           text=True, timeout=60, env=env)
-        assert r.returncode == 0, r.stderr
+        r = submit_image(tag, "w001-t0", env)
         assert "planner_failure" not in r.stdout, f"the probe reached the host network: {r.stdout}"
     finally:
         for cid in containers(tag):

@@ -3,6 +3,7 @@
 //! submission page is rendered at most once per [`TTL`].
 
 use crate::{SubmissionEntry, WebError};
+use axum::body::Bytes;
 use std::collections::HashMap;
 use std::future::Future;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -16,12 +17,12 @@ pub const TTL: Duration = Duration::from_secs(1);
 /// Rendered submission pages kept at most (expired ones are dropped first when full).
 const MAX_PAGES: usize = 512;
 
-/// The ranking as read at `at`, with its page and JSON.
+/// The ranking as read at `at`, with its page and JSON (shared by every response, not copied).
 pub struct Snapshot {
     pub at: Instant,
     pub entries: Vec<SubmissionEntry>,
-    pub html: String,
-    pub json: String,
+    pub html: Bytes,
+    pub json: Bytes,
 }
 
 impl Snapshot {
@@ -32,8 +33,8 @@ impl Snapshot {
         Snapshot {
             at: Instant::now(),
             entries,
-            html,
-            json,
+            html: html.into(),
+            json: json.into(),
         }
     }
 }
@@ -89,11 +90,11 @@ type PageKey = (String, usize);
 /// Rendered pages by key, each reused for [`TTL`].
 #[derive(Default)]
 pub struct PageCache {
-    pages: Mutex<HashMap<PageKey, (Instant, Arc<String>)>>,
+    pages: Mutex<HashMap<PageKey, (Instant, Bytes)>>,
 }
 
 impl PageCache {
-    pub async fn get<F, Fut>(&self, key: PageKey, build: F) -> Result<Arc<String>, WebError>
+    pub async fn get<F, Fut>(&self, key: PageKey, build: F) -> Result<Bytes, WebError>
     where
         F: FnOnce() -> Fut,
         Fut: Future<Output = Result<String, WebError>>,
@@ -103,7 +104,7 @@ impl PageCache {
                 return Ok(page);
             }
         }
-        let page = Arc::new(build().await?);
+        let page = Bytes::from(build().await?);
         if let Ok(mut m) = self.pages.lock() {
             if m.len() >= MAX_PAGES {
                 m.retain(|_, (at, _)| at.elapsed() < TTL);

@@ -260,7 +260,7 @@ impl Leaderboard {
 
 type St = State<Arc<Leaderboard>>;
 
-async fn index(State(lb): St) -> Result<Html<String>, WebError> {
+async fn index(State(lb): St) -> Result<Html<axum::body::Bytes>, WebError> {
     Ok(Html(lb.snapshot(false).await?.html.clone()))
 }
 
@@ -274,7 +274,7 @@ async fn submission_page(
     State(lb): St,
     Path(id): Path<String>,
     Query(q): Query<PageQuery>,
-) -> Result<Html<String>, WebError> {
+) -> Result<Html<axum::body::Bytes>, WebError> {
     let page = lb
         .pages
         .get((id.clone(), q.page.unwrap_or(1)), || async {
@@ -289,7 +289,7 @@ async fn submission_page(
             Ok(pages::submission::page(&entry, &eps, page, offset))
         })
         .await?;
-    Ok(Html(page.as_ref().clone()))
+    Ok(Html(page))
 }
 
 async fn episode_page(
@@ -365,6 +365,7 @@ async fn api_submission(
     State(lb): St,
     Path(id): Path<String>,
 ) -> Result<Json<SubmissionEntry>, WebError> {
+    // An unknown id is answered here, so it cannot make the ranking be re-read.
     public::submission(&lb.reader, &id).await?;
     Ok(Json(lb.ranked_entry(&id).await?))
 }

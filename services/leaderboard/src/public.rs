@@ -40,10 +40,6 @@ pub async fn submission(r: &Reader, id: &str) -> Result<Submission, StoreError> 
     r.submission(id).await.map(redact)
 }
 
-pub async fn submissions(r: &Reader) -> Result<Vec<Submission>, StoreError> {
-    Ok(r.submissions().await?.into_iter().map(redact).collect())
-}
-
 /// Every submission with its stored aggregates, newest first.
 pub async fn board(r: &Reader) -> Result<Vec<(Submission, Option<StoredSummary>)>, StoreError> {
     Ok(r.board()

@@ -25,13 +25,27 @@ pub(crate) fn gunzip(bytes: &[u8]) -> Result<String> {
     Ok(s)
 }
 
+/// An episode's trajectory and log, compressed.
+pub(crate) struct Compressed {
+    trajectory: Vec<u8>,
+    log: Vec<u8>,
+}
+
+impl Compressed {
+    pub(crate) fn new(trajectory_csv: &str, planner_log: &str) -> Compressed {
+        Compressed {
+            trajectory: gzip(trajectory_csv),
+            log: gzip(planner_log),
+        }
+    }
+}
+
 /// Stores an episode's trajectory and log (an episode that already has them keeps the first).
 pub(crate) async fn insert(
     tx: &mut Transaction<'static, Any>,
     submission_id: &str,
     task_id: &str,
-    trajectory_csv: &str,
-    planner_log: &str,
+    blobs: &Compressed,
 ) -> Result<()> {
     sqlx::query(
         "INSERT INTO episode_blobs (submission_id, task_id, trajectory_gz, planner_log_gz) VALUES ($1, $2, $3, $4) \
@@ -39,8 +53,8 @@ pub(crate) async fn insert(
     )
     .bind(submission_id)
     .bind(task_id)
-    .bind(gzip(trajectory_csv))
-    .bind(gzip(planner_log))
+    .bind(&blobs.trajectory)
+    .bind(&blobs.log)
     .execute(&mut **tx)
     .await?;
     Ok(())
@@ -108,14 +122,9 @@ pub(crate) async fn move_inline(pool: &AnyPool) -> Result<u64> {
             let task: String = r.try_get("task_id")?;
             let traj: Option<String> = r.try_get("trajectory_csv")?;
             let log: Option<String> = r.try_get("planner_log")?;
-            insert(
-                &mut tx,
-                &sub,
-                &task,
-                traj.as_deref().unwrap_or(""),
-                log.as_deref().unwrap_or(""),
-            )
-            .await?;
+            let blobs =
+                Compressed::new(traj.as_deref().unwrap_or(""), log.as_deref().unwrap_or(""));
+            insert(&mut tx, &sub, &task, &blobs).await?;
             sqlx::query(
                 "UPDATE episodes SET trajectory_csv = NULL, planner_log = NULL WHERE submission_id = $1 AND task_id = $2",
             )

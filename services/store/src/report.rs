@@ -13,6 +13,8 @@ impl Store {
         r: &EpisodeResultIn,
         now: f64,
     ) -> Result<ReportOutcome> {
+        // Compressed before the single writer's lock is taken: other writes do not wait on it.
+        let blobs = crate::blobs::Compressed::new(&r.trajectory_csv, &r.planner_log);
         let _w = self.write.lock().await;
         let row = sqlx::query(
             "SELECT state, lease_id, worker_id FROM episodes WHERE submission_id = $1 AND task_id = $2",
@@ -59,14 +61,7 @@ impl Store {
         if n == 0 {
             return Ok(ReportOutcome::Duplicate);
         }
-        crate::blobs::insert(
-            &mut tx,
-            &r.submission_id,
-            &r.task_id,
-            &r.trajectory_csv,
-            &r.planner_log,
-        )
-        .await?;
+        crate::blobs::insert(&mut tx, &r.submission_id, &r.task_id, &blobs).await?;
         if !r.planner_identity.is_empty() {
             sqlx::query("UPDATE submissions SET planner_identity = $1 WHERE id = $2")
                 .bind(&r.planner_identity)

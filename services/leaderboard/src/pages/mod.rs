@@ -15,6 +15,7 @@ pub mod episode;
 pub mod submission;
 
 use askama::Template;
+use base64::Engine as _;
 use eval::summary::Aggregate;
 use sha2::Digest;
 
@@ -75,27 +76,8 @@ pub fn standalone_csp() -> String {
     let hash = sha2::Sha256::digest(STYLE.as_bytes());
     format!(
         "default-src 'none'; style-src 'sha256-{}'; base-uri 'none'; form-action 'none'",
-        base64(&hash)
+        base64::engine::general_purpose::STANDARD.encode(hash)
     )
-}
-
-/// Standard base64 with padding (the CSP hash source's encoding).
-fn base64(bytes: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::with_capacity(bytes.len().div_ceil(3) * 4);
-    for c in bytes.chunks(3) {
-        let n = (c[0] as u32) << 16
-            | (*c.get(1).unwrap_or(&0) as u32) << 8
-            | *c.get(2).unwrap_or(&0) as u32;
-        for i in 0..4 {
-            if i <= c.len() {
-                s.push(A[(n >> (18 - 6 * i) & 63) as usize] as char);
-            } else {
-                s.push('=');
-            }
-        }
-    }
-    s
 }
 
 /// The cells of one aggregate, formatted (`macros.html`, `agg_cells`).
@@ -137,28 +119,7 @@ impl AggView {
     }
 }
 
-/// Renders a page. Rendering fails only when a value's `Display` fails, which none of ours does; the error is
-/// then the page (escaped by the caller's response type as plain text would be).
+/// Renders a page (as [`eval::charts::Markup::render`] renders any of our templates).
 pub(crate) fn render(t: &impl Template) -> String {
-    t.render()
-        .unwrap_or_else(|e| format!("rendering the page failed: {e}"))
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn base64_matches_rfc_4648_vectors() {
-        // RFC 4648, section 10.
-        for (plain, enc) in [
-            ("", ""),
-            ("f", "Zg=="),
-            ("fo", "Zm8="),
-            ("foo", "Zm9v"),
-            ("foob", "Zm9vYg=="),
-            ("fooba", "Zm9vYmE="),
-            ("foobar", "Zm9vYmFy"),
-        ] {
-            assert_eq!(super::base64(plain.as_bytes()), enc);
-        }
-    }
+    eval::charts::Markup::render(t).into_string()
 }
