@@ -2,7 +2,7 @@
 //! rendered once per reading (requests during a re-reading get the previous one rather than wait), and each
 //! submission page is rendered at most once per [`TTL`].
 
-use crate::{SubmissionEntry, WebError};
+use crate::{Ranking, SubmissionEntry, WebError};
 use axum::body::Bytes;
 use std::collections::HashMap;
 use std::future::Future;
@@ -20,18 +20,21 @@ const MAX_PAGES: usize = 512;
 /// The ranking as read at `at`, with its page and JSON (shared by every response, not copied).
 pub struct Snapshot {
     pub at: Instant,
+    pub reference: crate::ranking::Reference,
     pub entries: Vec<SubmissionEntry>,
     pub html: Bytes,
     pub json: Bytes,
 }
 
 impl Snapshot {
-    pub fn new(entries: Vec<SubmissionEntry>) -> Snapshot {
-        let html = crate::pages::board::index(&entries);
+    pub fn new(ranking: Ranking) -> Snapshot {
+        let Ranking { reference, entries } = ranking;
+        let html = crate::pages::board::index(&entries, &reference);
         let json =
             serde_json::to_string(&entries).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"));
         Snapshot {
             at: Instant::now(),
+            reference,
             entries,
             html: html.into(),
             json: json.into(),

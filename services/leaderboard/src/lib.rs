@@ -7,9 +7,11 @@
 
 pub mod bench;
 pub mod cache;
+pub mod compare;
 pub mod metrics;
 pub mod pages;
 pub mod public;
+pub mod ranking;
 
 use axum::extract::{Path, Query, State};
 use axum::http::{header, StatusCode};
@@ -40,10 +42,21 @@ pub struct Leaderboard {
 /// One submission with its progress and summary, as the API returns it.
 #[derive(Clone, Debug, Serialize)]
 pub struct SubmissionEntry {
+    /// Its place among the ranked runs; `None` for a run listed apart ([`SubmissionEntry::unranked`] says why).
     pub rank: Option<usize>,
+    pub unranked: Option<ranking::Unranked>,
+    /// Finished tasks over the full task set the board ranks on (0 to 1).
+    pub coverage: f64,
     pub submission: Submission,
     pub progress: Progress,
     pub summary: eval::summary::Summary,
+}
+
+/// The board: every submission, ranked ones first, and what ranked runs ran.
+#[derive(Clone, Debug, Serialize)]
+pub struct Ranking {
+    pub reference: ranking::Reference,
+    pub entries: Vec<SubmissionEntry>,
 }
 
 /// The Content-Security-Policy of every response: nothing runs (no script source at all), styles and pictures come
@@ -125,11 +138,13 @@ impl Leaderboard {
             .route("/worlds/:file", get(world_png))
             .route("/static/style.css", get(style))
             .route("/api/openapi.json", get(openapi))
+            .route("/compare/:a/:b", get(compare_page))
             .route("/metrics", get(metrics_text))
             .route("/api/submissions", get(api_submissions))
             .route("/api/submissions/:id", get(api_submission))
             .route("/api/submissions/:id/episodes", get(api_episodes))
             .route("/api/submissions/:id/episodes/:task", get(api_episode))
+            .route("/api/compare/:a/:b", get(api_compare))
             .fallback(not_found)
             .with_state(self.clone())
             .layer(axum::middleware::map_response(security_headers))
@@ -166,29 +181,58 @@ impl Leaderboard {
         };
         Ok(SubmissionEntry {
             rank: None,
+            unranked: None,
+            coverage: 0.0,
             submission: sub,
             progress,
             summary,
         })
     }
 
-    /// Every submission. Only complete runs are ranked (by success rate): submissions that finished every task of
-    /// the task set. Partial ones (fewer tasks, cancelled, still running) follow, unranked, so three lucky episodes
-    /// never top the board. Reads one row per submission (plus the progress of running ones).
-    pub async fn ranked(&self) -> Result<Vec<SubmissionEntry>, WebError> {
+    /// What ranked runs must have run: the full loaded task set (or, without one, the newest submission's set and
+    /// the most tasks a submission on it has), on this build's simulator, under the paper's rules.
+    fn reference(&self, entries: &[SubmissionEntry]) -> ranking::Reference {
+        match &self.set {
+            Some(set) => {
+                ranking::Reference::current(set.version(), set.world_ids().len() as u32 * 10)
+            }
+            None => {
+                // Entries come newest first.
+                let version = entries
+                    .first()
+                    .map_or("", |e| e.submission.task_set_version.as_str());
+                let tasks = entries
+                    .iter()
+                    .filter(|e| e.submission.task_set_version == version)
+                    .map(|e| e.progress.total)
+                    .max()
+                    .unwrap_or(0);
+                ranking::Reference::current(version, tasks)
+            }
+        }
+    }
+
+    /// Every submission with what they are ranked against. Only comparable runs are ranked (by success rate): see
+    /// [`ranking`]. The others follow, unranked, each with why and its coverage. Reads one row per submission
+    /// (plus the progress of running ones).
+    pub async fn ranked(&self) -> Result<Ranking, WebError> {
         let mut out = Vec::new();
         for (s, m) in public::board(&self.reader).await? {
             out.push(self.entry(s, m).await?);
         }
-        let full = match &self.set {
-            Some(set) => set.world_ids().len() as u32 * 10,
-            None => out.iter().map(|e| e.progress.total).max().unwrap_or(0),
-        };
-        let complete = |e: &SubmissionEntry| {
-            e.submission.state == "done"
-                && e.progress.total == full
-                && e.progress.finished == e.progress.total
-        };
+        let reference = self.reference(&out);
+        for e in &mut out {
+            let run = ranking::Run {
+                state: &e.submission.state,
+                tasks: e.progress.total,
+                finished: e.progress.finished,
+                task_set_version: &e.submission.task_set_version,
+                sim_version: &e.submission.sim_version,
+                rules: e.summary.rules,
+            };
+            e.unranked = run.unranked(&reference);
+            e.coverage = run.coverage(&reference);
+        }
         out.sort_by(|a, b| {
             let key = |e: &SubmissionEntry| {
                 if e.summary.overall.episodes == 0 {
@@ -197,19 +241,21 @@ impl Leaderboard {
                     e.summary.overall.success_rate
                 }
             };
-            complete(b)
-                .cmp(&complete(a))
+            a.unranked
+                .is_some()
+                .cmp(&b.unranked.is_some())
                 .then(key(b).total_cmp(&key(a)))
                 .then(a.submission.seq.cmp(&b.submission.seq))
         });
         let mut rank = 0;
-        for e in &mut out {
-            if complete(e) {
-                rank += 1;
-                e.rank = Some(rank);
-            }
+        for e in out.iter_mut().filter(|e| e.unranked.is_none()) {
+            rank += 1;
+            e.rank = Some(rank);
         }
-        Ok(out)
+        Ok(Ranking {
+            reference,
+            entries: out,
+        })
     }
 
     /// The ranking, read again only when the last reading is older than [`cache::TTL`] (or `fresh` asks for it).
@@ -286,7 +332,9 @@ async fn submission_page(
                 public::episodes_range(&lb.reader, &sub, offset, pages::submission::PAGE_SIZE)
                     .await?;
             let entry = lb.entry(sub, stored).await?;
-            Ok(pages::submission::page(&entry, &eps, page, offset))
+            let snap = lb.snapshot(false).await?;
+            let others = pages::submission::compare_links(&id, &snap.entries);
+            Ok(pages::submission::page(&entry, &eps, page, offset, &others))
         })
         .await?;
     Ok(Html(page))
@@ -383,6 +431,20 @@ async fn api_episode(
     Path((id, task)): Path<(String, String)>,
 ) -> Result<Json<vb_store::EpisodeDetail>, WebError> {
     Ok(Json(public::episode_detail(&lb.reader, &id, &task).await?))
+}
+
+async fn compare_page(
+    State(lb): St,
+    Path((a, b)): Path<(String, String)>,
+) -> Result<Html<String>, WebError> {
+    Ok(Html(pages::compare::page(&lb.compare(&a, &b).await?)))
+}
+
+async fn api_compare(
+    State(lb): St,
+    Path((a, b)): Path<(String, String)>,
+) -> Result<Json<compare::Pairwise>, WebError> {
+    Ok(Json(lb.compare(&a, &b).await?))
 }
 
 async fn not_found() -> WebError {

@@ -89,6 +89,8 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
         format!("/api/submissions/{id}"),
         format!("/api/submissions/{id}/episodes"),
         format!("/api/submissions/{id}/episodes/w001-t0"),
+        format!("/compare/{id}/{id}"),
+        format!("/api/compare/{id}/{id}"),
         "/metrics".to_string(),
         "/no-such-page".to_string(),
     ];
@@ -129,12 +131,13 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
     let svg = eval::charts::charts_svg(&summary).into_string();
     assert_clean("charts.svg", &svg);
     assert!(svg.contains("&#60;script&#62;"), "{svg}");
-    let page =
-        vb_leaderboard::pages::board::standalone(&[vb_leaderboard::pages::board::Evaluation {
+    let page = vb_leaderboard::pages::board::standalone(
+        &[vb_leaderboard::pages::board::Evaluation {
             name: EVIL.into(),
             summary,
-            full_tasks: None,
-        }]);
+        }],
+        None,
+    );
     assert_clean("leaderboard.html", &page);
     assert!(page.contains("&#60;script&#62;alert(1)"), "{page}");
     Ok(())
@@ -145,7 +148,7 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
 #[test]
 fn standalone_page_allows_only_its_own_style() {
     use sha2::Digest;
-    let page = vb_leaderboard::pages::board::standalone(&[]);
+    let page = vb_leaderboard::pages::board::standalone(&[], None);
     let css = page
         .split_once("<style>")
         .and_then(|(_, rest)| rest.split_once("</style>"))

@@ -1,9 +1,10 @@
-//! The ranking: only complete runs get a rank.
+//! The ranking: only complete runs of the current task set and simulator get a rank; the others are listed apart
+//! with why; two submissions compare paired.
 
 use vb_store::*;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn only_complete_runs_are_ranked() -> anyhow::Result<()> {
+async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
     let dir = std::env::temp_dir().join(format!("vb-rank-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir)?;
@@ -11,9 +12,15 @@ async fn only_complete_runs_are_ranked() -> anyhow::Result<()> {
     let set = tasks::TaskSet::load(&tasks::TaskSet::default_dir())?;
     let metrics = serde_json::to_string(&sim_core::episode::EpisodeMetrics::default())?;
     let w = store.register_worker("w", 64, "s", "tw", 0.0).await?;
-    // A full run with some failures, and a 2-task run that succeeded on both.
+    // A full run with some failures, a 2-task run that succeeded on both, and a full run on another simulator
+    // that succeeded everywhere.
     let mut ids = Vec::new();
-    for (name, tasks, succeed_every) in [("full", set.world_ids().len() * 10, 3), ("lucky", 2, 1)] {
+    let full_set = set.world_ids().len() * 10;
+    for (name, tasks, succeed_every, sim) in [
+        ("full", full_set, 3, sim_core::SIM_VERSION),
+        ("lucky", 2, 1, sim_core::SIM_VERSION),
+        ("old-sim", full_set, 1, "sim-core 0.0.1 r0"),
+    ] {
         let episodes: Vec<NewEpisode> = set
             .world_ids()
             .iter()
@@ -40,7 +47,7 @@ async fn only_complete_runs_are_ranked() -> anyhow::Result<()> {
             seed: 0,
             step_deadline_s: 1.0,
             task_set_version: set.version().into(),
-            sim_version: "s".into(),
+            sim_version: sim.into(),
         };
         let id = store.create_submission(&sub, &episodes, 1.0).await?;
         let mut k = 0;
@@ -63,7 +70,7 @@ async fn only_complete_runs_are_ranked() -> anyhow::Result<()> {
                     outcome: outcome.into(),
                     reason: outcome.into(),
                     metrics_json: metrics.clone(),
-                    sim_version: "s".into(),
+                    sim_version: sim.into(),
                     ..Default::default()
                 };
                 store.report(&w, &r, 3.0).await?;
@@ -71,8 +78,14 @@ async fn only_complete_runs_are_ranked() -> anyhow::Result<()> {
         }
         ids.push(id);
     }
+    for id in &ids {
+        store.refresh_summary(id, Some(&set), 4.0).await?;
+    }
     let lb = vb_leaderboard::Leaderboard::new(store.reader(), Some(set));
-    let ranked = lb.ranked().await.map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let ranking = lb.ranked().await.map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    assert_eq!(ranking.reference.sim_version, sim_core::SIM_VERSION);
+    assert_eq!(ranking.reference.tasks as usize, full_set);
+    let ranked = &ranking.entries;
     let by_name = |n: &str| ranked.iter().find(|e| e.submission.name == n).unwrap();
     assert_eq!(by_name("full").rank, Some(1));
     assert_eq!(
@@ -85,6 +98,60 @@ async fn only_complete_runs_are_ranked() -> anyhow::Result<()> {
             > by_name("full").summary.overall.success_rate
     );
     assert_eq!(ranked[0].submission.name, "full");
+    use vb_leaderboard::ranking::Unranked;
+    assert_eq!(
+        by_name("lucky").unranked,
+        Some(Unranked::Partial {
+            finished: 2,
+            tasks: full_set as u32
+        })
+    );
+    assert_eq!(by_name("lucky").coverage, 2.0 / full_set as f64);
+    let old = by_name("old-sim");
+    assert_eq!(old.rank, None, "a run on another simulator is not ranked");
+    assert_eq!(
+        old.unranked,
+        Some(Unranked::OtherSimulator {
+            sim_version: "sim-core 0.0.1 r0".into()
+        })
+    );
+    assert_eq!(old.summary.overall.success_rate, 1.0);
+    // The board: the ranked table, then the runs listed apart with why and their coverage.
+    let board = vb_leaderboard::pages::board::index(ranked, &ranking.reference);
+    let (ranked_table, apart_table) = board.split_once("Listed apart").expect("runs listed apart");
+    assert!(ranked_table.contains(">full</a>") && !ranked_table.contains(">lucky</a>"));
+    assert!(
+        apart_table.contains("partial: 2 of 1000 tasks</td><td>2 / 1000 (0.2%)"),
+        "{apart_table}"
+    );
+    assert!(
+        apart_table.contains("other simulator (sim-core 0.0.1 r0)</td><td>1000 / 1000 (100.0%)")
+    );
+
+    // Pairwise: the full run against the other-simulator one on all 1000 tasks, as vb compare pairs them.
+    let c = lb
+        .compare(&by_name("full").submission.id, &old.submission.id)
+        .await
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let full_successes = (0..full_set).filter(|k| k % 3 == 0).count();
+    assert_eq!(c.overall.paired_tasks, full_set);
+    assert_eq!(
+        (c.overall.a_only, c.overall.b_only),
+        (0, full_set - full_successes)
+    );
+    assert_eq!(c.overall.success_b, 1.0);
+    assert!(c.overall.mcnemar_p < 1e-4 && c.overall.significant);
+    assert!(
+        c.notes.iter().any(|n| n.contains("simulator")),
+        "{:?}",
+        c.notes
+    );
+    assert_eq!(c.by_level.len(), 1, "every task here is `low`");
+    let page = vb_leaderboard::pages::compare::page(&c);
+    assert!(
+        page.contains("p &#60; 0.0001 *") || page.contains("p < 0.0001 *"),
+        "{page}"
+    );
 
     // The full run's page shows its 1000 episodes 100 at a time.
     let full = by_name("full");
@@ -100,7 +167,7 @@ async fn only_complete_runs_are_ranked() -> anyhow::Result<()> {
     let at = |n: usize| {
         let (page, from) = vb_leaderboard::pages::submission::page_offset(n, eps.len());
         let shown = &eps[from..(from + 100).min(eps.len())];
-        vb_leaderboard::pages::submission::page(full, shown, page, from)
+        vb_leaderboard::pages::submission::page(full, shown, page, from, &[])
     };
     let first = at(1);
     assert_eq!(rows(&first), 100);
@@ -118,21 +185,40 @@ async fn only_complete_runs_are_ranked() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `vb leaderboard-static` ranks the same way: a partial evaluation is listed, unranked, after the full one.
+/// `vb leaderboard-static` ranks the same way: a partial evaluation and one under the release's rules are listed,
+/// unranked, after the full one.
 #[test]
 fn the_static_board_ranks_only_full_evaluations() {
     use vb_leaderboard::pages::board::{standalone, Evaluation};
+    use vb_leaderboard::ranking::Reference;
     let eval = |name: &str, episodes: usize, rate: f64| {
         let mut summary = eval::summary::summarise(&[]);
         summary.overall.episodes = episodes;
         summary.overall.success_rate = rate;
+        summary.task_set_version = "set".into();
+        summary.sim_version = sim_core::SIM_VERSION.into();
         Evaluation {
             name: name.into(),
             summary,
-            full_tasks: Some(1000),
         }
     };
-    let page = standalone(&[eval("partial-run", 330, 0.9), eval("full-run", 1000, 0.4)]);
+    let mut release = eval("release-rules", 1000, 0.95);
+    release.summary.rules = sim_core::episode::Rules::Release;
+    let evals = [
+        eval("partial-run", 330, 0.9),
+        eval("full-run", 1000, 0.4),
+        release,
+    ];
+    // Without a reference the most common set among the evaluations is ranked, full at its largest run.
+    for reference in [Some(Reference::current("set", 1000)), None] {
+        let page = standalone(&evals, reference);
+        assert!(
+            page.contains("<tr><td>1</td><td class=\"l\">full-run"),
+            "{page}"
+        );
+        assert!(page.contains("release-rules</td><td class=\"l\"></td><td class=\"l\"></td><td class=\"l why\">release rules"), "{page}");
+    }
+    let page = standalone(&evals, Some(Reference::current("set", 1000)));
     let at = |s: &str| page.find(s).unwrap_or_else(|| panic!("{s} missing"));
     assert!(at("full-run") < at("partial-run"));
     assert!(

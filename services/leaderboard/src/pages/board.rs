@@ -1,6 +1,7 @@
 //! The ranking (`board.html`): the service's `/` and `vb leaderboard-static` render the same template.
 
 use super::{render, AggView, Frame};
+use crate::ranking::{coverage_text, Reference, Run, Unranked};
 use crate::SubmissionEntry;
 use askama::Template;
 use eval::report::{DENSITIES, LEVELS, SEMANTICS};
@@ -15,6 +16,10 @@ pub struct Row {
     pub vehicle: String,
     pub state: String,
     pub progress: String,
+    /// Finished tasks of the full set (runs listed apart).
+    pub coverage: String,
+    /// Why a run is listed apart (empty for ranked ones).
+    pub why: String,
     pub overall: AggView,
     pub by_level: String,
     pub by_semantics: String,
@@ -28,13 +33,30 @@ pub struct Row {
 #[template(path = "board.html")]
 struct Board {
     frame: Frame,
-    ranked_rule: &'static str,
+    /// What ranked runs ran ([`Reference::describe`]).
+    reference: String,
     /// What a row is: a submission (service) or an evaluation directory (static).
     name_header: &'static str,
     empty: &'static str,
     /// State and progress columns (the service's board; a static board has finished evaluations only).
     live_columns: bool,
-    rows: Vec<Row>,
+    ranked: Vec<Row>,
+    apart: Vec<Row>,
+}
+
+impl Board {
+    fn new(frame: Frame, reference: &Reference, rows: Vec<Row>) -> Board {
+        let (ranked, apart) = rows.into_iter().partition(|r| r.why.is_empty());
+        Board {
+            frame,
+            reference: reference.describe(),
+            name_header: "submission",
+            empty: "No submissions yet. Submit one with `vb-submit builtin pid`.",
+            live_columns: true,
+            ranked,
+            apart,
+        }
+    }
 }
 
 /// Success rates of a factor's three levels, `52% / 31% / -`.
@@ -58,6 +80,8 @@ fn row(rank: Option<usize>, name: &str, s: &Summary) -> Row {
         vehicle: s.vehicle.clone(),
         state: String::new(),
         progress: String::new(),
+        coverage: String::new(),
+        why: String::new(),
         overall: AggView::new(&s.overall),
         by_level: trio(&s.by_level, LEVELS),
         by_semantics: trio(&s.by_semantics, SEMANTICS),
@@ -69,7 +93,7 @@ fn row(rank: Option<usize>, name: &str, s: &Summary) -> Row {
 }
 
 /// The service's ranking page over its (already ranked) submissions.
-pub fn index(entries: &[SubmissionEntry]) -> String {
+pub fn index(entries: &[SubmissionEntry], reference: &Reference) -> String {
     let mut running = false;
     let rows = entries
         .iter()
@@ -81,47 +105,63 @@ pub fn index(entries: &[SubmissionEntry]) -> String {
                 planner: crate::pages::submission::planner_label(s),
                 state: s.state.clone(),
                 progress: format!("{}/{}", e.progress.finished, e.progress.total),
+                coverage: coverage_text(e.progress.finished, e.coverage, reference),
+                why: e.unranked.as_ref().map_or(String::new(), |u| u.to_string()),
                 ..row(e.rank, &s.name, &e.summary)
             }
         })
         .collect();
-    render(&Board {
-        frame: Frame::served("leaderboard", running),
-        ranked_rule: "submissions that finished every task of the task set.",
-        name_header: "submission",
-        empty: "No submissions yet. Submit one with `vb-submit builtin pid`.",
-        live_columns: true,
+    render(&Board::new(
+        Frame::served("leaderboard", running),
+        reference,
         rows,
-    })
+    ))
 }
 
-/// One evaluation on a static board: its summary and how many tasks make the full set it ran on (`None` when
-/// unknown: the largest evaluation on the same task set counts as full then).
+/// One evaluation on a static board: what the board calls it (its directory's name) and its summary.
 pub struct Evaluation {
-    /// What the board calls it (the evaluation's directory name).
     pub name: String,
     pub summary: Summary,
-    pub full_tasks: Option<usize>,
 }
 
-/// A page that stands alone (`vb leaderboard-static`): evaluations that ran every task of their task set are
-/// ranked by success rate; partial ones follow, unranked.
-pub fn standalone(evals: &[Evaluation]) -> String {
-    let full = |e: &Evaluation| {
-        e.full_tasks.unwrap_or_else(|| {
-            evals
-                .iter()
-                .filter(|o| o.summary.task_set_version == e.summary.task_set_version)
-                .map(|o| o.summary.overall.episodes)
-                .max()
-                .unwrap_or(0)
-        })
-    };
-    let complete =
-        |e: &Evaluation| e.summary.overall.episodes > 0 && e.summary.overall.episodes == full(e);
-    let mut order: Vec<&Evaluation> = evals.iter().collect();
-    order.sort_by(|a, b| {
-        complete(b).cmp(&complete(a)).then(
+/// A page that stands alone (`vb leaderboard-static`), ranked by the service's rule ([`crate::ranking`]) against
+/// `reference` (`None`: the full set is the most common task set among the evaluations, of as many tasks as the
+/// largest evaluation on it ran, on this build's simulator under the paper's rules).
+pub fn standalone(evals: &[Evaluation], reference: Option<Reference>) -> String {
+    let reference = reference.unwrap_or_else(|| {
+        let mut counts = BTreeMap::<&str, usize>::new();
+        for e in evals {
+            *counts.entry(&e.summary.task_set_version).or_default() += 1;
+        }
+        let version = counts
+            .iter()
+            .max_by_key(|(_, n)| **n)
+            .map_or("", |(v, _)| *v);
+        let tasks = evals
+            .iter()
+            .filter(|e| e.summary.task_set_version == version)
+            .map(|e| e.summary.overall.episodes as u32)
+            .max()
+            .unwrap_or(0);
+        Reference::current(version, tasks)
+    });
+    fn run(e: &Evaluation) -> Run<'_> {
+        let episodes = e.summary.overall.episodes as u32;
+        Run {
+            state: "done",
+            tasks: episodes,
+            finished: episodes,
+            task_set_version: &e.summary.task_set_version,
+            sim_version: &e.summary.sim_version,
+            rules: e.summary.rules,
+        }
+    }
+    let mut order: Vec<(&Evaluation, Option<Unranked>)> = evals
+        .iter()
+        .map(|e| (e, run(e).unranked(&reference)))
+        .collect();
+    order.sort_by(|(a, ua), (b, ub)| {
+        ua.is_some().cmp(&ub.is_some()).then(
             b.summary
                 .overall
                 .success_rate
@@ -131,20 +171,23 @@ pub fn standalone(evals: &[Evaluation]) -> String {
     let mut rank = 0;
     let rows = order
         .into_iter()
-        .map(|e| {
-            let r = complete(e).then(|| {
+        .map(|(e, why)| {
+            let r = why.is_none().then(|| {
                 rank += 1;
                 rank
             });
-            row(r, &e.name, &e.summary)
+            let run = run(e);
+            Row {
+                coverage: coverage_text(run.finished, run.coverage(&reference), &reference),
+                why: why.map_or(String::new(), |u| u.to_string()),
+                ..row(r, &e.name, &e.summary)
+            }
         })
         .collect();
     render(&Board {
-        frame: Frame::standalone("leaderboard"),
-        ranked_rule: "evaluations that ran every task of their task set.",
         name_header: "evaluation",
         empty: "No evaluations.",
         live_columns: false,
-        rows,
+        ..Board::new(Frame::standalone("leaderboard"), &reference, rows)
     })
 }

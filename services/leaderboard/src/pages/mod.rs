@@ -7,10 +7,11 @@
 //! plain HTML files in `web/templates/`, and nothing is read from disk at run time. maud escapes too but writes
 //! pages as Rust macros; minijinja checks templates only at run time.
 //!
-//! Pages: [`board`] (the service's `/` and `vb leaderboard-static`, one template), [`submission`] and
-//! [`episode`].
+//! Pages: [`board`] (the service's `/` and `vb leaderboard-static`, one template), [`submission`], [`episode`]
+//! and [`compare`].
 
 pub mod board;
+pub mod compare;
 pub mod episode;
 pub mod submission;
 

@@ -67,7 +67,28 @@ struct Page {
     matched: Vec<Contrast>,
     page: Pager,
     episodes: Vec<EpisodeLine>,
+    /// Links to comparisons with other submissions: (name, href).
+    compare: Vec<(String, String)>,
 }
+
+/// Submissions a page offers to compare with: the ranked ones first, at most [`COMPARE_LINKS`], not `id` itself.
+pub fn compare_links(id: &str, ranking: &[SubmissionEntry]) -> Vec<(String, String)> {
+    ranking
+        .iter()
+        .filter(|e| e.submission.id != id && e.summary.overall.episodes > 0)
+        .take(COMPARE_LINKS)
+        .map(|e| {
+            let label = match e.rank {
+                Some(r) => format!("#{r} {}", e.submission.name),
+                None => e.submission.name.clone(),
+            };
+            (label, format!("/compare/{id}/{}", e.submission.id))
+        })
+        .collect()
+}
+
+/// Comparison links on a submission page.
+pub const COMPARE_LINKS: usize = 10;
 
 /// `builtin:pid`, or the kind alone (the public does not see command lines, URLs or image names).
 pub fn planner_label(s: &Submission) -> String {
@@ -176,7 +197,13 @@ pub fn page_offset(page: usize, total: usize) -> (usize, usize) {
 }
 
 /// The page of a submission showing `shown`, its episodes from position `from` (page `page` of its table).
-pub fn page(e: &SubmissionEntry, shown: &[EpisodeRecord], page: usize, from: usize) -> String {
+pub fn page(
+    e: &SubmissionEntry,
+    shown: &[EpisodeRecord],
+    page: usize,
+    from: usize,
+    compare: &[(String, String)],
+) -> String {
     let s = &e.submission;
     let p = &e.progress;
     let live = s.state == "queued" || s.state == "running";
@@ -232,5 +259,6 @@ pub fn page(e: &SubmissionEntry, shown: &[EpisodeRecord], page: usize, from: usi
             next: (page < pages).then(|| link(page + 1)),
         },
         episodes: shown.iter().map(|ep| episode_line(&s.id, ep)).collect(),
+        compare: compare.to_vec(),
     })
 }

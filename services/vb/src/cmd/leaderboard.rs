@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 use vb_leaderboard::pages::board::{standalone, Evaluation};
+use vb_leaderboard::ranking::Reference;
 
 #[derive(clap::Args)]
 pub struct LeaderboardArgs {
@@ -12,8 +13,9 @@ pub struct LeaderboardArgs {
     /// The page to write (one self-contained HTML file).
     #[arg(long, default_value = "out/leaderboard.html")]
     pub out: PathBuf,
-    /// Task-set directory that tells how many tasks a full run has (default: the committed set). Evaluations on
-    /// another task set count as full when they ran as many tasks as the largest evaluation on it.
+    /// Task-set directory whose full runs are ranked (default: the committed set); evaluations on another task set,
+    /// simulator or rules are listed apart. Without a loadable set the most common set among the evaluations is
+    /// ranked, full when as many tasks as its largest evaluation ran.
     #[arg(long, hide_default_value = true)]
     pub task_dir: Option<PathBuf>,
 }
@@ -27,25 +29,18 @@ pub fn run(a: LeaderboardArgs) -> anyhow::Result<()> {
             std::fs::read_to_string(&p).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
         let summary: eval::summary::Summary =
             serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
-        let full_tasks = set
-            .as_ref()
-            .filter(|s| s.version() == summary.task_set_version)
-            .map(|s| s.world_ids().len() * 10);
         let name = d
             .canonicalize()
             .ok()
             .and_then(|c| c.file_name().map(|n| n.to_string_lossy().into_owned()))
             .unwrap_or_else(|| d.display().to_string());
-        evals.push(Evaluation {
-            name,
-            summary,
-            full_tasks,
-        });
+        evals.push(Evaluation { name, summary });
     }
     if let Some(parent) = a.out.parent() {
         std::fs::create_dir_all(parent)?;
     }
-    std::fs::write(&a.out, standalone(&evals))?;
+    let reference = set.map(|s| Reference::current(s.version(), s.world_ids().len() as u32 * 10));
+    std::fs::write(&a.out, standalone(&evals, reference))?;
     println!("leaderboard: {}", a.out.canonicalize()?.display());
     Ok(())
 }

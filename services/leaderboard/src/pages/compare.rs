@@ -1,0 +1,85 @@
+//! The comparison of two submissions (`compare.html`): A minus B on the tasks both finished.
+
+use super::{render, Frame};
+use crate::compare::{Pairwise, Side};
+use askama::Template;
+use eval::compare::Comparison;
+
+struct SideView {
+    href: String,
+    name: String,
+    facts: String,
+}
+
+struct Line {
+    label: String,
+    tasks: usize,
+    rate_a: String,
+    rate_b: String,
+    difference: String,
+    ci: String,
+    discordant: String,
+    mcnemar: String,
+}
+
+#[derive(Template)]
+#[template(path = "compare.html")]
+struct Page {
+    frame: Frame,
+    a: SideView,
+    b: SideView,
+    notes: Vec<String>,
+    lines: Vec<Line>,
+    api: String,
+}
+
+fn side(s: &Side) -> SideView {
+    SideView {
+        href: format!("/submissions/{}", s.id),
+        name: s.name.clone(),
+        facts: format!(
+            "{}, {}, {} finished episodes, task set {}, simulator {}, {} rules",
+            s.planner,
+            s.state,
+            s.finished,
+            s.task_set_version,
+            s.sim_version,
+            s.rules.as_str()
+        ),
+    }
+}
+
+fn line(label: &str, c: &Comparison) -> Line {
+    Line {
+        label: label.to_string(),
+        tasks: c.paired_tasks,
+        rate_a: format!("{:.1}%", 100.0 * c.success_a),
+        rate_b: format!("{:.1}%", 100.0 * c.success_b),
+        difference: format!("{:+.1}", 100.0 * c.difference),
+        ci: format!(
+            "[{:+.1}, {:+.1}]",
+            100.0 * c.difference_ci95.0,
+            100.0 * c.difference_ci95.1
+        ),
+        discordant: format!("{} / {}", c.a_only, c.b_only),
+        mcnemar: format!(
+            "{}{}",
+            eval::compare::p_text(c.mcnemar_p),
+            if c.significant { " *" } else { "" }
+        ),
+    }
+}
+
+/// The page of a comparison.
+pub fn page(p: &Pairwise) -> String {
+    let mut lines = vec![line("all paired tasks", &p.overall)];
+    lines.extend(p.by_level.iter().map(|(level, c)| line(level, c)));
+    render(&Page {
+        frame: Frame::served(&format!("{} vs {}", p.a.name, p.b.name), false),
+        a: side(&p.a),
+        b: side(&p.b),
+        notes: p.notes.clone(),
+        lines,
+        api: format!("/api/compare/{}/{}", p.a.id, p.b.id),
+    })
+}
