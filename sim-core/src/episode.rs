@@ -93,6 +93,13 @@ impl Rules {
             Self::Custom => "custom",
         }
     }
+
+    /// The rules named by [`Rules::as_str`].
+    pub fn parse(s: &str) -> Option<Rules> {
+        [Self::Paper, Self::Release, Self::Custom]
+            .into_iter()
+            .find(|r| r.as_str() == s)
+    }
 }
 
 impl EpisodeConfig {

@@ -34,8 +34,11 @@ pub fn lease(l: &Lease) -> pb::EpisodeLease {
     }
 }
 
-pub fn status(s: &Submission, p: &Progress, throughput_per_s: f64) -> pb::SubmissionStatus {
+/// A submission's status; `throughput_per_s`: the service's recent episodes per second (`None`: not known yet, so
+/// no ETA).
+pub fn status(s: &Submission, p: &Progress, throughput_per_s: Option<f64>) -> pb::SubmissionStatus {
     let active = s.state == "queued" || s.state == "running";
+    let throughput_per_s = throughput_per_s.unwrap_or(0.0);
     let eta_known = active && throughput_per_s > 0.0;
     pb::SubmissionStatus {
         submission_id: s.id.clone(),
@@ -65,6 +68,9 @@ pub fn status(s: &Submission, p: &Progress, throughput_per_s: f64) -> pb::Submis
         vehicle: s.vehicle.clone(),
         queued: p.queued,
         eta_known,
+        scale: s.scale,
+        seed: s.seed,
+        rules: sim_core::episode::Rules::Paper.as_str().to_string(),
     }
 }
 

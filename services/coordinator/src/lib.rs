@@ -250,14 +250,12 @@ impl Coordinator {
         let reader = self.store.reader();
         let sub = reader.submission(id).await.map_err(store_status)?;
         let p = reader.progress(id).await.map_err(store_status)?;
-        // Throughput over the last two minutes of the whole service.
-        let t = now();
-        let (recent, first) = reader
-            .finished_since(t - 120.0)
+        // Throughput of the whole service over the last two minutes.
+        let recent = reader
+            .finished_since(now() - 120.0)
             .await
             .map_err(store_status)?;
-        let span = first.map_or(120.0, |f| (t - f).clamp(1.0, 120.0));
-        Ok(convert::status(&sub, &p, recent as f64 / span))
+        Ok(convert::status(&sub, &p, recent.rate()))
     }
 
     fn validate_submit(&self, r: &pb::SubmitRequest) -> Result<ValidSubmit, Status> {
@@ -654,6 +652,25 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
         let r = req.into_inner();
         let t = now();
         self.0.known_worker(&r.worker_id, &token, t).await?;
+        if r.handed_back {
+            let _g = self.0.lease_lock.lock().await;
+            let ok = self
+                .0
+                .store
+                .hand_back(&r.worker_id, &r.lease_id, t)
+                .await
+                .map_err(store_status)?;
+            if ok {
+                eprintln!(
+                    "coordinator: worker {} handed back {} of {} (stopping)",
+                    r.worker_id, r.task_id, r.submission_id
+                );
+            }
+            return Ok(Response::new(pb::ReportAck {
+                accepted: false,
+                duplicate: false,
+            }));
+        }
         if r.infrastructure_failure {
             eprintln!(
                 "coordinator: worker {} could not run {} of {}: {}",

@@ -56,6 +56,7 @@ mod tokens;
 mod types;
 
 pub use metrics::Counts;
+pub use reader::{FinishedSince, MIN_RATE_EPISODES};
 pub use summaries::StoredSummary;
 pub use types::*;
 

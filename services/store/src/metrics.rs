@@ -46,7 +46,7 @@ impl Reader {
              AND outcome IS NOT NULL GROUP BY outcome ORDER BY outcome",
         )
         .await?;
-        let (finished_last_minute, _) = self.finished_since(now - 60.0).await?;
+        let finished_last_minute = self.finished_since(now - 60.0).await?.n;
         let w = sqlx::query(
             "SELECT CAST(COUNT(*) AS BIGINT) AS n, CAST(COALESCE(SUM(slots), 0) AS BIGINT) AS slots FROM workers \
              WHERE last_seen >= $1",

@@ -284,4 +284,26 @@ impl Store {
         self.expire_leases_locked(now).await?;
         Ok(())
     }
+
+    /// Worker `worker_id` is stopping and hands back its leased episode unfinished: it goes back to the queue (a
+    /// cancelled submission's is marked not run) at once, without using up an attempt or counting as a dropped
+    /// lease. Whether the lease was still the worker's.
+    pub async fn hand_back(&self, worker_id: &str, lease_id: &str, now: f64) -> Result<bool> {
+        let _w = self.write.lock().await;
+        let n = sqlx::query(
+            "UPDATE episodes SET state = CASE WHEN submission_id IN \
+             (SELECT id FROM submissions WHERE state = 'cancelled') THEN 'not_run' ELSE 'queued' END, \
+             attempts = attempts - 1, lease_id = NULL, worker_id = NULL, lease_expires = NULL \
+             WHERE lease_id = $1 AND worker_id = $2 AND state = 'leased'",
+        )
+        .bind(lease_id)
+        .bind(worker_id)
+        .execute(&self.pool)
+        .await?
+        .rows_affected();
+        if n > 0 {
+            self.finish_submissions(now).await?;
+        }
+        Ok(n > 0)
+    }
 }

@@ -5,6 +5,7 @@
 #![allow(clippy::result_large_err)]
 
 pub mod cli;
+pub mod results;
 
 /// A planner command with every argument that names an existing file or directory relative to the caller's
 /// directory made absolute: workers start planners in a private directory of their own, so `python my_planner.py`
@@ -45,6 +46,11 @@ pub enum SubmitError {
     Usage(String),
     #[error(transparent)]
     Tasks(#[from] tasks::TasksError),
+    /// The coordinator sent something this client cannot read.
+    #[error("unexpected answer from the coordinator: {0}")]
+    Protocol(String),
+    #[error("{0}")]
+    Io(String),
 }
 
 /// A readable message for a refused call.
@@ -222,67 +228,6 @@ pub fn status_line(s: &SubmissionStatus) -> String {
         line += &format!(", {} not run", s.not_run);
     }
     line
-}
-
-/// Results as CSV, one row per episode (unfinished ones included, with their state).
-pub fn results_csv(r: &pb::ResultsResponse) -> String {
-    let mut out = String::from(
-        "task_id,world_id,task_index,level,semantics,density,state,outcome,reason,time_s,roll_abs_mean_deg,pitch_abs_mean_deg,path_length_m,attempts,wall_time_s,planner_identity,sim_version,detail\n",
-    );
-    let q = |s: &str| format!("\"{}\"", s.replace('"', "\"\""));
-    for e in &r.episodes {
-        let m: Option<sim_core::episode::EpisodeMetrics> =
-            serde_json::from_str(&e.metrics_json).ok();
-        let f = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.4}"));
-        out += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{},{},{}\n",
-            e.task_id,
-            e.world_id,
-            e.task_index,
-            e.level,
-            e.semantics,
-            e.density,
-            e.state,
-            e.outcome,
-            e.reason,
-            f(m.as_ref().map(|m| m.time)),
-            f(m.as_ref().map(|m| m.roll_abs.mean)),
-            f(m.as_ref().map(|m| m.pitch_abs.mean)),
-            f(m.as_ref().map(|m| m.path_length)),
-            e.attempts,
-            e.wall_time_s,
-            q(&e.planner_identity),
-            q(&e.sim_version),
-            q(&e.detail),
-        );
-    }
-    out
-}
-
-/// Results as JSON: the status and every episode with its metrics.
-pub fn results_json(r: &pb::ResultsResponse) -> String {
-    let eps: Vec<serde_json::Value> = r
-        .episodes
-        .iter()
-        .map(|e| {
-            serde_json::json!({
-                "task_id": e.task_id, "world_id": e.world_id, "task_index": e.task_index,
-                "level": e.level, "semantics": e.semantics, "density": e.density,
-                "state": e.state, "outcome": e.outcome, "reason": e.reason, "detail": e.detail,
-                "metrics": serde_json::from_str::<serde_json::Value>(&e.metrics_json).unwrap_or(serde_json::Value::Null),
-                "attempts": e.attempts, "wall_time_s": e.wall_time_s,
-                "planner_identity": e.planner_identity, "sim_version": e.sim_version,
-            })
-        })
-        .collect();
-    let s = r.status.clone().unwrap_or_default();
-    let v = serde_json::json!({
-        "submission_id": s.submission_id, "name": s.name, "state": s.state, "planner": s.planner,
-        "planner_identity": s.planner_identity, "vehicle": s.vehicle, "task_set_version": s.task_set_version,
-        "sim_version": s.sim_version, "total": s.total, "finished": s.finished, "not_run": s.not_run,
-        "success_rate": s.success_rate, "episodes": eps,
-    });
-    serde_json::to_string_pretty(&v).unwrap_or_default() + "\n"
 }
 
 /// What `validate` found.

@@ -1,7 +1,7 @@
 //! `vb-submit`: submit a planner to a vertibench coordinator, follow it, fetch its results. Thin: parses arguments
 //! and calls the `vb_submit` library.
 
-use anyhow::{bail, Context};
+use anyhow::bail;
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 use vb_proto::v1 as pb;
@@ -91,13 +91,16 @@ enum Cmd {
         #[arg(long)]
         watch: bool,
     },
-    /// Results of a submission, one row per episode.
+    /// Results of a submission in `vb eval`'s formats: its finished episodes as episodes.csv's columns (csv) or as
+    /// results.jsonl's rows with the status and the unfinished episodes (json), on stdout; or, with --out, the
+    /// directory `vb eval` writes, for `vb compare` and `vb leaderboard-static`.
     Results {
         id: String,
-        /// Output format.
+        /// Format on stdout.
         #[arg(long, default_value = "csv", value_parser = ["csv", "json"])]
         format: String,
-        /// Write to a file instead of stdout.
+        /// Write vb eval's files (results.jsonl, episodes.csv, episodes.parquet, summary.json, summary.txt,
+        /// charts.svg) into this new or empty directory instead.
         #[arg(long)]
         out: Option<PathBuf>,
     },
@@ -301,16 +304,28 @@ async fn run() -> anyhow::Result<()> {
             let mut client =
                 vb_submit::connect(&cli.coordinator, &token(&cli)?, cli.tls_ca.as_deref()).await?;
             let r = vb_submit::results(&mut client, id).await?;
-            let text = if format == "json" {
-                vb_submit::results_json(&r)
-            } else {
-                vb_submit::results_csv(&r)
-            };
+            // The committed task set gives worlds' terrain groups (density contrasts) when the run used it.
+            let set = tasks::TaskSet::load(&tasks::TaskSet::default_dir()).ok();
+            let unfinished = vb_submit::results::unfinished(&r);
+            if !unfinished.is_empty() {
+                eprintln!(
+                    "note: {} of {} episodes have not finished (first: {} {}); the results hold the finished ones",
+                    unfinished.len(),
+                    r.episodes.len(),
+                    unfinished[0].0,
+                    unfinished[0].1
+                );
+            }
             match out {
-                Some(p) => {
-                    std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))?
+                Some(dir) => {
+                    let s = vb_submit::results::write_dir(dir, &r, set.as_ref())?;
+                    print!("{}", eval::report::summary_text(&s));
+                    println!("wrote {}", dir.display());
                 }
-                None => print!("{text}"),
+                None if format == "json" => {
+                    print!("{}", vb_submit::results::json(&r, set.as_ref())?)
+                }
+                None => print!("{}", vb_submit::results::csv(&r, set.as_ref())?),
             }
             Ok(())
         }

@@ -148,7 +148,11 @@ async fn workers_die_and_the_coordinator_restarts_yet_every_task_has_exactly_one
     let paths = spec["paths"].as_object().expect("paths");
     assert!(paths.len() >= 5);
     for path in paths.keys() {
-        let concrete = path.replace("{id}", &id).replace("{task}", "w001-t0");
+        let concrete = path
+            .replace("{id}", &id)
+            .replace("{task}", "w001-t0")
+            .replace("{a}", &id)
+            .replace("{b}", &id);
         let body = http_text(http, &concrete);
         serde_json::from_str::<serde_json::Value>(&body)
             .unwrap_or_else(|e| panic!("{concrete}: not JSON: {e}"));
@@ -158,6 +162,58 @@ async fn workers_die_and_the_coordinator_restarts_yet_every_task_has_exactly_one
     let (code, body) = http_get(http, "/api/submissions/sub-nope");
     assert_eq!(code, 404, "{}", String::from_utf8_lossy(&body));
     assert!(String::from_utf8_lossy(&body).contains("no submission"));
+    Ok(())
+}
+
+/// SIGTERM: a worker lets its running episodes finish within --drain-s and hands the rest back to the queue at once,
+/// without using up their attempts or counting as dropped leases; another worker runs them.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_stopping_worker_hands_back_what_it_cannot_finish() -> anyhow::Result<()> {
+    let dir = temp_dir("drain");
+    let db = format!("sqlite://{}", dir.join("vb.db").display());
+    let port = free_port();
+    let token = create_token(&db);
+    // Leases of 3 s: were the episodes merely abandoned, they would come back only after that, as drops.
+    let _coordinator = start_coordinator(&dir, "coordinator", &db, port);
+    let mut worker_a = start_worker_with(&dir, "worker-a", &db, port, 2, &["--drain-s", "0.3"]);
+    let mut c = client(port, &token).await;
+    // A slow planner (60 ms per step): its episodes last far longer than the drain.
+    let req = exec_request("slow", &["1"], &["--delay-ms", "60"], 2.0);
+    let id = vb_submit::submit(&mut c, req).await?.submission_id;
+    wait_for(port, &token, &id, Duration::from_secs(120), |s| {
+        s.running == 2
+    })
+    .await;
+    assert!(
+        worker_a.terminate(Duration::from_secs(10)),
+        "the worker did not stop on SIGTERM:\n{}",
+        worker_a.output()
+    );
+    assert!(
+        worker_a.output().contains("2 handed back"),
+        "{}",
+        worker_a.output()
+    );
+    // Handed back at once: both episodes are queued again, long before their leases would have expired.
+    let s = vb_submit::status(&mut c, &id).await?;
+    assert_eq!((s.running, s.finished, s.queued), (0, 0, 10), "{s:?}");
+    // No attempt used: every episode is as it was before any worker leased it.
+    let r = vb_submit::results(&mut c, &id).await?;
+    for e in &r.episodes {
+        assert_eq!(
+            (e.state.as_str(), e.attempts),
+            ("queued", 0),
+            "{}",
+            e.task_id
+        );
+    }
+    // Another worker takes them up at once.
+    let _worker_b = start_worker(&dir, "worker-b", &db, port, 2);
+    wait_for(port, &token, &id, Duration::from_secs(60), |s| {
+        s.running == 2
+    })
+    .await;
+    vb_submit::cancel(&mut c, &id).await?;
     Ok(())
 }
 
@@ -640,9 +696,14 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
         r.episodes.iter().filter(|e| e.state == "not_run").count() as u32,
         s.not_run
     );
-    let csv = vb_submit::results_csv(&r);
-    assert_eq!(csv.lines().count(), 11);
-    assert!(csv.contains(",not_run,"));
+    // vb eval's columns hold the finished episodes; the JSON lists the others with their state.
+    let csv = vb_submit::results::csv(&r, None)?;
+    assert_eq!(csv.lines().count(), 1 + s.finished as usize);
+    let json: serde_json::Value = serde_json::from_str(&vb_submit::results::json(&r, None)?)?;
+    let unfinished = json["unfinished"].as_array().expect("unfinished episodes");
+    assert_eq!(unfinished.len(), s.not_run as usize);
+    assert!(unfinished.iter().all(|e| e["state"] == "not_run"));
+    assert_eq!(json["rules"], "paper");
 
     // An endpoint the user runs, and one that is not there.
     let pport = free_port();

@@ -68,6 +68,8 @@ pub struct WorkerConfig {
     pub token: String,
     /// Run exec planners as this (unprivileged) user.
     pub planner_user: Option<sandbox::PlannerUser>,
+    /// On shutdown, how long running episodes get to finish before the rest are stopped and handed back.
+    pub drain: Duration,
 }
 
 /// Seconds since the Unix epoch (only for log lines; the simulation never sees the wall clock).
@@ -323,6 +325,7 @@ fn report(
         planner_identity: run.planner_identity.clone(),
         wall_time_s: run.wall_time_s,
         infrastructure_failure: false,
+        handed_back: false,
     }
 }
 
@@ -446,19 +449,16 @@ pub async fn run_worker(
         reg.lease_s
     );
     let active: Active = Arc::new(Mutex::new(HashMap::new()));
-    // Heartbeats: renew the leases of running episodes; abandon those the coordinator no longer gives us.
-    {
+    // Heartbeats: renew the leases of running episodes (while they drain at shutdown too); abandon those the
+    // coordinator no longer gives us.
+    let heartbeats = {
         let mut client = client.clone();
         let active = active.clone();
         let worker_id = worker_id.clone();
         let period = Duration::from_secs_f64(reg.heartbeat_s.clamp(0.1, 60.0));
-        let mut shutdown = shutdown.clone();
         tokio::spawn(async move {
             loop {
-                tokio::select! {
-                    _ = tokio::time::sleep(period) => {}
-                    _ = shutdown.changed() => return,
-                }
+                tokio::time::sleep(period).await;
                 let ids: Vec<String> = active
                     .lock()
                     .map(|a| a.keys().cloned().collect())
@@ -482,8 +482,8 @@ pub async fn run_worker(
                     }
                 }
             }
-        });
-    }
+        })
+    };
     let policy = PlannerPolicy {
         startup: Duration::from_secs_f64(cfg.planner_startup_s.max(1.0)),
         allow_exec: cfg.allow_exec,
@@ -493,6 +493,8 @@ pub async fn run_worker(
     let mut backoff = Duration::from_millis(100);
     loop {
         if *shutdown.borrow() {
+            drain(&mut client, &worker_id, &active, cfg.drain).await;
+            heartbeats.abort();
             return Ok(());
         }
         let running = active.lock().map(|a| a.len()).unwrap_or(slots);
@@ -557,6 +559,70 @@ pub async fn run_worker(
         }
     }
 }
+
+/// Episodes running now.
+fn running(active: &Active) -> usize {
+    active.lock().map(|a| a.len()).unwrap_or(0)
+}
+
+/// Waits until no episode runs, or `limit` has passed.
+async fn wait_idle(active: &Active, limit: Duration) {
+    let t0 = Instant::now();
+    while running(active) > 0 && t0.elapsed() < limit {
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+/// A stopping worker takes no new leases. Its running episodes get `limit` to finish (their results are reported as
+/// usual, heartbeats keep their leases); the others are stopped, their planners cleaned up, and handed back to the
+/// queue, so they neither wait for their leases to expire nor use up an attempt.
+async fn drain(client: &mut Client, worker_id: &str, active: &Active, limit: Duration) {
+    let n = running(active);
+    if n == 0 {
+        return;
+    }
+    eprintln!(
+        "[{}] worker: stopping: {n} running episodes get {:.0} s to finish, the rest are handed back",
+        stamp(),
+        limit.as_secs_f64()
+    );
+    wait_idle(active, limit).await;
+    let left: Vec<(String, Arc<AtomicBool>)> = active
+        .lock()
+        .map(|a| a.iter().map(|(k, v)| (k.clone(), v.clone())).collect())
+        .unwrap_or_default();
+    for (lease_id, stop) in &left {
+        stop.store(true, Ordering::Relaxed);
+        let back = pb::EpisodeReport {
+            worker_id: worker_id.into(),
+            lease_id: lease_id.clone(),
+            handed_back: true,
+            sim_version: SIM_VERSION.into(),
+            ..Default::default()
+        };
+        let why = match tokio::time::timeout(HAND_BACK_TIMEOUT, client.report_result(back)).await {
+            Ok(Ok(_)) => continue,
+            Ok(Err(s)) => s.message().to_string(),
+            Err(_) => "the coordinator did not answer".to_string(),
+        };
+        eprintln!(
+            "[{}] worker: could not hand back {lease_id} (its lease will expire): {why}",
+            stamp()
+        );
+    }
+    // The stopped episodes end their planners (process groups, containers) before the worker exits.
+    wait_idle(active, HAND_BACK_TIMEOUT).await;
+    eprintln!(
+        "[{}] worker: stopped ({} finished, {} handed back)",
+        stamp(),
+        n.saturating_sub(left.len()),
+        left.len()
+    );
+}
+
+/// How long a stopping worker waits for the coordinator to take one handed-back lease, and for its stopped episodes
+/// to clean up.
+const HAND_BACK_TIMEOUT: Duration = Duration::from_secs(3);
 
 async fn run_lease(
     set: Arc<TaskSet>,

@@ -5,6 +5,7 @@ use clap::{Args, Subcommand};
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::time::Duration;
 use tokio::net::TcpListener;
 use vb_coordinator::{Coordinator, CoordinatorConfig};
 use vb_leaderboard::Leaderboard;
@@ -116,6 +117,10 @@ pub struct WorkerArgs {
     /// Run exec planners as this unprivileged user (needs root), so they cannot read the worker's files.
     #[arg(long)]
     planner_user: Option<String>,
+    /// On SIGTERM or Ctrl-C, seconds running episodes get to finish before the rest are stopped and handed back to
+    /// the queue (keep it below the time the process manager waits before SIGKILL).
+    #[arg(long, default_value_t = 20.0)]
+    drain_s: f64,
 }
 
 #[derive(Args)]
@@ -294,7 +299,7 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
                 eprintln!("leaderboard stopped: {e}");
             }
         });
-        let (_stop, shutdown) = tokio::sync::watch::channel(false);
+        let (stop, shutdown) = tokio::sync::watch::channel(false);
         let worker_token = coord
             .store()
             .create_token("vb-serve-worker", vb_store::TokenRole::Worker, vb_coordinator::now())
@@ -309,8 +314,10 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
             allow_exec: !a.no_exec,
             token: worker_token,
             planner_user: planner_user(a.planner_user.as_deref())?,
+            // vb serve stops as a whole: its workers hand their episodes back at once.
+            drain: Duration::ZERO,
         };
-        tokio::spawn(async move {
+        let workers = tokio::spawn(async move {
             if let Err(e) = vb_worker::run_worker(wcfg, shutdown).await {
                 eprintln!("worker stopped: {e}");
             }
@@ -353,6 +360,9 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         }
         println!("leaderboard: http://{http_addr}/  (Ctrl-C or SIGTERM to stop)");
         stop_signal().await?;
+        // The workers hand their running episodes back while the coordinator still listens.
+        let _ = stop.send(true);
+        let _ = tokio::time::timeout(Duration::from_secs(5), workers).await;
         Ok(())
     })
 }
@@ -417,6 +427,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
             allow_exec: !a.no_exec,
             token: a.token.clone(),
             planner_user: planner_user(a.planner_user.as_deref())?,
+            drain: Duration::from_secs_f64(a.drain_s.clamp(0.0, 3600.0)),
         };
         if let Some(addr) = a.sim {
             let sim = sim_service(&a.task_dir)?;

@@ -14,27 +14,36 @@ pub fn vb() -> PathBuf {
 
 /// The example planner's binary (built on demand: it belongs to another package of the workspace).
 pub fn example_planner() -> PathBuf {
+    workspace_bin("example-planner", "example-planner")
+}
+
+/// The `vb-submit` binary (built on demand: it belongs to another package of the workspace).
+pub fn vb_submit_bin() -> PathBuf {
+    workspace_bin("vb-submit", "vb-submit")
+}
+
+/// Binary `bin` of workspace package `package`, built with this test's profile when missing.
+fn workspace_bin(bin: &str, package: &str) -> PathBuf {
     let exe = std::env::current_exe().expect("test executable path");
     let dir = exe
         .parent()
         .and_then(Path::parent)
         .expect("target dir")
         .to_path_buf();
-    let bin = dir.join("example-planner");
-    if !bin.exists() {
+    let path = dir.join(bin);
+    if !path.exists() {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        let profile_release = dir.ends_with("release");
         let mut cmd = Command::new(cargo);
-        cmd.args(["build", "-p", "example-planner"]);
-        if profile_release {
+        cmd.args(["build", "-p", package, "--bin", bin]);
+        if dir.ends_with("release") {
             cmd.arg("--release");
         }
         let st = cmd
             .status()
-            .expect("running cargo build -p example-planner");
-        assert!(st.success(), "building the example planner failed");
+            .unwrap_or_else(|e| panic!("running cargo build -p {package}: {e}"));
+        assert!(st.success(), "building {bin} failed");
     }
-    bin
+    path
 }
 
 pub fn free_port() -> u16 {
@@ -77,6 +86,21 @@ impl Proc {
     pub fn kill(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
+    }
+
+    /// SIGTERM, then waits up to `limit` for the process to exit; whether it did.
+    pub fn terminate(&mut self, limit: Duration) -> bool {
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
+        let t0 = Instant::now();
+        while t0.elapsed() < limit {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return true;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        false
     }
 
     pub fn output(&self) -> String {
@@ -146,25 +170,34 @@ pub fn start_coordinator_with(dir: &Path, name: &str, db: &str, port: u16, extra
 
 /// A `vb worker` with a worker token of its own from the store `db`.
 pub fn start_worker(dir: &Path, name: &str, db: &str, port: u16, slots: usize) -> Proc {
+    start_worker_with(dir, name, db, port, slots, &[])
+}
+
+/// A `vb worker` with a worker token of its own from the store `db` and `extra` arguments.
+pub fn start_worker_with(
+    dir: &Path,
+    name: &str,
+    db: &str,
+    port: u16,
+    slots: usize,
+    extra: &[&str],
+) -> Proc {
     let url = format!("http://127.0.0.1:{port}");
     let slots = slots.to_string();
     let token = create_token_with_role(db, name, "worker");
-    Proc::start(
+    let mut args = vec![
+        "worker",
+        "--coordinator",
+        &url,
+        "--slots",
+        &slots,
+        "--name",
         name,
-        dir,
-        &vb(),
-        &[
-            "worker",
-            "--coordinator",
-            &url,
-            "--slots",
-            &slots,
-            "--name",
-            name,
-            "--token",
-            &token,
-        ],
-    )
+        "--token",
+        &token,
+    ];
+    args.extend_from_slice(extra);
+    Proc::start(name, dir, &vb(), &args)
 }
 
 pub fn wait_port(port: u16, limit: Duration) {

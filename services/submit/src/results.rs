@@ -1,0 +1,134 @@
+//! A submission's results in `vb eval`'s formats: the finished episodes as evaluation rows, written as the same
+//! directory `vb eval` writes (so `vb compare` and `vb leaderboard-static` take service and local runs alike) or
+//! streamed as the same CSV columns and JSON rows.
+
+use crate::SubmitError;
+use eval::EpisodeRow;
+use std::path::Path;
+use tasks::TaskSet;
+use vb_proto::v1 as pb;
+
+/// The finished episodes of `r` as `vb eval`'s rows. `set`, when it is the submission's task set, gives each
+/// world's terrain group (for the matched density contrasts, as `vb eval` has them).
+pub fn rows(
+    r: &pb::ResultsResponse,
+    set: Option<&TaskSet>,
+) -> Result<Vec<EpisodeRow>, SubmitError> {
+    let s = r.status.clone().unwrap_or_default();
+    let set = set.filter(|t| t.version() == s.task_set_version);
+    let rules = sim_core::episode::Rules::parse(&s.rules).ok_or_else(|| {
+        SubmitError::Protocol(format!(
+            "the coordinator names unknown episode rules `{}`",
+            s.rules
+        ))
+    })?;
+    r.episodes
+        .iter()
+        .filter(|e| e.state == "done")
+        .map(|e| {
+            let metrics = serde_json::from_str(&e.metrics_json)
+                .map_err(|err| SubmitError::Protocol(format!("metrics of {}: {err}", e.task_id)))?;
+            Ok(EpisodeRow {
+                task_id: e.task_id.clone(),
+                world_id: e.world_id,
+                task_index: e.task_index,
+                level: e.level.clone(),
+                semantics: e.semantics.clone(),
+                density: e.density.clone(),
+                terrain: set
+                    .and_then(|t| t.world_meta(e.world_id).ok())
+                    .and_then(|m| m.terrain),
+                planner: s.name.clone(),
+                vehicle: s.vehicle.clone(),
+                scale: s.scale,
+                seed: s.seed,
+                task_set_version: s.task_set_version.clone(),
+                sim_version: if e.sim_version.is_empty() {
+                    s.sim_version.clone()
+                } else {
+                    e.sim_version.clone()
+                },
+                rules,
+                outcome: e.outcome.clone(),
+                reason: e.reason.clone(),
+                detail: e.detail.clone(),
+                metrics,
+                wall_time_s: e.wall_time_s,
+            })
+        })
+        .collect()
+}
+
+/// Episodes of `r` that have not finished (queued, running or not run): `(task id, state)`.
+pub fn unfinished(r: &pb::ResultsResponse) -> Vec<(String, String)> {
+    r.episodes
+        .iter()
+        .filter(|e| e.state != "done")
+        .map(|e| (e.task_id.clone(), e.state.clone()))
+        .collect()
+}
+
+/// The summary of the finished rows, named and described as the submission.
+pub fn summary(r: &pb::ResultsResponse, rows: &[EpisodeRow]) -> eval::summary::Summary {
+    let s = r.status.clone().unwrap_or_default();
+    let mut summary = eval::summary::summarise(rows);
+    summary.planner = s.name;
+    summary.vehicle = s.vehicle;
+    summary.scale = s.scale;
+    summary.task_set_version = s.task_set_version;
+    summary.sim_version = s.sim_version;
+    summary
+}
+
+/// Writes what `vb eval` writes into `dir` (results.jsonl, episodes.csv, episodes.parquet, summary.json,
+/// summary.txt, charts.svg) from the finished episodes. Refuses a directory that already holds an evaluation.
+pub fn write_dir(
+    dir: &Path,
+    r: &pb::ResultsResponse,
+    set: Option<&TaskSet>,
+) -> Result<eval::summary::Summary, SubmitError> {
+    let io = |p: &Path, e: std::io::Error| SubmitError::Io(format!("{}: {e}", p.display()));
+    if dir.join("results.jsonl").exists() || dir.join("summary.json").exists() {
+        return Err(SubmitError::Io(format!(
+            "{} already holds an evaluation; give an empty or new directory",
+            dir.display()
+        )));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+    let rows = rows(r, set)?;
+    let mut jsonl = String::new();
+    for row in &rows {
+        jsonl += &serde_json::to_string(row).map_err(|e| SubmitError::Io(e.to_string()))?;
+        jsonl.push('\n');
+    }
+    let p = dir.join("results.jsonl");
+    std::fs::write(&p, jsonl).map_err(|e| io(&p, e))?;
+    let summary = summary(r, &rows);
+    eval::report::write(dir, &rows, &summary).map_err(|e| SubmitError::Io(e.to_string()))?;
+    Ok(summary)
+}
+
+/// The finished episodes as `vb eval`'s `episodes.csv` (the same columns).
+pub fn csv(r: &pb::ResultsResponse, set: Option<&TaskSet>) -> Result<String, SubmitError> {
+    Ok(eval::report::episodes_csv(&rows(r, set)?))
+}
+
+/// The submission's status, its finished episodes as `vb eval`'s rows (the fields of `results.jsonl`) and its
+/// unfinished episodes with their state.
+pub fn json(r: &pb::ResultsResponse, set: Option<&TaskSet>) -> Result<String, SubmitError> {
+    let s = r.status.clone().unwrap_or_default();
+    let unfinished: Vec<serde_json::Value> = unfinished(r)
+        .into_iter()
+        .map(|(task_id, state)| serde_json::json!({ "task_id": task_id, "state": state }))
+        .collect();
+    let v = serde_json::json!({
+        "submission_id": s.submission_id, "name": s.name, "state": s.state, "planner": s.planner,
+        "planner_identity": s.planner_identity, "vehicle": s.vehicle, "scale": s.scale, "seed": s.seed,
+        "task_set_version": s.task_set_version, "sim_version": s.sim_version, "rules": s.rules,
+        "total": s.total, "finished": s.finished, "not_run": s.not_run, "success_rate": s.success_rate,
+        "episodes": rows(r, set)?, "unfinished": unfinished,
+    });
+    serde_json::to_string_pretty(&v)
+        .map(|t| t + "\n")
+        .map_err(|e| SubmitError::Io(e.to_string()))
+}
