@@ -130,9 +130,12 @@ pub fn report(
         serde_json::from_slice::<sim_core::episode::EpisodeMetrics>(&r.metrics_json)
             .map_err(|e| Status::invalid_argument(format!("metrics_json: {e}")))?;
     }
+    // Checked (size, codec) but stored as the worker compressed it.
     let mut trajectory = String::new();
     if !r.trajectory.is_empty() {
         flate2_decode(&r.trajectory, max_trajectory, &mut trajectory)?;
+        sim_core::trajectory::from_csv(&trajectory)
+            .map_err(|e| Status::invalid_argument(e.to_string()))?;
     }
     Ok(EpisodeResultIn {
         lease_id: r.lease_id.clone(),
@@ -142,7 +145,8 @@ pub fn report(
         reason: r.reason.clone(),
         detail: truncate(&r.detail, 16 << 10),
         metrics_json: String::from_utf8_lossy(&r.metrics_json).into_owned(),
-        trajectory_csv: trajectory,
+        trajectory_csv: String::new(),
+        trajectory_gz: (!r.trajectory.is_empty()).then(|| r.trajectory.clone()),
         planner_log: truncate(&r.planner_log, max_log),
         sim_version: r.sim_version.clone(),
         planner_identity: r.planner_identity.clone(),

@@ -38,6 +38,17 @@ impl Compressed {
             log: gzip(planner_log),
         }
     }
+
+    /// A reported result's: its trajectory as the worker compressed it, if it did.
+    pub(crate) fn of(r: &crate::EpisodeResultIn) -> Compressed {
+        match &r.trajectory_gz {
+            Some(gz) => Compressed {
+                trajectory: gz.clone(),
+                log: gzip(&r.planner_log),
+            },
+            None => Compressed::new(&r.trajectory_csv, &r.planner_log),
+        }
+    }
 }
 
 /// Stores an episode's trajectory and log (an episode that already has them keeps the first).

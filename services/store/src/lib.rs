@@ -114,6 +114,12 @@ async fn open_pool(url: &str, max_connections: u32) -> Result<(AnyPool, Backend)
                     sqlx::query("PRAGMA journal_mode = WAL")
                         .execute(&mut *conn)
                         .await?;
+                    // In WAL mode NORMAL syncs at checkpoints, not at every commit: a crash of the process loses
+                    // nothing, a power loss may roll back the last commits, and the database never corrupts (SQLite,
+                    // "PRAGMA synchronous"). Every lease and result is a commit.
+                    sqlx::query("PRAGMA synchronous = NORMAL")
+                        .execute(&mut *conn)
+                        .await?;
                     sqlx::query("PRAGMA busy_timeout = 10000")
                         .execute(&mut *conn)
                         .await?;

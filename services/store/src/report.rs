@@ -14,7 +14,7 @@ impl Store {
         now: f64,
     ) -> Result<ReportOutcome> {
         // Compressed before the single writer's lock is taken: other writes do not wait on it.
-        let blobs = crate::blobs::Compressed::new(&r.trajectory_csv, &r.planner_log);
+        let blobs = crate::blobs::Compressed::of(r);
         let _w = self.write.lock().await;
         let row = sqlx::query(
             "SELECT state, lease_id, worker_id FROM episodes WHERE submission_id = $1 AND task_id = $2",

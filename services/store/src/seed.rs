@@ -103,6 +103,7 @@ pub async fn seed(
                     detail: String::new(),
                     metrics_json: metrics.clone(),
                     trajectory_csv: trajectory.clone(),
+                    trajectory_gz: None,
                     planner_log: "planner: ready\n".into(),
                     sim_version: "bench".into(),
                     planner_identity: "builtin:pid".into(),

@@ -144,6 +144,9 @@ pub struct EpisodeResultIn {
     pub detail: String,
     pub metrics_json: String,
     pub trajectory_csv: String,
+    /// The trajectory already gzip-compressed (as workers send it): stored as it is, instead of compressing
+    /// `trajectory_csv`.
+    pub trajectory_gz: Option<Vec<u8>>,
     pub planner_log: String,
     pub sim_version: String,
     pub planner_identity: String,

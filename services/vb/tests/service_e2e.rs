@@ -180,8 +180,9 @@ async fn a_stopping_worker_hands_back_what_it_cannot_finish() -> anyhow::Result<
     // A slow planner (60 ms per step): its episodes last far longer than the drain.
     let req = exec_request("slow", &["1"], &["--delay-ms", "60"], 2.0);
     let id = vb_submit::submit(&mut c, req).await?.submission_id;
+    // Two episodes running and two more leased, waiting for a slot.
     wait_for(port, &token, &id, Duration::from_secs(120), |s| {
-        s.running == 2
+        s.running == 4
     })
     .await;
     assert!(
@@ -194,7 +195,7 @@ async fn a_stopping_worker_hands_back_what_it_cannot_finish() -> anyhow::Result<
         "{}",
         worker_a.output()
     );
-    // Handed back at once: both episodes are queued again, long before their leases would have expired.
+    // Handed back at once: the running and the waiting episodes are queued again, long before their leases would have expired.
     let s = vb_submit::status(&mut c, &id).await?;
     assert_eq!((s.running, s.finished, s.queued), (0, 0, 10), "{s:?}");
     // No attempt used: every episode is as it was before any worker leased it.
@@ -210,7 +211,7 @@ async fn a_stopping_worker_hands_back_what_it_cannot_finish() -> anyhow::Result<
     // Another worker takes them up at once.
     let _worker_b = start_worker(&dir, "worker-b", &db, port, 2);
     wait_for(port, &token, &id, Duration::from_secs(60), |s| {
-        s.running == 2
+        s.running == 4
     })
     .await;
     vb_submit::cancel(&mut c, &id).await?;

@@ -4,38 +4,12 @@
 use image::{Rgb, RgbImage};
 use sim_core::episode::{EpisodeResult, TrajectorySample};
 use sim_core::world::{Task, World};
-use std::fmt::Write as _;
 use std::path::Path;
 
 #[derive(Debug, thiserror::Error)]
 pub enum VizError {
     #[error("{path}: {message}")]
     Write { path: String, message: String },
-}
-
-/// CSV of a recorded trajectory (angles in degrees).
-pub fn trajectory_csv(samples: &[TrajectorySample]) -> String {
-    let mut s = String::from(
-        "time_s,x_m,y_m,z_m,roll_deg,pitch_deg,yaw_deg,speed_mps,throttle,steering,brake\n",
-    );
-    for t in samples {
-        let _ = writeln!(
-            s,
-            "{:.3},{:.4},{:.4},{:.4},{:.3},{:.3},{:.3},{:.4},{:.4},{:.4},{:.4}",
-            t.time,
-            t.x,
-            t.y,
-            t.z,
-            t.roll.to_degrees(),
-            t.pitch.to_degrees(),
-            t.yaw.to_degrees(),
-            t.speed,
-            t.throttle,
-            t.steering,
-            t.brake
-        );
-    }
-    s
 }
 
 fn world_px(world: &World, x: f64, y: f64, ppm: f64) -> (f64, f64) {
@@ -131,7 +105,8 @@ pub fn write_episode(
     };
     std::fs::create_dir_all(dir).map_err(|e| err(dir, &e))?;
     let csv = dir.join("trajectory.csv");
-    std::fs::write(&csv, trajectory_csv(&result.trajectory)).map_err(|e| err(&csv, &e))?;
+    std::fs::write(&csv, sim_core::trajectory::to_csv(&result.trajectory))
+        .map_err(|e| err(&csv, &e))?;
     let png = dir.join("episode.png");
     episode_plot(world, task, result)
         .save(&png)

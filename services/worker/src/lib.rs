@@ -25,7 +25,7 @@ use std::collections::HashMap;
 use std::io::Write;
 use std::ops::ControlFlow;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tasks::TaskSet;
@@ -120,14 +120,8 @@ impl EpisodeObserver for CancelObserver {
 
 /// Trajectory as CSV (angles in radians), gzip-compressed.
 pub fn trajectory_gzip(r: &EpisodeResult) -> Vec<u8> {
-    let mut csv = String::from("time,x,y,z,roll,pitch,yaw,speed,throttle,steering,brake\n");
-    for s in &r.trajectory {
-        csv.push_str(&format!(
-            "{:.2},{:.3},{:.3},{:.3},{:.4},{:.4},{:.4},{:.3},{:.3},{:.3},{:.3}\n",
-            s.time, s.x, s.y, s.z, s.roll, s.pitch, s.yaw, s.speed, s.throttle, s.steering, s.brake
-        ));
-    }
-    let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    let csv = sim_core::trajectory::to_csv(&r.trajectory);
+    let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
     // Writing to a Vec cannot fail.
     let _ = enc.write_all(csv.as_bytes());
     enc.finish().unwrap_or_default()
@@ -193,7 +187,6 @@ pub async fn run_episode(
     let (w, t) =
         parse_task_id(&spec.task_id).ok_or_else(|| format!("bad task id `{}`", spec.task_id))?;
     let vehicle = sim_core::vehicle::vehicle_by_name(&spec.vehicle).map_err(|e| e.to_string())?;
-    let world = set.world(w, spec.scale).map_err(|e| e.to_string())?;
     let task = set
         .tasks(w, spec.scale)
         .map_err(|e| e.to_string())?
@@ -263,7 +256,11 @@ pub async fn run_episode(
             }
         }
     };
+    let scale = spec.scale;
+    let world_set = set.clone();
     let joined = tokio::task::spawn_blocking(move || {
+        // Loading the world reads and decodes its maps: off the async threads, like the episode.
+        let world = world_set.world(w, scale).map_err(|e| e.to_string())?;
         let mut planner = planner;
         let mut observer = CancelObserver(cancel);
         let r = sim_core::runner::run_episode_observed(
@@ -279,10 +276,10 @@ pub async fn run_episode(
             p.finish(r.outcome.as_str(), &r.reason);
             round_trips = std::mem::take(&mut p.round_trips);
         }
-        (r, round_trips)
+        Ok::<_, String>((r, round_trips))
     })
     .await;
-    let (result, round_trips) = joined.map_err(|e| format!("episode thread failed: {e}"))?;
+    let (result, round_trips) = joined.map_err(|e| format!("episode thread failed: {e}"))??;
     if process.is_some() {
         // Give the process a moment to flush what it printed about the episode's end.
         tokio::time::sleep(Duration::from_millis(20)).await;
@@ -490,15 +487,26 @@ pub async fn run_worker(
         user: cfg.planner_user,
     };
     let allow_exec = policy.allow_exec;
+    // Signalled whenever an episode ends, so the loop leases for the freed slot at once.
+    let freed = Arc::new(tokio::sync::Notify::new());
+    let permits = Arc::new(tokio::sync::Semaphore::new(slots));
+    // Reports of ended episodes still being delivered (a stopping worker waits for them).
+    let reporting = Arc::new(AtomicUsize::new(0));
     let mut backoff = Duration::from_millis(100);
     loop {
         if *shutdown.borrow() {
             drain(&mut client, &worker_id, &active, cfg.drain).await;
+            let t0 = Instant::now();
+            while reporting.load(Ordering::SeqCst) > 0 && t0.elapsed() < REPORTS_AT_EXIT {
+                tokio::time::sleep(Duration::from_millis(20)).await;
+            }
             heartbeats.abort();
             return Ok(());
         }
-        let running = active.lock().map(|a| a.len()).unwrap_or(slots);
-        let free = slots.saturating_sub(running);
+        // Up to `slots` episodes run; as many more wait leased here, so a freed slot starts the next episode at
+        // once instead of after a lease round trip.
+        let held = active.lock().map(|a| a.len()).unwrap_or(2 * slots);
+        let free = (2 * slots).saturating_sub(held);
         let mut got = 0;
         if free > 0 {
             match client
@@ -521,19 +529,33 @@ pub async fn run_worker(
                         let mut client = client.clone();
                         let active = active.clone();
                         let worker_id = worker_id.clone();
+                        let freed = freed.clone();
+                        let reporting = reporting.clone();
+                        let permits = permits.clone();
+                        let mut stopping = shutdown.clone();
                         tokio::spawn(async move {
-                            run_lease(
-                                set,
-                                &mut client,
-                                &worker_id,
-                                lease.clone(),
-                                flag.clone(),
-                                policy,
-                            )
-                            .await;
+                            // A slot, unless the worker stops first (then the episode goes back unstarted).
+                            let permit = tokio::select! {
+                                p = permits.acquire_owned() => p.ok(),
+                                _ = stopping.wait_for(|s| *s) => None,
+                            };
+                            let report = match permit {
+                                Some(_slot) if !*stopping.borrow() => {
+                                    run_lease(set, &worker_id, lease.clone(), flag.clone(), policy)
+                                        .await
+                                }
+                                _ => Some(handed_back(&worker_id, &lease.lease_id)),
+                            };
+                            // The slot is free while the report travels.
+                            reporting.fetch_add(1, Ordering::SeqCst);
                             if let Ok(mut a) = active.lock() {
                                 a.remove(&lease.lease_id);
                             }
+                            freed.notify_one();
+                            if let Some(r) = report {
+                                deliver(&mut client, r, Duration::from_secs(600)).await;
+                            }
+                            reporting.fetch_sub(1, Ordering::SeqCst);
                         });
                     }
                 }
@@ -552,8 +574,10 @@ pub async fn run_worker(
             }
         }
         if got == 0 {
+            // Wait for a slot to free (at once when one does) or, with free slots, for work to be queued.
             tokio::select! {
-                _ = tokio::time::sleep(Duration::from_millis(if free == 0 { 20 } else { 200 })) => {}
+                _ = freed.notified() => {}
+                _ = tokio::time::sleep(Duration::from_millis(200)) => {}
                 _ = shutdown.changed() => {}
             }
         }
@@ -593,13 +617,7 @@ async fn drain(client: &mut Client, worker_id: &str, active: &Active, limit: Dur
         .unwrap_or_default();
     for (lease_id, stop) in &left {
         stop.store(true, Ordering::Relaxed);
-        let back = pb::EpisodeReport {
-            worker_id: worker_id.into(),
-            lease_id: lease_id.clone(),
-            handed_back: true,
-            sim_version: SIM_VERSION.into(),
-            ..Default::default()
-        };
+        let back = handed_back(worker_id, lease_id);
         let why = match tokio::time::timeout(HAND_BACK_TIMEOUT, client.report_result(back)).await {
             Ok(Ok(_)) => continue,
             Ok(Err(s)) => s.message().to_string(),
@@ -620,18 +638,32 @@ async fn drain(client: &mut Client, worker_id: &str, active: &Active, limit: Dur
     );
 }
 
+/// The report that hands an unfinished episode back to the queue.
+fn handed_back(worker_id: &str, lease_id: &str) -> pb::EpisodeReport {
+    pb::EpisodeReport {
+        worker_id: worker_id.into(),
+        lease_id: lease_id.into(),
+        handed_back: true,
+        sim_version: SIM_VERSION.into(),
+        ..Default::default()
+    }
+}
+
+/// How long a stopping worker waits for the reports of its ended episodes to be delivered.
+const REPORTS_AT_EXIT: Duration = Duration::from_secs(10);
+
 /// How long a stopping worker waits for the coordinator to take one handed-back lease, and for its stopped episodes
 /// to clean up.
 const HAND_BACK_TIMEOUT: Duration = Duration::from_secs(3);
 
+/// Runs a leased episode; the report to deliver (none when the lease was taken back).
 async fn run_lease(
     set: Arc<TaskSet>,
-    client: &mut Client,
     worker_id: &str,
     lease: pb::EpisodeLease,
     cancel: Arc<AtomicBool>,
     policy: PlannerPolicy,
-) {
+) -> Option<pb::EpisodeReport> {
     let PlannerPolicy {
         startup,
         user: planner_user,
@@ -655,8 +687,7 @@ async fn run_lease(
             set.version(),
             lease.task_set_version
         );
-        deliver(client, infra(msg), Duration::from_secs(600)).await;
-        return;
+        return Some(infra(msg));
     }
     let set_version = set.version().to_string();
     let set_version = set_version.as_str();
@@ -671,17 +702,9 @@ async fn run_lease(
         planner_user,
     };
     match run_episode(set, spec, cancel.clone(), startup).await {
-        Err(msg) => deliver(client, infra(msg), Duration::from_secs(600)).await,
-        Ok(_) if cancel.load(Ordering::Relaxed) => {
-            // The lease was taken back (expired, finished elsewhere, or the submission was cancelled).
-        }
-        Ok(run) => {
-            deliver(
-                client,
-                report(worker_id, &lease, &run, set_version),
-                Duration::from_secs(600),
-            )
-            .await
-        }
+        Err(msg) => Some(infra(msg)),
+        // The lease was taken back (expired, finished elsewhere, or the submission was cancelled).
+        Ok(_) if cancel.load(Ordering::Relaxed) => None,
+        Ok(run) => Some(report(worker_id, &lease, &run, set_version)),
     }
 }

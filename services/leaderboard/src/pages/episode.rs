@@ -51,12 +51,20 @@ struct Page {
 }
 
 /// Parsed trajectory: time and (x, y, roll°, pitch°, speed).
+/// (time, x, y, roll in degrees, pitch in degrees, speed) of each sample (none for an unreadable trajectory).
 fn parse_trajectory(csv: &str) -> Vec<[f64; 6]> {
-    csv.lines()
-        .skip(1)
-        .filter_map(|l| {
-            let v: Vec<f64> = l.split(',').filter_map(|x| x.parse().ok()).collect();
-            (v.len() >= 8).then(|| [v[0], v[1], v[2], v[4].to_degrees(), v[5].to_degrees(), v[7]])
+    sim_core::trajectory::from_csv(csv)
+        .unwrap_or_default()
+        .iter()
+        .map(|t| {
+            [
+                t.time,
+                t.x,
+                t.y,
+                t.roll.to_degrees(),
+                t.pitch.to_degrees(),
+                t.speed,
+            ]
         })
         .collect()
 }

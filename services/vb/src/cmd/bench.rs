@@ -1,4 +1,5 @@
-//! `vb bench sim`: real-time factors of every vehicle on rigid and soft ground.
+//! `vb bench sim`: real-time factors of every vehicle on rigid and soft ground; `vb bench planner`, `vb bench
+//! leaderboard` and `vb bench service` ([`super::bench_service`]): the service's costs.
 
 use clap::Subcommand;
 use std::path::PathBuf;
@@ -48,6 +49,19 @@ pub enum BenchCmd {
         db: Option<String>,
         #[arg(long)]
         task_dir: Option<PathBuf>,
+    },
+    /// The service's overhead: a built-in planner's evaluation timed in-process (`vb eval`) and through the whole
+    /// service (`vb serve --evaluate ... --exit-when-done`), one after the other, with the same results checked.
+    Service {
+        /// Built-in planner.
+        #[arg(long, default_value = "pid")]
+        planner: String,
+        /// Tasks (as `vb eval --tasks`).
+        #[arg(long, default_value = "all")]
+        tasks: String,
+        /// Threads of `vb eval` and worker slots of `vb serve` (default: the cores).
+        #[arg(long, default_value_t = std::thread::available_parallelism().map_or(2, |n| n.get()))]
+        slots: usize,
     },
 }
 
@@ -129,6 +143,11 @@ fn bench_planner(tasks_spec: &str, task_dir: PathBuf, command: Vec<String>) -> a
 
 pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
     match cmd {
+        BenchCmd::Service {
+            planner,
+            tasks,
+            slots,
+        } => super::bench_service::run(&planner, &tasks, slots.max(1)),
         BenchCmd::Leaderboard {
             submissions,
             episodes,
