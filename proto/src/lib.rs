@@ -3,8 +3,12 @@
 //! These types stay at the service edge: the service crates convert them to and from sim-core's and the store's
 //! own types (`convert` modules there); nothing below the services sees a protobuf type.
 
-#![allow(clippy::all, clippy::pedantic)]
+//!
+//! [`tls`]: how clients (workers, `vb-submit`) open a channel to the coordinator, with TLS for `https://` URLs.
 
+pub mod tls;
+
+#[allow(clippy::all, clippy::pedantic)]
 pub mod v1 {
     tonic::include_proto!("vertibench.v1");
 }

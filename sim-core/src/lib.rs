@@ -22,7 +22,7 @@ pub mod reward;
 pub mod runner;
 pub mod soil;
 pub mod terrain_stats;
-pub mod trajectory;
+pub use contracts::trajectory;
 pub mod vehicle;
 
 pub use episode_run::EpisodeRun;

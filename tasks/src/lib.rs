@@ -22,6 +22,7 @@ pub mod interim;
 pub mod obstacles;
 pub mod path;
 pub mod render;
+pub mod selection;
 pub mod semantics;
 pub mod stats;
 

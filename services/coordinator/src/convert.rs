@@ -74,7 +74,8 @@ pub fn status(s: &Submission, p: &Progress, throughput_per_s: Option<f64>) -> pb
     }
 }
 
-pub fn result_row(e: &EpisodeRecord) -> pb::EpisodeResultRow {
+/// An episode as the results API returns it; `terrain`: its world's terrain group in the task set.
+pub fn result_row(e: &EpisodeRecord, terrain: Option<u32>) -> pb::EpisodeResultRow {
     pb::EpisodeResultRow {
         task_id: e.task_id.clone(),
         world_id: e.world_id,
@@ -91,6 +92,7 @@ pub fn result_row(e: &EpisodeRecord) -> pb::EpisodeResultRow {
         attempts: e.attempts.max(0) as u32,
         planner_identity: e.planner_identity.clone().unwrap_or_default(),
         sim_version: e.sim_version.clone().unwrap_or_default(),
+        terrain,
     }
 }
 

@@ -23,7 +23,7 @@ use vb_store::{
 pub use convert::planner_ref_from_parts;
 
 /// Version of the simulator every result must have been produced with.
-pub const SIM_VERSION: &str = eval::SIM_VERSION;
+pub const SIM_VERSION: &str = sim_core::SIM_VERSION;
 
 /// Largest gRPC message the coordinator accepts (a report carries a trajectory and a log).
 pub const MAX_MESSAGE_BYTES: usize = 8 << 20;
@@ -367,7 +367,8 @@ impl Coordinator {
         } else {
             r.task_ids.join(",")
         };
-        let selected = eval::run::select(&self.set, &spec_str).map_err(|e| bad(e.to_string()))?;
+        let selected =
+            tasks::selection::select(&self.set, &spec_str).map_err(|e| bad(e.to_string()))?;
         let mut episodes = Vec::with_capacity(selected.len());
         for (w, t) in selected {
             let meta = self
@@ -545,7 +546,18 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
             .map_err(store_status)?;
         Ok(Response::new(pb::ResultsResponse {
             status: Some(status),
-            episodes: eps.iter().map(convert::result_row).collect(),
+            episodes: eps
+                .iter()
+                .map(|e| {
+                    let terrain = self
+                        .0
+                        .set
+                        .world_meta(e.world_id)
+                        .ok()
+                        .and_then(|m| m.terrain);
+                    convert::result_row(e, terrain)
+                })
+                .collect(),
         }))
     }
 }

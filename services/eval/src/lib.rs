@@ -11,14 +11,12 @@
 //! - [`compare`]: paired comparison of two evaluations (difference in success rate with a 95% interval, exact
 //!   McNemar test).
 
-pub mod charts;
-pub mod compare;
-pub mod parquet_file;
-pub mod report;
 pub mod run;
-pub mod summary;
 
-pub use run::{run, run_with, EpisodeRow, EvalConfig, PlannerFactory, SIM_VERSION};
+// The results' types and files live in the `results` crate (shared with the service); re-exported here so local
+// evaluation reads as one crate.
+pub use results::{charts, compare, parquet_file, report, summary, EpisodeRow, ResultsError};
+pub use run::{run, run_with, EvalConfig, PlannerFactory, SIM_VERSION};
 
 /// Errors of the evaluator; each names the file or the parameter.
 #[derive(Debug, thiserror::Error)]
@@ -31,6 +29,8 @@ pub enum EvalError {
     Vehicle(#[from] sim_core::vehicle::VehicleError),
     #[error("invalid {field}: {message}")]
     Param { field: String, message: String },
+    #[error(transparent)]
+    Results(#[from] ResultsError),
 }
 
 pub(crate) fn io_err(path: &std::path::Path, e: impl std::fmt::Display) -> EvalError {

@@ -1,9 +1,8 @@
 //! Running the episodes of an evaluation, resumably.
 
-use crate::{io_err, EvalError};
+use crate::{io_err, EpisodeRow, EvalError};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
-use sim_core::episode::{EpisodeConfig, EpisodeMetrics, Rules};
+use sim_core::episode::EpisodeConfig;
 use sim_core::planner::Planner;
 use std::collections::BTreeSet;
 use std::io::Write;
@@ -30,148 +29,8 @@ pub struct EvalConfig {
     pub episode: EpisodeConfig,
 }
 
-/// One finished episode: task factors, outcome, every metric and what makes it reproducible.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct EpisodeRow {
-    pub task_id: String,
-    pub world_id: u32,
-    pub task_index: u32,
-    pub level: String,
-    pub semantics: String,
-    pub density: String,
-    /// Terrain group of the world: worlds of one group share heights and patches and differ only in obstacle
-    /// density (nested layouts). `None` for sets without groups (imported worlds).
-    #[serde(default)]
-    pub terrain: Option<u32>,
-    pub planner: String,
-    pub vehicle: String,
-    pub scale: f64,
-    pub seed: u64,
-    pub task_set_version: String,
-    pub sim_version: String,
-    /// The episode rules (`--release-rules`: release); older rows without it followed the paper's.
-    #[serde(default)]
-    pub rules: Rules,
-    pub outcome: String,
-    pub reason: String,
-    pub detail: String,
-    pub metrics: EpisodeMetrics,
-    pub wall_time_s: f64,
-}
-
-#[cfg(test)]
-impl EpisodeRow {
-    /// A PID episode with the HMMWV on a low, rigid, sparse world of task set `v`, for unit tests to override field
-    /// by field.
-    pub(crate) fn for_test(task_id: &str, outcome: &str) -> Self {
-        EpisodeRow {
-            task_id: task_id.into(),
-            world_id: 1,
-            task_index: 0,
-            level: "low".into(),
-            semantics: "rigid".into(),
-            density: "sparse".into(),
-            terrain: None,
-            planner: "pid".into(),
-            vehicle: "hmmwv".into(),
-            scale: 1.0,
-            seed: 0,
-            task_set_version: "v".into(),
-            sim_version: "s".into(),
-            rules: Default::default(),
-            outcome: outcome.into(),
-            reason: String::new(),
-            detail: String::new(),
-            metrics: EpisodeMetrics::default(),
-            wall_time_s: 0.1,
-        }
-    }
-}
-
-/// Named splits of the task set for `--tasks`: every task of the worlds with one factor level. An item list is a
-/// union (`low,dense` = the low worlds and the dense worlds); `+` intersects (`low+rigid` = the low rigid worlds).
-pub const SPLITS: [&str; 9] = [
-    "low",
-    "medium",
-    "high",
-    "rigid",
-    "deformable",
-    "mixed",
-    "sparse",
-    "medium-density",
-    "dense",
-];
-
-/// Whether a world with these factors belongs to a named split.
-fn in_split(w: &tasks::format::WorldEntry, split: &str) -> bool {
-    match split {
-        "medium-density" => w.density.as_str() == "medium",
-        "sparse" | "dense" => w.density.as_str() == split,
-        "rigid" | "deformable" | "mixed" => w.semantics.as_str() == split,
-        _ => w.level.as_str() == split,
-    }
-}
-
-/// Selects `(world id, task index)` pairs from a task set.
-pub fn select(set: &TaskSet, spec: &str) -> Result<Vec<(u32, u32)>, EvalError> {
-    let ids = set.world_ids();
-    let all = || {
-        ids.iter()
-            .flat_map(|&w| (0..10).map(move |t| (w, t)))
-            .collect::<Vec<_>>()
-    };
-    if spec.trim() == "all" {
-        return Ok(all());
-    }
-    let mut out = BTreeSet::new();
-    for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let bad = || {
-            EvalError::Param {
-            field: "tasks".into(),
-            message: format!(
-                "`{item}` is not `all`, a world id, a task id like w017-t3, a split ({}) or splits joined by `+` (low+rigid: both)",
-                SPLITS.join(", ")
-            ),
-        }
-        };
-        let parts: Vec<&str> = item.split('+').map(str::trim).collect();
-        if parts.iter().all(|p| SPLITS.contains(p)) {
-            // `low+rigid`: the worlds in every one of the splits.
-            for &w in &ids {
-                let meta = set.world_meta(w)?;
-                if parts.iter().all(|p| in_split(meta, p)) {
-                    out.extend((0..10).map(|t| (w, t)));
-                }
-            }
-        } else if let Some(rest) = item.strip_prefix('w') {
-            let (w, t) = rest.split_once("-t").ok_or_else(bad)?;
-            let (w, t): (u32, u32) = (w.parse().map_err(|_| bad())?, t.parse().map_err(|_| bad())?);
-            if !ids.contains(&w) || t >= 10 {
-                return Err(EvalError::Param {
-                    field: "tasks".into(),
-                    message: format!("task `{item}` is not in the task set"),
-                });
-            }
-            out.insert((w, t));
-        } else {
-            let w: u32 = item.parse().map_err(|_| bad())?;
-            if !ids.contains(&w) {
-                return Err(EvalError::Param {
-                    field: "tasks".into(),
-                    message: format!("world {w} is not in the task set"),
-                });
-            }
-            out.extend((0..10).map(|t| (w, t)));
-        }
-    }
-    if out.is_empty() {
-        return Err(EvalError::Param {
-            field: "tasks".into(),
-            message: "no task selected".into(),
-        });
-    }
-    Ok(out.into_iter().collect())
-}
+// Task selection (`--tasks`) is the task set's: one parser for `vb eval`, the service and Python.
+pub use tasks::selection::{select, SPLITS};
 
 /// Reads the finished rows of `results.jsonl` (a torn last line is ignored).
 pub fn read_results(path: &Path) -> Result<Vec<EpisodeRow>, EvalError> {

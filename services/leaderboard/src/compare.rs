@@ -3,9 +3,9 @@
 //! per elevation level, with notes when the two ran on different task sets, simulators or rules.
 
 use crate::{public, Leaderboard, WebError};
-use eval::compare::Comparison;
-use eval::report::LEVELS;
-use eval::EpisodeRow;
+use results::compare::Comparison;
+use results::report::LEVELS;
+use results::EpisodeRow;
 use serde::Serialize;
 use vb_store::Submission;
 
@@ -51,7 +51,9 @@ fn side(s: &Submission, rows: &[EpisodeRow]) -> Side {
 /// Compares the finished episodes `ra` of A with `rb` of B.
 pub fn pairwise(a: &Submission, ra: &[EpisodeRow], b: &Submission, rb: &[EpisodeRow]) -> Pairwise {
     let (sa, sb) = (side(a, ra), side(b, rb));
-    let mut notes: Vec<String> = eval::compare::task_set_note(ra, rb).into_iter().collect();
+    let mut notes: Vec<String> = results::compare::task_set_note(ra, rb)
+        .into_iter()
+        .collect();
     if sa.sim_version != sb.sim_version {
         notes.push(format!(
             "A ran on simulator {}, B on {}: their episodes are not the same physics",
@@ -79,12 +81,12 @@ pub fn pairwise(a: &Submission, ra: &[EpisodeRow], b: &Submission, rb: &[Episode
             let of = |rows: &[EpisodeRow]| -> Vec<EpisodeRow> {
                 rows.iter().filter(|r| r.level == level).cloned().collect()
             };
-            let c = eval::compare::compare(&of(ra), &of(rb));
+            let c = results::compare::compare(&of(ra), &of(rb));
             (c.paired_tasks > 0).then(|| (level.to_string(), c))
         })
         .collect();
     Pairwise {
-        overall: eval::compare::compare(ra, rb),
+        overall: results::compare::compare(ra, rb),
         by_level,
         notes,
         a: sa,

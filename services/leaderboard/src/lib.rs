@@ -49,7 +49,7 @@ pub struct SubmissionEntry {
     pub coverage: f64,
     pub submission: Submission,
     pub progress: Progress,
-    pub summary: eval::summary::Summary,
+    pub summary: results::summary::Summary,
 }
 
 /// The board: every submission, ranked ones first, and what ranked runs ran.

@@ -124,12 +124,12 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
         "the name is shown, escaped"
     );
     // The static leaderboard and the charts of `vb eval` escape too: the same board template, standalone.
-    let mut summary = eval::summary::summarise(&[]);
+    let mut summary = results::summary::summarise(&[]);
     summary.planner = EVIL.into();
     summary.vehicle = EVIL.into();
     summary.task_set_version = EVIL.into();
     summary.sim_version = EVIL.into();
-    let svg = eval::charts::charts_svg(&summary).into_string();
+    let svg = results::charts::charts_svg(&summary).into_string();
     assert_clean("charts.svg", &svg);
     assert!(svg.contains("&#60;script&#62;"), "{svg}");
     let page = vb_leaderboard::pages::board::standalone(

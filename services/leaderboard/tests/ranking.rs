@@ -192,7 +192,7 @@ fn the_static_board_ranks_only_full_evaluations() {
     use vb_leaderboard::pages::board::{standalone, Evaluation};
     use vb_leaderboard::ranking::Reference;
     let eval = |name: &str, episodes: usize, rate: f64| {
-        let mut summary = eval::summary::summarise(&[]);
+        let mut summary = results::summary::summarise(&[]);
         summary.overall.episodes = episodes;
         summary.overall.success_rate = rate;
         summary.task_set_version = "set".into();

@@ -3,8 +3,8 @@
 //! coordinator stores them ([`crate::Store::refresh_summary`]); the leaderboard reads them.
 
 use crate::{EpisodeRecord, Submission};
-use eval::summary::Summary;
-use eval::EpisodeRow;
+use results::summary::Summary;
+use results::EpisodeRow;
 use tasks::TaskSet;
 
 /// Stored finished episodes as the evaluation rows summaries are computed from. `set`, when it is the submission's
@@ -49,7 +49,7 @@ pub fn rows(sub: &Submission, eps: &[EpisodeRecord], set: Option<&TaskSet>) -> V
 
 /// The summary of a submission's finished episodes, named after the submission.
 pub fn summary_of(sub: &Submission, eps: &[EpisodeRecord], set: Option<&TaskSet>) -> Summary {
-    let mut summary = eval::summary::summarise(&rows(sub, eps, set));
+    let mut summary = results::summary::summarise(&rows(sub, eps, set));
     summary.planner = sub.name.clone();
     summary.vehicle = sub.vehicle.clone();
     summary.scale = sub.scale;

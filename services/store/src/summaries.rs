@@ -12,7 +12,7 @@ pub struct StoredSummary {
     /// Finished episodes the summary covers.
     pub finished: u32,
     pub successes: u32,
-    pub summary: eval::summary::Summary,
+    pub summary: results::summary::Summary,
     pub updated_at: f64,
 }
 

@@ -6,6 +6,10 @@
 
 pub mod cli;
 pub mod results;
+#[cfg(feature = "validate")]
+pub mod validate;
+#[cfg(feature = "validate")]
+pub use validate::{validate, Validation};
 
 /// A planner command with every argument that names an existing file or directory relative to the caller's
 /// directory made absolute: workers start planners in a private directory of their own, so `python my_planner.py`
@@ -24,9 +28,6 @@ pub fn absolute_paths(argv: &[String]) -> Vec<String> {
 }
 
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
-use std::time::Duration;
 use tonic::metadata::MetadataValue;
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
@@ -44,8 +45,6 @@ pub enum SubmitError {
     Rpc(String),
     #[error("{0}")]
     Usage(String),
-    #[error(transparent)]
-    Tasks(#[from] tasks::TasksError),
     /// The coordinator sent something this client cannot read.
     #[error("unexpected answer from the coordinator: {0}")]
     Protocol(String),
@@ -101,7 +100,7 @@ pub async fn connect(url: &str, token: &str, ca: Option<&Path>) -> Result<Client
     let header: MetadataValue<_> = format!("Bearer {}", token.trim()).parse().map_err(|_| {
         SubmitError::Usage("the token contains characters that cannot be sent in a header".into())
     })?;
-    let channel = vb_worker::tls::endpoint(url, ca)
+    let channel = vb_proto::tls::endpoint(url, ca)
         .map_err(|message| SubmitError::Connect {
             url: url.into(),
             message,
@@ -228,72 +227,4 @@ pub fn status_line(s: &SubmissionStatus) -> String {
         line += &format!(", {} not run", s.not_run);
     }
     line
-}
-
-/// What `validate` found.
-#[derive(Clone, Debug)]
-pub struct Validation {
-    pub ok: bool,
-    pub outcome: String,
-    pub reason: String,
-    pub detail: String,
-    pub control_steps: usize,
-    pub round_trip_p50_ms: f64,
-    pub round_trip_p99_ms: f64,
-    pub round_trip_max_ms: f64,
-    pub planner_log: String,
-}
-
-/// Runs `planner` on one short task locally, through the same code the workers use, and says whether it follows
-/// the protocol (connects, answers every step in time with valid actions). Driving well is not required.
-pub async fn validate(
-    planner: PlannerRef,
-    task_dir: &Path,
-    task_id: &str,
-    max_time: f64,
-    step_deadline_s: f64,
-    planner_user: Option<&str>,
-) -> Result<Validation, SubmitError> {
-    let planner_user = planner_user
-        .map(vb_worker::sandbox::PlannerUser::lookup)
-        .transpose()
-        .map_err(SubmitError::Usage)?;
-    let set = Arc::new(tasks::TaskSet::load(task_dir)?);
-    if vb_worker::parse_task_id(task_id).is_none() {
-        return Err(SubmitError::Usage(format!(
-            "bad task id `{task_id}` (like w001-t0)"
-        )));
-    }
-    let spec = vb_worker::EpisodeSpec {
-        task_id: task_id.into(),
-        planner,
-        vehicle: "hmmwv".into(),
-        scale: 1.0,
-        seed: 0,
-        step_deadline_s,
-        max_time: Some(max_time),
-        planner_user,
-    };
-    let run = vb_worker::run_episode(
-        set,
-        spec,
-        Arc::new(AtomicBool::new(false)),
-        Duration::from_secs(30),
-    )
-    .await
-    .map_err(SubmitError::Usage)?;
-    let mut rt = run.round_trips.clone();
-    rt.sort_by(f64::total_cmp);
-    let r = &run.result;
-    Ok(Validation {
-        ok: r.outcome != sim_core::episode::Outcome::PlannerFailure,
-        outcome: r.outcome.as_str().into(),
-        reason: r.reason.clone(),
-        detail: r.detail.clone(),
-        control_steps: rt.len(),
-        round_trip_p50_ms: rt.get(rt.len() / 2).copied().unwrap_or(0.0) * 1e3,
-        round_trip_p99_ms: rt.get(rt.len() * 99 / 100).copied().unwrap_or(0.0) * 1e3,
-        round_trip_max_ms: rt.last().copied().unwrap_or(0.0) * 1e3,
-        planner_log: run.planner_log,
-    })
 }

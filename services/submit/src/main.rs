@@ -143,8 +143,8 @@ struct ValidateOpts {
     #[arg(long, default_value_t = 1.0)]
     step_deadline: f64,
     /// Task-set directory (default: the benchmark's committed set, tasks/data/v1).
-    #[arg(long, default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
-    task_dir: PathBuf,
+    #[arg(long)]
+    task_dir: Option<PathBuf>,
     /// Run an exec planner as this user, as a worker with `--planner-user` does (needs root).
     #[arg(long)]
     planner_user: Option<String>,
@@ -304,8 +304,6 @@ async fn run() -> anyhow::Result<()> {
             let mut client =
                 vb_submit::connect(&cli.coordinator, &token(&cli)?, cli.tls_ca.as_deref()).await?;
             let r = vb_submit::results(&mut client, id).await?;
-            // The committed task set gives worlds' terrain groups (density contrasts) when the run used it.
-            let set = tasks::TaskSet::load(&tasks::TaskSet::default_dir()).ok();
             let unfinished = vb_submit::results::unfinished(&r);
             if !unfinished.is_empty() {
                 eprintln!(
@@ -318,14 +316,14 @@ async fn run() -> anyhow::Result<()> {
             }
             match out {
                 Some(dir) => {
-                    let s = vb_submit::results::write_dir(dir, &r, set.as_ref())?;
-                    print!("{}", eval::report::summary_text(&s));
+                    let s = vb_submit::results::write_dir(dir, &r)?;
+                    print!("{}", results::report::summary_text(&s));
                     println!("wrote {}", dir.display());
                 }
                 None if format == "json" => {
-                    print!("{}", vb_submit::results::json(&r, set.as_ref())?)
+                    print!("{}", vb_submit::results::json(&r)?)
                 }
-                None => print!("{}", vb_submit::results::csv(&r, set.as_ref())?),
+                None => print!("{}", vb_submit::results::csv(&r)?),
             }
             Ok(())
         }
@@ -336,43 +334,59 @@ async fn run() -> anyhow::Result<()> {
             println!("{}", vb_submit::status_line(&s));
             Ok(())
         }
-        Cmd::Validate { what } => {
-            let (planner, v) = match what {
-                ValidateCmd::Endpoint { url, v } => (Kind::Endpoint(url.clone()), v),
-                ValidateCmd::Exec { v, command } => (
-                    Kind::Exec(pb::ExecPlanner {
-                        argv: vb_submit::absolute_paths(command),
-                    }),
-                    v,
-                ),
-            };
-            let r = vb_submit::validate(
-                pb::PlannerRef {
-                    kind: Some(planner),
-                },
-                &v.task_dir,
-                &v.task,
-                v.max_time,
-                v.step_deadline,
-                v.planner_user.as_deref(),
-            )
-            .await?;
-            println!(
+        Cmd::Validate { what } => validate(what).await,
+    }
+}
+
+#[cfg(feature = "validate")]
+async fn validate(what: &ValidateCmd) -> anyhow::Result<()> {
+    use pb::planner_ref::Kind;
+    {
+        let (planner, v) = match what {
+            ValidateCmd::Endpoint { url, v } => (Kind::Endpoint(url.clone()), v),
+            ValidateCmd::Exec { v, command } => (
+                Kind::Exec(pb::ExecPlanner {
+                    argv: vb_submit::absolute_paths(command),
+                }),
+                v,
+            ),
+        };
+        let r = vb_submit::validate(
+            pb::PlannerRef {
+                kind: Some(planner),
+            },
+            &v.task_dir
+                .clone()
+                .unwrap_or_else(tasks::TaskSet::default_dir),
+            &v.task,
+            v.max_time,
+            v.step_deadline,
+            v.planner_user.as_deref(),
+        )
+        .await?;
+        println!(
                 "task {}: {} control steps, then the episode ended ({}: {}); round trip p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
                 v.task, r.control_steps, r.outcome, r.reason, r.round_trip_p50_ms, r.round_trip_p99_ms, r.round_trip_max_ms
             );
-            if !r.detail.is_empty() {
-                println!("detail: {}", r.detail);
-            }
-            if !r.planner_log.is_empty() {
-                println!("planner log:\n{}", r.planner_log.trim_end());
-            }
-            if r.ok {
-                println!("OK: the planner follows the protocol (a short episode's outcome says nothing of its skill)");
-                Ok(())
-            } else {
-                bail!("the planner failed validation: {} ({})", r.reason, r.detail)
-            }
+        if !r.detail.is_empty() {
+            println!("detail: {}", r.detail);
+        }
+        if !r.planner_log.is_empty() {
+            println!("planner log:\n{}", r.planner_log.trim_end());
+        }
+        if r.ok {
+            println!("OK: the planner follows the protocol (a short episode's outcome says nothing of its skill)");
+            Ok(())
+        } else {
+            bail!("the planner failed validation: {} ({})", r.reason, r.detail)
         }
     }
+}
+
+#[cfg(not(feature = "validate"))]
+async fn validate(_: &ValidateCmd) -> anyhow::Result<()> {
+    bail!(
+        "this vb-submit was built without `validate` (it links the worker and the simulator): build it with \
+         `cargo build --release -p vb-submit --features validate`"
+    )
 }

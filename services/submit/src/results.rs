@@ -3,20 +3,15 @@
 //! streamed as the same CSV columns and JSON rows.
 
 use crate::SubmitError;
-use eval::EpisodeRow;
+use results::EpisodeRow;
 use std::path::Path;
-use tasks::TaskSet;
 use vb_proto::v1 as pb;
 
-/// The finished episodes of `r` as `vb eval`'s rows. `set`, when it is the submission's task set, gives each
-/// world's terrain group (for the matched density contrasts, as `vb eval` has them).
-pub fn rows(
-    r: &pb::ResultsResponse,
-    set: Option<&TaskSet>,
-) -> Result<Vec<EpisodeRow>, SubmitError> {
+/// The finished episodes of `r` as `vb eval`'s rows (each world's terrain group, for the matched density contrasts,
+/// as the coordinator read it from the task set).
+pub fn rows(r: &pb::ResultsResponse) -> Result<Vec<EpisodeRow>, SubmitError> {
     let s = r.status.clone().unwrap_or_default();
-    let set = set.filter(|t| t.version() == s.task_set_version);
-    let rules = sim_core::episode::Rules::parse(&s.rules).ok_or_else(|| {
+    let rules = contracts::Rules::parse(&s.rules).ok_or_else(|| {
         SubmitError::Protocol(format!(
             "the coordinator names unknown episode rules `{}`",
             s.rules
@@ -35,9 +30,7 @@ pub fn rows(
                 level: e.level.clone(),
                 semantics: e.semantics.clone(),
                 density: e.density.clone(),
-                terrain: set
-                    .and_then(|t| t.world_meta(e.world_id).ok())
-                    .and_then(|m| m.terrain),
+                terrain: e.terrain,
                 planner: s.name.clone(),
                 vehicle: s.vehicle.clone(),
                 scale: s.scale,
@@ -69,9 +62,9 @@ pub fn unfinished(r: &pb::ResultsResponse) -> Vec<(String, String)> {
 }
 
 /// The summary of the finished rows, named and described as the submission.
-pub fn summary(r: &pb::ResultsResponse, rows: &[EpisodeRow]) -> eval::summary::Summary {
+pub fn summary(r: &pb::ResultsResponse, rows: &[EpisodeRow]) -> results::summary::Summary {
     let s = r.status.clone().unwrap_or_default();
-    let mut summary = eval::summary::summarise(rows);
+    let mut summary = results::summary::summarise(rows);
     summary.planner = s.name;
     summary.vehicle = s.vehicle;
     summary.scale = s.scale;
@@ -85,8 +78,7 @@ pub fn summary(r: &pb::ResultsResponse, rows: &[EpisodeRow]) -> eval::summary::S
 pub fn write_dir(
     dir: &Path,
     r: &pb::ResultsResponse,
-    set: Option<&TaskSet>,
-) -> Result<eval::summary::Summary, SubmitError> {
+) -> Result<results::summary::Summary, SubmitError> {
     let io = |p: &Path, e: std::io::Error| SubmitError::Io(format!("{}: {e}", p.display()));
     if dir.join("results.jsonl").exists() || dir.join("summary.json").exists() {
         return Err(SubmitError::Io(format!(
@@ -95,7 +87,7 @@ pub fn write_dir(
         )));
     }
     std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
-    let rows = rows(r, set)?;
+    let rows = rows(r)?;
     let mut jsonl = String::new();
     for row in &rows {
         jsonl += &serde_json::to_string(row).map_err(|e| SubmitError::Io(e.to_string()))?;
@@ -104,18 +96,18 @@ pub fn write_dir(
     let p = dir.join("results.jsonl");
     std::fs::write(&p, jsonl).map_err(|e| io(&p, e))?;
     let summary = summary(r, &rows);
-    eval::report::write(dir, &rows, &summary).map_err(|e| SubmitError::Io(e.to_string()))?;
+    results::report::write(dir, &rows, &summary).map_err(|e| SubmitError::Io(e.to_string()))?;
     Ok(summary)
 }
 
 /// The finished episodes as `vb eval`'s `episodes.csv` (the same columns).
-pub fn csv(r: &pb::ResultsResponse, set: Option<&TaskSet>) -> Result<String, SubmitError> {
-    Ok(eval::report::episodes_csv(&rows(r, set)?))
+pub fn csv(r: &pb::ResultsResponse) -> Result<String, SubmitError> {
+    Ok(results::report::episodes_csv(&rows(r)?))
 }
 
 /// The submission's status, its finished episodes as `vb eval`'s rows (the fields of `results.jsonl`) and its
 /// unfinished episodes with their state.
-pub fn json(r: &pb::ResultsResponse, set: Option<&TaskSet>) -> Result<String, SubmitError> {
+pub fn json(r: &pb::ResultsResponse) -> Result<String, SubmitError> {
     let s = r.status.clone().unwrap_or_default();
     let unfinished: Vec<serde_json::Value> = unfinished(r)
         .into_iter()
@@ -126,7 +118,7 @@ pub fn json(r: &pb::ResultsResponse, set: Option<&TaskSet>) -> Result<String, Su
         "planner_identity": s.planner_identity, "vehicle": s.vehicle, "scale": s.scale, "seed": s.seed,
         "task_set_version": s.task_set_version, "sim_version": s.sim_version, "rules": s.rules,
         "total": s.total, "finished": s.finished, "not_run": s.not_run, "success_rate": s.success_rate,
-        "episodes": rows(r, set)?, "unfinished": unfinished,
+        "episodes": rows(r)?, "unfinished": unfinished,
     });
     serde_json::to_string_pretty(&v)
         .map(|t| t + "\n")

@@ -698,9 +698,9 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
         s.not_run
     );
     // vb eval's columns hold the finished episodes; the JSON lists the others with their state.
-    let csv = vb_submit::results::csv(&r, None)?;
+    let csv = vb_submit::results::csv(&r)?;
     assert_eq!(csv.lines().count(), 1 + s.finished as usize);
-    let json: serde_json::Value = serde_json::from_str(&vb_submit::results::json(&r, None)?)?;
+    let json: serde_json::Value = serde_json::from_str(&vb_submit::results::json(&r)?)?;
     let unfinished = json["unfinished"].as_array().expect("unfinished episodes");
     assert_eq!(unfinished.len(), s.not_run as usize);
     assert!(unfinished.iter().all(|e| e["state"] == "not_run"));

@@ -15,7 +15,8 @@ pub mod exec;
 pub mod remote;
 pub mod sandbox;
 pub mod sim_service;
-pub mod tls;
+// The client's TLS setup is the protocol crate's (vb-submit uses it without the worker).
+pub use vb_proto::tls;
 
 use remote::{PlannerLog, RemotePlanner, SharedLog};
 use sim_core::episode::{EpisodeConfig, EpisodeResult, Outcome};

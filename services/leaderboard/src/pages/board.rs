@@ -4,8 +4,8 @@ use super::{render, AggView, Frame};
 use crate::ranking::{coverage_text, Reference, Run, Unranked};
 use crate::SubmissionEntry;
 use askama::Template;
-use eval::report::{DENSITIES, LEVELS, SEMANTICS};
-use eval::summary::{Aggregate, Summary};
+use results::report::{DENSITIES, LEVELS, SEMANTICS};
+use results::summary::{Aggregate, Summary};
 use std::collections::BTreeMap;
 
 pub struct Row {

@@ -3,7 +3,7 @@
 use super::{render, Frame};
 use crate::compare::{Pairwise, Side};
 use askama::Template;
-use eval::compare::Comparison;
+use results::compare::Comparison;
 
 struct SideView {
     href: String,
@@ -64,7 +64,7 @@ fn line(label: &str, c: &Comparison) -> Line {
         discordant: format!("{} / {}", c.a_only, c.b_only),
         mcnemar: format!(
             "{}{}",
-            eval::compare::p_text(c.mcnemar_p),
+            results::compare::p_text(c.mcnemar_p),
             if c.significant { " *" } else { "" }
         ),
     }

@@ -1,6 +1,6 @@
 //! Every page of the leaderboard, rendered by askama from `web/templates/` (compiled in and checked at build
 //! time). Askama escapes every `{{ value }}` for HTML; the only unescaped insertions are the page frame's own
-//! style sheet and SVG charts that our templates rendered ([`eval::charts::Markup`]).
+//! style sheet and SVG charts that our templates rendered ([`results::charts::Markup`]).
 //!
 //! Why askama: templates are checked against their Rust view structs when the crate compiles (a missing field or a
 //! typo fails the build, not a request), escaping is on by default for `.html` and `.svg`, the templates stay
@@ -17,7 +17,7 @@ pub mod submission;
 
 use askama::Template;
 use base64::Engine as _;
-use eval::summary::Aggregate;
+use results::summary::Aggregate;
 use sha2::Digest;
 
 /// Pixels per heightmap sample of world pictures.
@@ -120,7 +120,7 @@ impl AggView {
     }
 }
 
-/// Renders a page (as [`eval::charts::Markup::render`] renders any of our templates).
+/// Renders a page (as [`results::charts::Markup::render`] renders any of our templates).
 pub(crate) fn render(t: &impl Template) -> String {
-    eval::charts::Markup::render(t).into_string()
+    results::charts::Markup::render(t).into_string()
 }

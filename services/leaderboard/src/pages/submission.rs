@@ -4,8 +4,8 @@
 use super::{render, AggView, Frame};
 use crate::SubmissionEntry;
 use askama::Template;
-use eval::report::{DENSITIES, LEVELS, SEMANTICS};
-use eval::summary::Aggregate;
+use results::report::{DENSITIES, LEVELS, SEMANTICS};
+use results::summary::Aggregate;
 use std::collections::BTreeMap;
 use vb_store::{EpisodeRecord, Submission};
 
@@ -62,7 +62,7 @@ struct Page {
     not_run: u32,
     repro: Vec<(&'static str, String)>,
     overall: AggView,
-    charts: Option<eval::charts::Markup>,
+    charts: Option<results::charts::Markup>,
     breakdowns: Vec<Breakdown>,
     matched: Vec<Contrast>,
     page: Pager,
@@ -127,14 +127,14 @@ fn breakdown(
     Breakdown {
         title,
         id,
-        rows: eval::report::in_order(map, &order)
+        rows: results::report::in_order(map, &order)
             .into_iter()
             .map(|(k, a)| (k.clone(), AggView::new(a)))
             .collect(),
     }
 }
 
-fn contrast(c: &eval::summary::DensityContrast) -> Contrast {
+fn contrast(c: &results::summary::DensityContrast) -> Contrast {
     let m = &c.comparison;
     Contrast {
         sparser: c.sparser.clone(),
@@ -150,7 +150,7 @@ fn contrast(c: &eval::summary::DensityContrast) -> Contrast {
         ),
         mcnemar: format!(
             "{}{}",
-            eval::compare::p_text(m.mcnemar_p),
+            results::compare::p_text(m.mcnemar_p),
             if m.significant { " *" } else { "" }
         ),
     }
@@ -228,7 +228,7 @@ pub fn page(
         not_run: p.not_run,
         repro: repro(s),
         overall: AggView::new(&sum.overall),
-        charts: has_charts.then(|| eval::charts::charts_svg(sum)),
+        charts: has_charts.then(|| results::charts::charts_svg(sum)),
         breakdowns: if has_charts {
             vec![
                 breakdown("elevation level", "by-level", &sum.by_level, LEVELS),

@@ -89,7 +89,7 @@ pub fn aggregate<'a>(rows: impl IntoIterator<Item = &'a EpisodeRow>) -> Aggregat
 }
 
 /// Success at a denser obstacle layout against a sparser one on the same terrain and the same start/goal pair
-/// (worlds of one terrain group, [`tasks::design`]): `comparison` is denser minus sparser, so a negative
+/// (worlds of one terrain group, the task set's design): `comparison` is denser minus sparser, so a negative
 /// difference is the success the added obstacles cost, with the exact McNemar test on the discordant tasks.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct DensityContrast {
@@ -166,7 +166,7 @@ pub struct Summary {
     pub sim_version: String,
     /// The episode rules the rows followed (older summaries without it: the paper's).
     #[serde(default)]
-    pub rules: sim_core::episode::Rules,
+    pub rules: contracts::Rules,
     pub overall: Aggregate,
     pub by_level: BTreeMap<String, Aggregate>,
     pub by_semantics: BTreeMap<String, Aggregate>,
@@ -242,7 +242,7 @@ mod tests {
         let row = |outcome: &str, time: f64, level: &str| EpisodeRow {
             level: level.into(),
             reason: outcome.into(),
-            metrics: sim_core::episode::EpisodeMetrics {
+            metrics: contracts::EpisodeMetrics {
                 time,
                 ..Default::default()
             },

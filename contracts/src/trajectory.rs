@@ -2,7 +2,7 @@
 //! (angles in degrees). The worker sends it (gzip-compressed), the store keeps it, the leaderboard draws it and
 //! `vb sim run` writes it; all through [`to_csv`] and [`from_csv`]. Pure text: no IO.
 
-use crate::episode::TrajectorySample;
+use crate::TrajectorySample;
 use std::fmt::Write as _;
 
 /// The header [`to_csv`] writes.

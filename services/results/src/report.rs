@@ -2,9 +2,12 @@
 //! `summary.txt` and `charts.svg` ([`crate::charts`]).
 
 use crate::summary::{Aggregate, Summary};
-use crate::{io_err, EpisodeRow, EvalError};
+use crate::EpisodeRow;
+#[cfg(feature = "parquet")]
+use crate::{io_err, ResultsError};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
+#[cfg(feature = "parquet")]
 use std::path::Path;
 
 /// Values of one column of the episode table.
@@ -231,7 +234,8 @@ pub fn in_order<'a, V>(map: &'a BTreeMap<String, V>, order: &[&str]) -> Vec<(&'a
 }
 
 /// Writes every file of an evaluation into `dir`.
-pub fn write(dir: &Path, rows: &[EpisodeRow], s: &Summary) -> Result<(), EvalError> {
+#[cfg(feature = "parquet")]
+pub fn write(dir: &Path, rows: &[EpisodeRow], s: &Summary) -> Result<(), ResultsError> {
     let files = [
         ("episodes.csv", episodes_csv(rows)),
         (

@@ -5,7 +5,7 @@
 //! succeed, and `terrain` an `OPTIONAL INT64`, null for worlds without a terrain group. Uncompressed (the file is about 300 kB for 1000 episodes; no codec crates to build).
 
 use crate::report::{episode_columns, ColumnValues};
-use crate::{io_err, EpisodeRow, EvalError};
+use crate::{io_err, EpisodeRow, ResultsError};
 use ::parquet::data_type::{ByteArray, ByteArrayType, DoubleType, Int64Type};
 use ::parquet::file::properties::WriterProperties;
 use ::parquet::file::writer::SerializedFileWriter;
@@ -35,7 +35,7 @@ pub fn schema(rows: &[EpisodeRow]) -> String {
 }
 
 /// Writes the episode table to `path` (replacing it).
-pub fn write_episodes(path: &Path, rows: &[EpisodeRow]) -> Result<(), EvalError> {
+pub fn write_episodes(path: &Path, rows: &[EpisodeRow]) -> Result<(), ResultsError> {
     let err = |e: parquet::errors::ParquetError| io_err(path, e);
     let schema = Arc::new(parse_message_type(&schema(rows)).map_err(err)?);
     let props = Arc::new(

@@ -1,0 +1,141 @@
+//! Values that cross crates, with one string form each: how an episode ended ([`Outcome`], and
+//! [`RecordedOutcome`] as the service records it), under which rules ([`Rules`]), its metrics
+//! ([`EpisodeMetrics`]), a task's id ([`TaskId`], `wNNN-tK`), the states of the service's episodes and submissions
+//! ([`EpisodeState`], [`SubmissionState`]), and the trajectory codec ([`trajectory`]).
+//!
+//! A leaf crate (serde and thiserror only): the simulator produces these values and re-exports them; the service,
+//! the store, the leaderboard and `vb-submit` read them without linking the simulator.
+
+mod state;
+mod task_id;
+pub mod trajectory;
+
+pub use state::{EpisodeState, RecordedOutcome, SubmissionState, UnknownName};
+pub use task_id::{TaskId, TaskIdError};
+
+use serde::{Deserialize, Serialize};
+
+/// Which named set of rules an episode configuration follows (results carry it: runs under different rules are
+/// different runs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Rules {
+    /// The paper's definitions (sim-core's `EpisodeConfig::default`).
+    #[default]
+    Paper,
+    /// The original release's (`EpisodeConfig::release`).
+    Release,
+    /// Anything else (a changed time limit, goal radius, ...).
+    Custom,
+}
+
+impl Rules {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Paper => "paper",
+            Self::Release => "release",
+            Self::Custom => "custom",
+        }
+    }
+
+    /// The rules named by [`Rules::as_str`].
+    pub fn parse(s: &str) -> Option<Rules> {
+        [Self::Paper, Self::Release, Self::Custom]
+            .into_iter()
+            .find(|r| r.as_str() == s)
+    }
+}
+
+/// How an episode ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Outcome {
+    Success,
+    Rollover,
+    Stuck,
+    Timeout,
+    OffMap,
+    /// The planner failed (crash, timeout, NaN or out-of-range action); see the episode's `reason`.
+    PlannerFailure,
+}
+
+impl Outcome {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Success => "success",
+            Self::Rollover => "rollover",
+            Self::Stuck => "stuck",
+            Self::Timeout => "timeout",
+            Self::OffMap => "off_map",
+            Self::PlannerFailure => "planner_failure",
+        }
+    }
+
+    /// Every outcome, in this order.
+    pub const ALL: [Outcome; 6] = [
+        Self::Success,
+        Self::Rollover,
+        Self::Stuck,
+        Self::Timeout,
+        Self::OffMap,
+        Self::PlannerFailure,
+    ];
+
+    /// The outcome named by [`Outcome::as_str`].
+    pub fn parse(s: &str) -> Option<Outcome> {
+        Self::ALL.into_iter().find(|o| o.as_str() == s)
+    }
+}
+
+/// Mean, variance and maximum of a signal sampled at every physics step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SignalStats {
+    pub mean: f64,
+    pub var: f64,
+    pub max: f64,
+}
+
+/// Metrics of one episode.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeMetrics {
+    /// Simulated time at the end of the episode, s (the traversal time when successful).
+    pub time: f64,
+    /// Roll and pitch, degrees: raw (signed) and absolute.
+    pub roll: SignalStats,
+    pub roll_abs: SignalStats,
+    pub pitch: SignalStats,
+    pub pitch_abs: SignalStats,
+    /// Throttle and steering commands: mean, variance, total variation.
+    pub throttle_mean: f64,
+    pub throttle_var: f64,
+    pub throttle_tv: f64,
+    pub steering_mean: f64,
+    pub steering_var: f64,
+    pub steering_tv: f64,
+    /// Distance travelled by the chassis, m.
+    pub path_length: f64,
+    /// Positive mechanical energy delivered by the powertrain to the wheels, J.
+    pub energy: f64,
+    /// Number of distinct contacts with obstacles.
+    pub obstacle_contacts: u32,
+    /// Final distance to the goal, m.
+    pub final_goal_distance: f64,
+    /// Physics steps taken.
+    pub steps: u64,
+}
+
+/// One recorded sample of the trajectory.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrajectorySample {
+    pub time: f64,
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    pub roll: f64,
+    pub pitch: f64,
+    pub yaw: f64,
+    pub speed: f64,
+    pub throttle: f64,
+    pub steering: f64,
+    pub brake: f64,
+}

@@ -1,0 +1,77 @@
+//! `vb-submit validate` (the `validate` feature): a planner run on one short task locally, through the worker's own
+//! code, before 1000 episodes are queued. The only part of `vb-submit` that links the worker and the simulator.
+
+use crate::{PlannerRef, SubmitError};
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// What `validate` found.
+#[derive(Clone, Debug)]
+pub struct Validation {
+    pub ok: bool,
+    pub outcome: String,
+    pub reason: String,
+    pub detail: String,
+    pub control_steps: usize,
+    pub round_trip_p50_ms: f64,
+    pub round_trip_p99_ms: f64,
+    pub round_trip_max_ms: f64,
+    pub planner_log: String,
+}
+
+/// Runs `planner` on one short task locally, through the same code the workers use, and says whether it follows
+/// the protocol (connects, answers every step in time with valid actions). Driving well is not required.
+pub async fn validate(
+    planner: PlannerRef,
+    task_dir: &Path,
+    task_id: &str,
+    max_time: f64,
+    step_deadline_s: f64,
+    planner_user: Option<&str>,
+) -> Result<Validation, SubmitError> {
+    let planner_user = planner_user
+        .map(vb_worker::sandbox::PlannerUser::lookup)
+        .transpose()
+        .map_err(SubmitError::Usage)?;
+    let set =
+        Arc::new(tasks::TaskSet::load(task_dir).map_err(|e| SubmitError::Usage(e.to_string()))?);
+    if vb_worker::parse_task_id(task_id).is_none() {
+        return Err(SubmitError::Usage(format!(
+            "bad task id `{task_id}` (like w001-t0)"
+        )));
+    }
+    let spec = vb_worker::EpisodeSpec {
+        task_id: task_id.into(),
+        planner,
+        vehicle: "hmmwv".into(),
+        scale: 1.0,
+        seed: 0,
+        step_deadline_s,
+        max_time: Some(max_time),
+        planner_user,
+    };
+    let run = vb_worker::run_episode(
+        set,
+        spec,
+        Arc::new(AtomicBool::new(false)),
+        Duration::from_secs(30),
+    )
+    .await
+    .map_err(SubmitError::Usage)?;
+    let mut rt = run.round_trips.clone();
+    rt.sort_by(f64::total_cmp);
+    let r = &run.result;
+    Ok(Validation {
+        ok: r.outcome != sim_core::episode::Outcome::PlannerFailure,
+        outcome: r.outcome.as_str().into(),
+        reason: r.reason.clone(),
+        detail: r.detail.clone(),
+        control_steps: rt.len(),
+        round_trip_p50_ms: rt.get(rt.len() / 2).copied().unwrap_or(0.0) * 1e3,
+        round_trip_p99_ms: rt.get(rt.len() * 99 / 100).copied().unwrap_or(0.0) * 1e3,
+        round_trip_max_ms: rt.last().copied().unwrap_or(0.0) * 1e3,
+        planner_log: run.planner_log,
+    })
+}

@@ -1,0 +1,171 @@
+//! Crate boundaries over transitive dependencies (issue 16): what each service crate links, as Cargo resolves it.
+//!
+//! `cargo tree -p CRATE` resolves one package with its own features, as a user building only that package gets it;
+//! `cargo metadata`'s resolve unifies the features of the whole workspace (where `vb` asks for `vb-submit`'s
+//! `validate`), so it is used for the declared minimum Rust versions, and `cargo tree` for the boundaries.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .unwrap()
+}
+
+fn cargo() -> Command {
+    let mut c = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    c.current_dir(repo_root());
+    c
+}
+
+/// Every package `package` links (normal dependencies, transitively, itself included) with `features`.
+fn linked(package: &str, features: &[&str]) -> BTreeSet<String> {
+    let mut c = cargo();
+    c.args([
+        "tree",
+        "--offline",
+        "-e",
+        "normal",
+        "--prefix",
+        "none",
+        "--format",
+        "{p}",
+        "-p",
+        package,
+    ]);
+    if !features.is_empty() {
+        c.args(["--features", &features.join(",")]);
+    }
+    let out = c.output().expect("running cargo tree");
+    assert!(
+        out.status.success(),
+        "cargo tree -p {package}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+        .collect()
+}
+
+fn assert_links_none(package: &str, features: &[&str], forbidden: &[&str]) {
+    let deps = linked(package, features);
+    assert!(
+        deps.contains(package),
+        "cargo tree -p {package} printed nothing useful: {deps:?}"
+    );
+    for f in forbidden {
+        assert!(!deps.contains(*f), "{package} {features:?} links {f}");
+    }
+}
+
+#[test]
+fn the_coordinator_links_neither_parquet_nor_rayon() {
+    assert_links_none(
+        "vb-coordinator",
+        &[],
+        &["parquet", "rayon", "eval", "candle-core"],
+    );
+    // Nor do the store and the leaderboard (they read and write results through `results` without Parquet).
+    for p in ["vb-store", "vb-leaderboard"] {
+        assert_links_none(p, &[], &["parquet", "rayon", "eval", "candle-core"]);
+    }
+}
+
+#[test]
+fn vb_submit_links_the_simulator_only_for_validate() {
+    assert_links_none(
+        "vb-submit",
+        &[],
+        &[
+            "vb-worker",
+            "baselines",
+            "sim-core",
+            "tasks",
+            "rayon",
+            "candle-core",
+        ],
+    );
+    let with = linked("vb-submit", &["validate"]);
+    for needed in ["vb-worker", "sim-core", "tasks"] {
+        assert!(
+            with.contains(needed),
+            "vb-submit's validate feature does not bring {needed}"
+        );
+    }
+}
+
+#[test]
+fn candle_stays_in_the_terrain_model_crate() {
+    for p in [
+        "contracts",
+        "sim-core",
+        "tasks",
+        "results",
+        "eval",
+        "baselines",
+        "vb-worker",
+        "vb-coordinator",
+        "vb-store",
+        "vb-leaderboard",
+        "vb-submit",
+    ] {
+        assert_links_none(p, &[], &["candle-core", "candle-nn"]);
+    }
+}
+
+/// Every crate declares the workspace's minimum Rust version, and it is no lower than any dependency's (the
+/// dependencies' declared `rust-version`s are a floor; clippy's `incompatible_msrv` lint, on in CI, refuses our own
+/// use of a newer standard-library API).
+#[test]
+fn every_crate_declares_the_real_minimum_rust_version() {
+    let out = cargo()
+        .args(["metadata", "--offline", "--format-version", "1"])
+        .output()
+        .expect("running cargo metadata");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let meta: serde_json::Value = serde_json::from_slice(&out.stdout).expect("metadata JSON");
+    let members: BTreeSet<&str> = meta["workspace_members"]
+        .as_array()
+        .expect("members")
+        .iter()
+        .filter_map(|m| m.as_str())
+        .collect();
+    let version = |v: &str| -> (u32, u32) {
+        let mut it = v.split('.').map(|x| x.parse::<u32>().unwrap_or(0));
+        (it.next().unwrap_or(0), it.next().unwrap_or(0))
+    };
+    let mut ours = BTreeSet::new();
+    let mut floor = ((0, 0), String::new());
+    for p in meta["packages"].as_array().expect("packages") {
+        let name = p["name"].as_str().unwrap_or("?");
+        let rv = p["rust_version"].as_str();
+        if members.contains(p["id"].as_str().unwrap_or("")) {
+            let rv = rv.unwrap_or_else(|| panic!("{name} declares no rust-version"));
+            ours.insert(version(rv));
+        } else if let Some(rv) = rv {
+            if version(rv) > floor.0 {
+                floor = (version(rv), name.to_string());
+            }
+        }
+    }
+    assert_eq!(
+        ours.len(),
+        1,
+        "the crates declare different minimum versions: {ours:?}"
+    );
+    let declared = *ours.iter().next().unwrap();
+    assert!(
+        declared >= floor.0,
+        "rust-version {declared:?} is below {}'s {:?}",
+        floor.1,
+        floor.0
+    );
+}
