@@ -252,7 +252,7 @@ impl VecCore {
         self.src
             .tasks
             .iter()
-            .map(|&(w, t)| format!("w{w:03}-t{t}"))
+            .map(|&(w, t)| contracts::TaskId::new(w, t).to_string())
             .collect()
     }
 

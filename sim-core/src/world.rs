@@ -502,7 +502,7 @@ pub struct Task {
 impl Task {
     /// Stable task id, e.g. `w017-t3`.
     pub fn id(&self) -> String {
-        format!("w{:03}-t{}", self.world_id, self.index)
+        contracts::TaskId::new(self.world_id, self.index).to_string()
     }
     /// Returns a copy with every length multiplied by `s`.
     pub fn scaled(&self, s: f64) -> Task {

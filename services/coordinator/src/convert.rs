@@ -37,12 +37,12 @@ pub fn lease(l: &Lease) -> pb::EpisodeLease {
 /// A submission's status; `throughput_per_s`: the service's recent episodes per second (`None`: not known yet, so
 /// no ETA).
 pub fn status(s: &Submission, p: &Progress, throughput_per_s: Option<f64>) -> pb::SubmissionStatus {
-    let active = s.state == "queued" || s.state == "running";
+    let active = s.state.is_active();
     let throughput_per_s = throughput_per_s.unwrap_or(0.0);
     let eta_known = active && throughput_per_s > 0.0;
     pb::SubmissionStatus {
         submission_id: s.id.clone(),
-        state: s.state.clone(),
+        state: s.state.as_str().to_string(),
         total: p.total,
         finished: p.finished,
         running: p.running,
@@ -83,8 +83,8 @@ pub fn result_row(e: &EpisodeRecord, terrain: Option<u32>) -> pb::EpisodeResultR
         level: e.level.clone(),
         semantics: e.semantics.clone(),
         density: e.density.clone(),
-        state: e.state.clone(),
-        outcome: e.outcome.clone().unwrap_or_default(),
+        state: e.state.as_str().to_string(),
+        outcome: e.outcome.map_or(String::new(), |o| o.as_str().to_string()),
         reason: e.reason.clone().unwrap_or_default(),
         detail: e.detail.clone().unwrap_or_default(),
         metrics_json: e.metrics_json.clone().unwrap_or_default(),
@@ -113,21 +113,8 @@ pub fn report(
     max_log: usize,
     max_trajectory: usize,
 ) -> Result<EpisodeResultIn, Status> {
-    const OUTCOMES: [&str; 7] = [
-        "success",
-        "rollover",
-        "stuck",
-        "timeout",
-        "off_map",
-        "planner_failure",
-        "error",
-    ];
-    if !OUTCOMES.contains(&r.outcome.as_str()) {
-        return Err(Status::invalid_argument(format!(
-            "unknown outcome `{}`",
-            r.outcome
-        )));
-    }
+    contracts::RecordedOutcome::parse(&r.outcome)
+        .map_err(|e| Status::invalid_argument(e.to_string()))?;
     if !r.metrics_json.is_empty() {
         serde_json::from_slice::<sim_core::episode::EpisodeMetrics>(&r.metrics_json)
             .map_err(|e| Status::invalid_argument(format!("metrics_json: {e}")))?;

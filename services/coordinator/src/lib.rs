@@ -376,7 +376,7 @@ impl Coordinator {
                 .world_meta(w)
                 .map_err(|e| Status::internal(e.to_string()))?;
             episodes.push(NewEpisode {
-                task_id: format!("w{w:03}-t{t}"),
+                task_id: contracts::TaskId::new(w, t).to_string(),
                 world_id: w,
                 task_index: t,
                 level: meta.level.as_str().into(),
@@ -736,7 +736,7 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
                 .submission(&r.submission_id)
                 .await
                 .map_err(store_status)?;
-            if ended.state == "done" {
+            if ended.state == vb_store::SubmissionState::Done {
                 self.0.refresh_summary(&r.submission_id).await;
             }
         }

@@ -1,6 +1,7 @@
 //! Running the episodes of an evaluation, resumably.
 
 use crate::{io_err, EpisodeRow, EvalError};
+use contracts::TaskId;
 use rayon::prelude::*;
 use sim_core::episode::EpisodeConfig;
 use sim_core::planner::Planner;
@@ -126,7 +127,7 @@ pub fn run_with(
     let todo: Vec<(u32, u32)> = selected
         .iter()
         .copied()
-        .filter(|(w, t)| !done.contains(&format!("w{w:03}-t{t}")))
+        .filter(|&(w, t)| !done.contains(&TaskId::new(w, t).to_string()))
         .collect();
     let file = std::fs::OpenOptions::new()
         .create(true)
@@ -195,7 +196,7 @@ pub fn run_with(
     }
     let keep: BTreeSet<String> = selected
         .iter()
-        .map(|(w, t)| format!("w{w:03}-t{t}"))
+        .map(|&(w, t)| TaskId::new(w, t).to_string())
         .collect();
     rows.retain(|r| keep.contains(&r.task_id));
     rows.sort_by_key(|r| (r.world_id, r.task_index));

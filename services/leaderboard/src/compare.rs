@@ -15,7 +15,7 @@ pub struct Side {
     pub id: String,
     pub name: String,
     pub planner: String,
-    pub state: String,
+    pub state: contracts::SubmissionState,
     pub task_set_version: String,
     pub sim_version: String,
     pub rules: sim_core::episode::Rules,
@@ -40,7 +40,7 @@ fn side(s: &Submission, rows: &[EpisodeRow]) -> Side {
         id: s.id.clone(),
         name: s.name.clone(),
         planner: crate::pages::submission::planner_label(s),
-        state: s.state.clone(),
+        state: s.state,
         task_set_version: s.task_set_version.clone(),
         sim_version: s.sim_version.clone(),
         rules: rows.first().map(|r| r.rules).unwrap_or_default(),
@@ -68,7 +68,7 @@ pub fn pairwise(a: &Submission, ra: &[EpisodeRow], b: &Submission, rb: &[Episode
         ));
     }
     for s in [&sa, &sb] {
-        if s.state != "done" {
+        if s.state != contracts::SubmissionState::Done {
             notes.push(format!(
                 "`{}` is {}: only the tasks both have finished are paired",
                 s.name, s.state

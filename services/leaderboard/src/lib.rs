@@ -159,7 +159,7 @@ impl Leaderboard {
         sub: Submission,
         stored: Option<StoredSummary>,
     ) -> Result<SubmissionEntry, WebError> {
-        let ended = sub.state == "done" || sub.state == "cancelled";
+        let ended = !sub.state.is_active();
         // An ended submission's aggregates count only when written after it ended (the coordinator writes them then).
         let stored = stored.filter(|m| !ended || sub.finished_at.is_none_or(|f| m.updated_at >= f));
         let summary = match &stored {
@@ -223,7 +223,7 @@ impl Leaderboard {
         let reference = self.reference(&out);
         for e in &mut out {
             let run = ranking::Run {
-                state: &e.submission.state,
+                state: e.submission.state,
                 tasks: e.progress.total,
                 finished: e.progress.finished,
                 task_set_version: &e.submission.task_set_version,

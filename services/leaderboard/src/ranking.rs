@@ -4,8 +4,8 @@
 //! the release's rules never stand beside full runs. The service's `/` and `vb leaderboard-static` use the same
 //! rule.
 
+use contracts::{Rules, SubmissionState};
 use serde::Serialize;
-use sim_core::episode::Rules;
 
 /// What a ranked run must have run.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -43,8 +43,8 @@ impl Reference {
 /// A run as the ranking sees it.
 #[derive(Clone, Copy, Debug)]
 pub struct Run<'a> {
-    /// `done` for a finished run (an evaluation directory is always finished).
-    pub state: &'a str,
+    /// Done for a finished run (an evaluation directory is always finished).
+    pub state: SubmissionState,
     /// Tasks it has (whatever their state) and tasks finished.
     pub tasks: u32,
     pub finished: u32,
@@ -59,7 +59,7 @@ pub struct Run<'a> {
 pub enum Unranked {
     /// Still queued or running.
     NotFinished {
-        state: String,
+        state: SubmissionState,
     },
     Cancelled,
     OtherTaskSet {
@@ -101,7 +101,7 @@ impl Run<'_> {
     /// `None` when the run is ranked, else the first reason it is not.
     pub fn unranked(&self, r: &Reference) -> Option<Unranked> {
         Some(match self.state {
-            "done" => {
+            SubmissionState::Done => {
                 if self.task_set_version != r.task_set_version {
                     Unranked::OtherTaskSet {
                         task_set_version: self.task_set_version.to_string(),
@@ -121,10 +121,10 @@ impl Run<'_> {
                     return None;
                 }
             }
-            "cancelled" => Unranked::Cancelled,
-            other => Unranked::NotFinished {
-                state: other.to_string(),
-            },
+            SubmissionState::Cancelled => Unranked::Cancelled,
+            state @ (SubmissionState::Queued | SubmissionState::Running) => {
+                Unranked::NotFinished { state }
+            }
         })
     }
 
@@ -147,7 +147,7 @@ pub fn coverage_text(finished: u32, coverage: f64, r: &Reference) -> String {
 mod tests {
     use super::*;
 
-    fn run(state: &str, finished: u32) -> Run<'_> {
+    fn run(state: SubmissionState, finished: u32) -> Run<'static> {
         Run {
             state,
             tasks: 1000,
@@ -161,19 +161,22 @@ mod tests {
     #[test]
     fn only_full_finished_runs_of_the_reference_are_ranked() {
         let r = Reference::current("set", 1000);
-        assert_eq!(run("done", 1000).unranked(&r), None);
-        assert_eq!(run("done", 1000).coverage(&r), 1.0);
+        assert_eq!(run(SubmissionState::Done, 1000).unranked(&r), None);
+        assert_eq!(run(SubmissionState::Done, 1000).coverage(&r), 1.0);
         assert_eq!(
-            run("running", 3).unranked(&r),
+            run(SubmissionState::Running, 3).unranked(&r),
             Some(Unranked::NotFinished {
-                state: "running".into()
+                state: SubmissionState::Running
             })
         );
-        assert_eq!(run("cancelled", 3).unranked(&r), Some(Unranked::Cancelled));
-        assert_eq!(run("cancelled", 3).coverage(&r), 0.003);
+        assert_eq!(
+            run(SubmissionState::Cancelled, 3).unranked(&r),
+            Some(Unranked::Cancelled)
+        );
+        assert_eq!(run(SubmissionState::Cancelled, 3).coverage(&r), 0.003);
         let few = Run {
             tasks: 330,
-            ..run("done", 330)
+            ..run(SubmissionState::Done, 330)
         };
         assert_eq!(
             few.unranked(&r),
@@ -184,7 +187,7 @@ mod tests {
         );
         let old = Run {
             sim_version: "sim-core 0.1.0 r1",
-            ..run("done", 1000)
+            ..run(SubmissionState::Done, 1000)
         };
         assert_eq!(
             old.unranked(&r).map(|u| u.to_string()).as_deref(),
@@ -192,7 +195,7 @@ mod tests {
         );
         let release = Run {
             rules: Rules::Release,
-            ..run("done", 1000)
+            ..run(SubmissionState::Done, 1000)
         };
         assert_eq!(
             release.unranked(&r),
@@ -202,7 +205,7 @@ mod tests {
         );
         let other_set = Run {
             task_set_version: "cf",
-            ..run("done", 1000)
+            ..run(SubmissionState::Done, 1000)
         };
         assert!(matches!(
             other_set.unranked(&r),

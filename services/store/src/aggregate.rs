@@ -12,7 +12,7 @@ use tasks::TaskSet;
 pub fn rows(sub: &Submission, eps: &[EpisodeRecord], set: Option<&TaskSet>) -> Vec<EpisodeRow> {
     let set = set.filter(|s| s.version() == sub.task_set_version);
     eps.iter()
-        .filter(|e| e.state == "done")
+        .filter(|e| e.state == crate::EpisodeState::Done)
         .map(|e| EpisodeRow {
             task_id: e.task_id.clone(),
             world_id: e.world_id,
@@ -34,7 +34,10 @@ pub fn rows(sub: &Submission, eps: &[EpisodeRecord], set: Option<&TaskSet>) -> V
                 .unwrap_or_else(|| sub.sim_version.clone()),
             // The service runs every episode under the paper's rules.
             rules: Default::default(),
-            outcome: e.outcome.clone().unwrap_or_default(),
+            outcome: e
+                .outcome
+                .map(|o| o.as_str().to_string())
+                .unwrap_or_default(),
             reason: e.reason.clone().unwrap_or_default(),
             detail: e.detail.clone().unwrap_or_default(),
             metrics: e

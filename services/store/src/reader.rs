@@ -61,7 +61,7 @@ impl Reader {
             queue_position: ahead.try_get::<i64, _>("subs")? as u32,
             episodes_ahead: ahead.try_get::<i64, _>("eps")? as u32,
         };
-        if sub.state == "done" || sub.state == "cancelled" {
+        if !sub.state.is_active() {
             p.queue_position = 0;
             p.episodes_ahead = 0;
         } else {

@@ -68,7 +68,7 @@ impl Store {
     pub async fn cancel(&self, id: &str, now: f64) -> Result<bool> {
         let _w = self.write.lock().await;
         let sub = self.reader().submission(id).await?;
-        if sub.state == "done" || sub.state == "cancelled" {
+        if !sub.state.is_active() {
             return Ok(false);
         }
         let mut tx = self.pool.begin().await?;

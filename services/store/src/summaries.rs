@@ -29,6 +29,8 @@ fn stored_from_row(r: &sqlx::any::AnyRow) -> Result<Option<StoredSummary>> {
     }))
 }
 
+const SUCCESS: RecordedOutcome = RecordedOutcome::Episode(contracts::Outcome::Success);
+
 const SUMMARY_COLUMNS: &str =
     "m.finished AS m_finished, m.successes AS m_successes, m.summary_json, \
      m.updated_at AS m_updated_at";
@@ -41,10 +43,10 @@ impl Store {
         let sub = reader.submission(id).await?;
         let eps = reader.episodes(id).await?;
         let summary = aggregate::summary_of(&sub, &eps, set);
-        let finished = eps.iter().filter(|e| e.state == "done").count() as i64;
+        let finished = eps.iter().filter(|e| e.state == EpisodeState::Done).count() as i64;
         let successes = eps
             .iter()
-            .filter(|e| e.state == "done" && e.outcome.as_deref() == Some("success"))
+            .filter(|e| e.state == EpisodeState::Done && e.outcome == Some(SUCCESS))
             .count() as i64;
         let json = serde_json::to_string(&summary)
             .map_err(|e| StoreError::Corrupt(format!("summary: {e}")))?;

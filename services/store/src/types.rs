@@ -1,6 +1,7 @@
 //! The store's values: tokens, submissions, episodes, leases, reports and progress, and how rows become them.
 
-use crate::Result;
+use crate::{Result, StoreError};
+pub use contracts::{EpisodeState, RecordedOutcome, SubmissionState};
 use serde::{Deserialize, Serialize};
 use sqlx::any::AnyRow;
 use sqlx::Row;
@@ -98,7 +99,7 @@ pub struct Submission {
     pub step_deadline_s: f64,
     pub task_set_version: String,
     pub sim_version: String,
-    pub state: String,
+    pub state: SubmissionState,
     pub created_at: f64,
     pub finished_at: Option<f64>,
     /// How many tasks it has (episodes, whatever their state).
@@ -174,9 +175,9 @@ pub struct EpisodeRecord {
     pub level: String,
     pub semantics: String,
     pub density: String,
-    pub state: String,
+    pub state: EpisodeState,
     pub attempts: i64,
-    pub outcome: Option<String>,
+    pub outcome: Option<RecordedOutcome>,
     pub reason: Option<String>,
     pub detail: Option<String>,
     pub metrics_json: Option<String>,
@@ -210,7 +211,8 @@ pub(crate) fn submission_from_row(r: &AnyRow) -> Result<Submission> {
         step_deadline_s: r.try_get("step_deadline_s")?,
         task_set_version: r.try_get("task_set_version")?,
         sim_version: r.try_get("sim_version")?,
-        state: r.try_get("state")?,
+        state: SubmissionState::parse(&r.try_get::<String, _>("state")?)
+            .map_err(|e| StoreError::Corrupt(e.to_string()))?,
         created_at: r.try_get("created_at")?,
         finished_at: r.try_get("finished_at")?,
         tasks: r.try_get::<i64, _>("tasks")? as u32,
@@ -229,9 +231,14 @@ pub(crate) fn episode_from_row(r: &AnyRow) -> Result<EpisodeRecord> {
         level: r.try_get("level")?,
         semantics: r.try_get("semantics")?,
         density: r.try_get("density")?,
-        state: r.try_get("state")?,
+        state: EpisodeState::parse(&r.try_get::<String, _>("state")?)
+            .map_err(|e| StoreError::Corrupt(e.to_string()))?,
         attempts: r.try_get("attempts")?,
-        outcome: r.try_get("outcome")?,
+        outcome: r
+            .try_get::<Option<String>, _>("outcome")?
+            .map(|o| RecordedOutcome::parse(&o))
+            .transpose()
+            .map_err(|e| StoreError::Corrupt(e.to_string()))?,
         reason: r.try_get("reason")?,
         detail: r.try_get("detail")?,
         metrics_json: r.try_get("metrics_json")?,

@@ -68,7 +68,7 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
             ["w001-t0", "w001-t1"]
         );
         assert!(l1.iter().all(|l| l.submission.id == a && l.attempt == 1));
-        assert_eq!(r.submission(&a).await?.state, "running");
+        assert_eq!(r.submission(&a).await?.state.as_str(), "running");
         let p = r.progress(&a).await?;
         assert_eq!(
             (p.total, p.running, p.queued, p.finished),
@@ -92,7 +92,7 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
         );
         let eps = r.episodes(&a).await?;
         assert_eq!(
-            eps[0].outcome.as_deref(),
+            eps[0].outcome.map(|o| o.as_str()),
             Some("success"),
             "the duplicate must not overwrite"
         );
@@ -126,8 +126,8 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
         );
         // Exactly one result per task.
         let eps = r.episodes(&a).await?;
-        assert_eq!(eps.iter().filter(|e| e.state == "done").count(), 2);
-        assert_eq!(eps[1].outcome.as_deref(), Some("stuck"));
+        assert_eq!(eps.iter().filter(|e| e.state.as_str() == "done").count(), 2);
+        assert_eq!(eps[1].outcome.map(|o| o.as_str()), Some("stuck"));
         let d = r.episode_detail(&a, "w001-t1").await?;
         assert_eq!(
             (d.planner_log.as_str(), d.trajectory_csv.as_str()),
@@ -183,7 +183,11 @@ async fn lost_episodes_are_retried_then_recorded_as_infrastructure_failures() ->
         assert!(store.lease(&w, 1, 5.0, true, t).await?.is_empty());
         let e = &store.reader().episodes(&id).await?[0];
         assert_eq!(
-            (e.state.as_str(), e.outcome.as_deref(), e.reason.as_deref()),
+            (
+                e.state.as_str(),
+                e.outcome.map(|o| o.as_str()),
+                e.reason.as_deref()
+            ),
             ("done", Some("error"), Some("infrastructure"))
         );
         assert!(
@@ -194,7 +198,7 @@ async fn lost_episodes_are_retried_then_recorded_as_infrastructure_failures() ->
             "{:?}",
             e.detail
         );
-        assert_eq!(store.reader().submission(&id).await?.state, "done");
+        assert_eq!(store.reader().submission(&id).await?.state.as_str(), "done");
         // A worker that could not run an episode (e.g. missing task set) releases it at once.
         let id2 = store
             .create_submission(&new_submission("b"), &episodes(1), t)
@@ -261,7 +265,8 @@ async fn one_token_leasing_and_dropping_cannot_use_up_an_episode() -> anyhow::Re
         }
         let e = &store.reader().episodes(&id).await?[0];
         assert_eq!(
-            e.state, "queued",
+            e.state.as_str(),
+            "queued",
             "{url}: the episode is still there to run"
         );
         assert_eq!(
@@ -347,7 +352,7 @@ async fn cancel_keeps_finished_episodes_and_marks_the_rest_not_run() -> anyhow::
         let p = store.reader().progress(&id).await?;
         assert_eq!((p.finished, p.running, p.not_run), (1, 0, 3), "{url}");
         let s = store.reader().submission(&id).await?;
-        assert_eq!(s.state, "cancelled");
+        assert_eq!(s.state.as_str(), "cancelled");
         assert_eq!(
             store
                 .report(&l[1].worker_id, &result(&l[1], "success"), 101.0)

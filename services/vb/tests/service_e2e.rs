@@ -24,7 +24,7 @@ fn exec_request(name: &str, tasks: &[&str], args: &[&str], deadline: f64) -> pb:
 }
 
 fn done(s: &pb::SubmissionStatus) -> bool {
-    s.state == "done" || s.state == "cancelled"
+    s.state.as_str() == "done" || s.state.as_str() == "cancelled"
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -69,7 +69,7 @@ async fn workers_die_and_the_coordinator_restarts_yet_every_task_has_exactly_one
     let mut per_task: BTreeMap<String, usize> = BTreeMap::new();
     for e in &r.episodes {
         *per_task.entry(e.task_id.clone()).or_default() += 1;
-        assert_eq!(e.state, "done");
+        assert_eq!(e.state.as_str(), "done");
         assert_ne!(
             e.outcome, "error",
             "{}: lost to infrastructure: {}",
@@ -677,7 +677,7 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
     })
     .await;
     let s = vb_submit::cancel(&mut c, &id).await?;
-    assert_eq!(s.state, "cancelled");
+    assert_eq!(s.state.as_str(), "cancelled");
     let s = wait_for(port, &token, &id, Duration::from_secs(60), |s| {
         s.running == 0
     })
@@ -694,7 +694,10 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
     );
     let r = vb_submit::results(&mut c, &id).await?;
     assert_eq!(
-        r.episodes.iter().filter(|e| e.state == "not_run").count() as u32,
+        r.episodes
+            .iter()
+            .filter(|e| e.state.as_str() == "not_run")
+            .count() as u32,
         s.not_run
     );
     // vb eval's columns hold the finished episodes; the JSON lists the others with their state.

@@ -82,11 +82,10 @@ fn stamp() -> String {
     format!("{t:.3}")
 }
 
-/// Parses `wNNN-tK`.
+/// Parses `wNNN-tK` ([`contracts::TaskId`]'s one spelling) into (world, task index).
 pub fn parse_task_id(id: &str) -> Option<(u32, u32)> {
-    let rest = id.strip_prefix('w')?;
-    let (w, t) = rest.split_once("-t")?;
-    Some((w.parse().ok()?, t.parse().ok()?))
+    let t: contracts::TaskId = id.parse().ok()?;
+    Some((t.world, t.index))
 }
 
 enum AnyPlanner {

@@ -4,6 +4,7 @@ use super::{render, AggView, Frame};
 use crate::ranking::{coverage_text, Reference, Run, Unranked};
 use crate::SubmissionEntry;
 use askama::Template;
+use contracts::SubmissionState;
 use results::report::{DENSITIES, LEVELS, SEMANTICS};
 use results::summary::{Aggregate, Summary};
 use std::collections::BTreeMap;
@@ -99,11 +100,11 @@ pub fn index(entries: &[SubmissionEntry], reference: &Reference) -> String {
         .iter()
         .map(|e| {
             let s = &e.submission;
-            running |= s.state == "running" || s.state == "queued";
+            running |= s.state.is_active();
             Row {
                 href: Some(format!("/submissions/{}", s.id)),
                 planner: crate::pages::submission::planner_label(s),
-                state: s.state.clone(),
+                state: s.state.as_str().to_string(),
                 progress: format!("{}/{}", e.progress.finished, e.progress.total),
                 coverage: coverage_text(e.progress.finished, e.coverage, reference),
                 why: e.unranked.as_ref().map_or(String::new(), |u| u.to_string()),
@@ -148,7 +149,7 @@ pub fn standalone(evals: &[Evaluation], reference: Option<Reference>) -> String 
     fn run(e: &Evaluation) -> Run<'_> {
         let episodes = e.summary.overall.episodes as u32;
         Run {
-            state: "done",
+            state: SubmissionState::Done,
             tasks: episodes,
             finished: episodes,
             task_set_version: &e.summary.task_set_version,

@@ -5,7 +5,7 @@ use super::{render, Frame, MAP_PPM};
 use askama::Template;
 use sim_core::world::{Task, World};
 use std::fmt::Write;
-use vb_store::{EpisodeDetail, Submission};
+use vb_store::{EpisodeDetail, EpisodeState, Submission};
 
 struct MapView {
     width: String,
@@ -154,7 +154,7 @@ pub fn page(sub: &Submission, d: &EpisodeDetail, world_task: Option<&(World, Tas
         unit,
         plot: plot(&traj.iter().map(|p| (p[0], p[k])).collect::<Vec<_>>()),
     };
-    let live = r.state == "queued" || r.state == "leased";
+    let live = matches!(r.state, EpisodeState::Queued | EpisodeState::Leased);
     render(&Page {
         frame: Frame::served(&r.task_id, live),
         back_href: format!("/submissions/{}", sub.id),
@@ -166,8 +166,11 @@ pub fn page(sub: &Submission, d: &EpisodeDetail, world_task: Option<&(World, Tas
         semantics: r.semantics.clone(),
         density: r.density.clone(),
         result: vec![
-            ("state", super::submission::state_label(&r.state)),
-            ("outcome", opt(&r.outcome)),
+            ("state", super::submission::state_label(r.state.as_str())),
+            (
+                "outcome",
+                r.outcome.map_or(String::new(), |o| o.as_str().to_string()),
+            ),
             ("reason", opt(&r.reason)),
             ("detail", opt(&r.detail)),
             ("attempts", r.attempts.to_string()),

@@ -180,8 +180,8 @@ fn episode_line(sub_id: &str, ep: &EpisodeRecord) -> EpisodeLine {
         level: ep.level.clone(),
         semantics: ep.semantics.clone(),
         density: ep.density.clone(),
-        state: state_label(&ep.state),
-        outcome: ep.outcome.clone().unwrap_or_default(),
+        state: state_label(ep.state.as_str()),
+        outcome: ep.outcome.map_or(String::new(), |o| o.as_str().to_string()),
         reason: ep.reason.clone().unwrap_or_default(),
         time,
         attempts: ep.attempts,
@@ -206,7 +206,7 @@ pub fn page(
 ) -> String {
     let s = &e.submission;
     let p = &e.progress;
-    let live = s.state == "queued" || s.state == "running";
+    let live = s.state.is_active();
     let sum = &e.summary;
     let total = (s.tasks as usize).max(from + shown.len());
     let pages = total.div_ceil(PAGE_SIZE).max(1);
@@ -215,7 +215,7 @@ pub fn page(
     render(&Page {
         frame: Frame::served(&s.name, live),
         name: s.name.clone(),
-        state: state_label(&s.state),
+        state: state_label(s.state.as_str()),
         finished: p.finished,
         total: p.total,
         total_max: p.total.max(1),

@@ -79,7 +79,7 @@ fn bench_planner(tasks_spec: &str, task_dir: PathBuf, command: Vec<String>) -> a
     let mut trips = Vec::new();
     let (mut steps, mut remote_wall, mut local_wall) = (0usize, 0.0, 0.0);
     for (w, t) in &selected {
-        let task_id = format!("w{w:03}-t{t}");
+        let task_id = contracts::TaskId::new(*w, *t).to_string();
         let spec = vb_worker::EpisodeSpec {
             task_id: task_id.clone(),
             planner: vb_proto::v1::PlannerRef {
