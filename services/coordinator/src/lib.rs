@@ -620,11 +620,15 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
             self.0.store.expire_leases(t).await.map_err(store_status)?;
             self.0
                 .store
-                .lease(
+                .lease_kinds(
                     &r.worker_id,
                     r.max.min(64),
                     self.0.cfg.lease_s,
-                    r.runs_exec_planners,
+                    vb_store::PlannerKinds {
+                        exec: r.runs_exec_planners,
+                        // Image planners are untrusted code too: never to a worker that refuses exec planners.
+                        image: r.runs_exec_planners && r.runs_image_planners,
+                    },
                     t,
                 )
                 .await

@@ -162,6 +162,23 @@ impl Store {
         runs_exec: bool,
         now: f64,
     ) -> Result<Vec<Lease>> {
+        let kinds = PlannerKinds {
+            exec: runs_exec,
+            image: runs_exec,
+        };
+        self.lease_kinds(worker_id, max, lease_s, kinds, now).await
+    }
+
+    /// [`Store::lease`] for a worker that runs the planner `kinds` it names: episodes of the other kinds stay
+    /// queued for a worker that runs them (an image submission waits for a worker with Docker).
+    pub async fn lease_kinds(
+        &self,
+        worker_id: &str,
+        max: u32,
+        lease_s: f64,
+        kinds: PlannerKinds,
+        now: f64,
+    ) -> Result<Vec<Lease>> {
         let _w = self.write.lock().await;
         if max == 0 {
             return Ok(Vec::new());
@@ -169,10 +186,12 @@ impl Store {
         let rows = sqlx::query(
             "SELECT e.submission_id, e.task_id, e.attempts FROM episodes e JOIN submissions s ON s.id = e.submission_id \
              WHERE e.state = 'queued' AND s.state IN ('queued', 'running') \
-             AND ($2 = 1 OR s.planner_kind NOT IN ('exec', 'image')) ORDER BY s.seq, e.ord LIMIT $1",
+             AND ($2 = 1 OR s.planner_kind <> 'exec') AND ($3 = 1 OR s.planner_kind <> 'image') \
+             ORDER BY s.seq, e.ord LIMIT $1",
         )
         .bind(max as i64)
-        .bind(i64::from(runs_exec))
+        .bind(i64::from(kinds.exec))
+        .bind(i64::from(kinds.image))
         .fetch_all(&self.pool)
         .await?;
         let mut out = Vec::with_capacity(rows.len());

@@ -123,6 +123,15 @@ pub struct Progress {
     pub episodes_ahead: u32,
 }
 
+/// Which untrusted planner kinds a worker runs (built-in and endpoint planners every worker runs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PlannerKinds {
+    /// Commands started as processes.
+    pub exec: bool,
+    /// Container images (the worker has a Docker daemon).
+    pub image: bool,
+}
+
 /// An episode handed to a worker.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lease {

@@ -314,6 +314,45 @@ async fn workers_that_do_not_run_exec_planners_get_none() -> anyhow::Result<()> 
     Ok(())
 }
 
+/// An image submission waits for a worker with Docker: a worker that runs exec planners but no images takes the
+/// later submissions and leaves the image's episodes queued.
+#[tokio::test]
+async fn image_planners_wait_for_a_worker_that_runs_them() -> anyhow::Result<()> {
+    for url in backends("images").await? {
+        let store = Store::open(&url).await?;
+        let mut image = new_submission("image");
+        image.planner_kind = "image".into();
+        let image = store.create_submission(&image, &episodes(2), 0.0).await?;
+        let mut exec = new_submission("exec");
+        exec.planner_kind = "exec".into();
+        let exec = store.create_submission(&exec, &episodes(1), 1.0).await?;
+        let w = store
+            .register_worker("w", 4, "sim-core test", "tk", 2.0)
+            .await?;
+        let no_docker = PlannerKinds {
+            exec: true,
+            image: false,
+        };
+        let l = store.lease_kinds(&w, 4, 30.0, no_docker, 3.0).await?;
+        assert_eq!(l.len(), 1, "{url}");
+        assert_eq!(l[0].submission.id, exec, "{url}");
+        let p = store.reader().progress(&image).await?;
+        assert_eq!(
+            (p.queued, p.running),
+            (2, 0),
+            "{url}: the image's episodes still wait"
+        );
+        let docker = PlannerKinds {
+            exec: true,
+            image: true,
+        };
+        let l = store.lease_kinds(&w, 4, 30.0, docker, 4.0).await?;
+        assert_eq!(l.len(), 2, "{url}");
+        assert!(l.iter().all(|x| x.submission.id == image), "{url}");
+    }
+    Ok(())
+}
+
 #[tokio::test]
 async fn cancel_keeps_finished_episodes_and_marks_the_rest_not_run() -> anyhow::Result<()> {
     for url in backends("cancel").await? {

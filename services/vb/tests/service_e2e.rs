@@ -558,6 +558,7 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
                 worker_id: reg.worker_id.clone(),
                 max: 1,
                 runs_exec_planners: true,
+                runs_image_planners: false,
             },
             &other_worker_token,
         ))
@@ -877,6 +878,7 @@ async fn a_worker_that_leases_and_drops_is_throttled_and_uses_up_nothing() -> an
             worker_id: reg.worker_id.clone(),
             max: 1,
             runs_exec_planners: false,
+            runs_image_planners: false,
         };
         let mut r = tonic::Request::new(lease);
         r.metadata_mut().insert(

@@ -336,6 +336,22 @@ fn container_name(argv: &[String]) -> Option<String> {
 /// is named, so it can be removed when the episode ends; it runs as nobody (65534) with a read-only root filesystem
 /// (a 64 MB `/tmp`), no capabilities, 2 GB of memory, one CPU and 256 processes, and no network: it serves on a Unix
 /// socket (`VB_PLANNER_ADDR=unix:/run/vb/planner.sock`) in the episode's private directory, its only volume.
+/// Whether this machine can run image planners: a Docker daemon answers (within 10 s). `Err` says why not.
+pub async fn docker_available() -> Result<(), String> {
+    let probe = Command::new("docker")
+        .args(["version", "--format", "{{.Server.Version}}"])
+        .output();
+    match tokio::time::timeout(std::time::Duration::from_secs(10), probe).await {
+        Err(_) => Err("`docker version` did not answer within 10 s".into()),
+        Ok(Err(e)) => Err(format!("no docker command: {e}")),
+        Ok(Ok(out)) if !out.status.success() => Err(format!(
+            "no Docker daemon: {}",
+            String::from_utf8_lossy(&out.stderr).trim()
+        )),
+        Ok(Ok(_)) => Ok(()),
+    }
+}
+
 pub async fn image_command(image: &str) -> Result<(Vec<String>, String), String> {
     let out = Command::new("docker")
         .args(["image", "inspect", "--format", "{{.Id}}", image])

@@ -487,6 +487,18 @@ pub async fn run_worker(
         user: cfg.planner_user,
     };
     let allow_exec = policy.allow_exec;
+    // Image planners only where Docker runs: other workers leave image submissions to those that can.
+    let runs_images = allow_exec
+        && match exec::docker_available().await {
+            Ok(()) => true,
+            Err(why) => {
+                eprintln!(
+                    "[{}] worker: image planners are left to other workers: {why}",
+                    stamp()
+                );
+                false
+            }
+        };
     // Signalled whenever an episode ends, so the loop leases for the freed slot at once.
     let freed = Arc::new(tokio::sync::Notify::new());
     let permits = Arc::new(tokio::sync::Semaphore::new(slots));
@@ -514,6 +526,7 @@ pub async fn run_worker(
                     worker_id: worker_id.clone(),
                     max: free as u32,
                     runs_exec_planners: allow_exec,
+                    runs_image_planners: runs_images,
                 })
                 .await
             {
