@@ -139,7 +139,7 @@ impl Coordinator {
             tokio::time::sleep(period).await;
             let _guard = self.lease_lock.lock().await;
             if let Err(e) = self.store.expire_leases(now()).await {
-                eprintln!("coordinator: lease sweep failed: {e}");
+                tracing::error!(error = %e, "lease sweep failed");
             }
         }
     }
@@ -155,7 +155,7 @@ impl Coordinator {
                         self.refresh_summary(&id).await;
                     }
                 }
-                Err(e) => eprintln!("coordinator: summary sweep failed: {e}"),
+                Err(e) => tracing::error!(error = %e, "summary sweep failed"),
             }
             tokio::time::sleep(Duration::from_secs(1)).await;
         }
@@ -164,7 +164,7 @@ impl Coordinator {
     /// Stores a submission's aggregates now (a failure is logged: the keeper tries again).
     async fn refresh_summary(&self, id: &str) {
         if let Err(e) = self.store.refresh_summary(id, Some(&self.set), now()).await {
-            eprintln!("coordinator: summarising {id} failed: {e}");
+            tracing::error!(submission = %id, error = %e, "summarising failed");
         }
     }
 
@@ -677,9 +677,10 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
                 .await
                 .map_err(store_status)?;
             if ok {
-                eprintln!(
-                    "coordinator: worker {} handed back {} of {} (stopping)",
-                    r.worker_id, r.task_id, r.submission_id
+                tracing::info!(
+                    worker = %r.worker_id,
+                    lease = %r.lease_id,
+                    "a stopping worker handed an episode back"
                 );
             }
             return Ok(Response::new(pb::ReportAck {
@@ -688,9 +689,12 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
             }));
         }
         if r.infrastructure_failure {
-            eprintln!(
-                "coordinator: worker {} could not run {} of {}: {}",
-                r.worker_id, r.task_id, r.submission_id, r.detail
+            tracing::warn!(
+                worker = %r.worker_id,
+                submission = %r.submission_id,
+                task = %r.task_id,
+                detail = %r.detail,
+                "a worker could not run an episode"
             );
             let _g = self.0.lease_lock.lock().await;
             self.0

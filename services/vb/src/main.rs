@@ -52,7 +52,22 @@ enum Command {
 
 fn main() -> std::process::ExitCode {
     vb_submit::cli::restore_sigpipe();
+    init_logging();
     vb_submit::cli::exit_code(run())
+}
+
+/// The service processes' logs: one line per event on stderr with an RFC 3339 UTC time, the level, the module and
+/// the event's fields (`worker=... task=...`); the level from `VB_LOG` (error, warn, info, debug, trace; default
+/// info).
+fn init_logging() {
+    let level = std::env::var("VB_LOG")
+        .ok()
+        .and_then(|v| v.parse::<tracing::Level>().ok())
+        .unwrap_or(tracing::Level::INFO);
+    let _ = tracing_subscriber::fmt()
+        .with_max_level(level)
+        .with_writer(std::io::stderr)
+        .try_init();
 }
 
 fn run() -> anyhow::Result<()> {

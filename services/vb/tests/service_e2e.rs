@@ -191,7 +191,7 @@ async fn a_stopping_worker_hands_back_what_it_cannot_finish() -> anyhow::Result<
         worker_a.output()
     );
     assert!(
-        worker_a.output().contains("2 handed back"),
+        worker_a.output().contains("finished=0 handed_back=4"),
         "{}",
         worker_a.output()
     );

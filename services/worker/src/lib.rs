@@ -73,15 +73,6 @@ pub struct WorkerConfig {
     pub drain: Duration,
 }
 
-/// Seconds since the Unix epoch (only for log lines; the simulation never sees the wall clock).
-fn stamp() -> String {
-    let t = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_secs_f64())
-        .unwrap_or(0.0);
-    format!("{t:.3}")
-}
-
 /// Parses `wNNN-tK` ([`contracts::TaskId`]'s one spelling) into (world, task index).
 pub fn parse_task_id(id: &str) -> Option<(u32, u32)> {
     let t: contracts::TaskId = id.parse().ok()?;
@@ -351,24 +342,22 @@ async fn deliver(client: &mut Client, r: pb::EpisodeReport, give_up: Duration) {
                 if s.code() == tonic::Code::InvalidArgument
                     || s.code() == tonic::Code::ResourceExhausted =>
             {
-                eprintln!(
-                    "[{}] worker: coordinator refused the report of {} / {}: {}",
-                    stamp(),
-                    r.submission_id,
-                    r.task_id,
-                    s.message()
+                tracing::warn!(
+                    submission = %r.submission_id,
+                    task = %r.task_id,
+                    error = %s.message(),
+                    "the coordinator refused a report"
                 );
                 return;
             }
             Err(s) => {
                 if t0.elapsed() > give_up {
-                    eprintln!(
-                        "[{}] worker: giving up on the report of {} / {} after {:.0} s: {}",
-                        stamp(),
-                        r.submission_id,
-                        r.task_id,
-                        give_up.as_secs_f64(),
-                        s.message()
+                    tracing::error!(
+                        submission = %r.submission_id,
+                        task = %r.task_id,
+                        after_s = give_up.as_secs_f64(),
+                        error = %s.message(),
+                        "giving up on a report"
                     );
                     return;
                 }
@@ -438,12 +427,12 @@ pub async fn run_worker(
         }
     };
     let worker_id = reg.worker_id.clone();
-    eprintln!(
-        "[{}] worker {} ({}) registered: {slots} slots, lease {:.0} s",
-        stamp(),
-        cfg.name,
-        worker_id,
-        reg.lease_s
+    tracing::info!(
+        name = %cfg.name,
+        worker = %worker_id,
+        slots,
+        lease_s = reg.lease_s,
+        "worker registered"
     );
     let active: Active = Arc::new(Mutex::new(HashMap::new()));
     // Heartbeats: renew the leases of running episodes (while they drain at shutdown too); abandon those the
@@ -492,22 +481,21 @@ pub async fn run_worker(
         && match exec::docker_available().await {
             Ok(()) => true,
             Err(why) => {
-                eprintln!(
-                    "[{}] worker: image planners are left to other workers: {why}",
-                    stamp()
-                );
+                tracing::info!(reason = %why, "image planners are left to other workers");
                 false
             }
         };
     // Signalled whenever an episode ends, so the loop leases for the freed slot at once.
     let freed = Arc::new(tokio::sync::Notify::new());
     let permits = Arc::new(tokio::sync::Semaphore::new(slots));
+    // Leased episodes handed back unstarted by a stopping worker (for its last log line).
+    let unstarted = Arc::new(AtomicUsize::new(0));
     // Reports of ended episodes still being delivered (a stopping worker waits for them).
     let reporting = Arc::new(AtomicUsize::new(0));
     let mut backoff = Duration::from_millis(100);
     loop {
         if *shutdown.borrow() {
-            drain(&mut client, &worker_id, &active, cfg.drain).await;
+            drain(&mut client, &worker_id, &active, &unstarted, cfg.drain).await;
             let t0 = Instant::now();
             while reporting.load(Ordering::SeqCst) > 0 && t0.elapsed() < REPORTS_AT_EXIT {
                 tokio::time::sleep(Duration::from_millis(20)).await;
@@ -545,6 +533,7 @@ pub async fn run_worker(
                         let freed = freed.clone();
                         let reporting = reporting.clone();
                         let permits = permits.clone();
+                        let unstarted = unstarted.clone();
                         let mut stopping = shutdown.clone();
                         tokio::spawn(async move {
                             // A slot, unless the worker stops first (then the episode goes back unstarted).
@@ -557,7 +546,10 @@ pub async fn run_worker(
                                     run_lease(set, &worker_id, lease.clone(), flag.clone(), policy)
                                         .await
                                 }
-                                _ => Some(handed_back(&worker_id, &lease.lease_id)),
+                                _ => {
+                                    unstarted.fetch_add(1, Ordering::SeqCst);
+                                    Some(handed_back(&worker_id, &lease.lease_id))
+                                }
                             };
                             // The slot is free while the report travels.
                             reporting.fetch_add(1, Ordering::SeqCst);
@@ -574,10 +566,10 @@ pub async fn run_worker(
                 }
                 Err(s) => {
                     if s.code() == tonic::Code::NotFound {
-                        eprintln!(
-                            "[{}] worker: coordinator does not know this worker: {}",
-                            stamp(),
-                            s.message()
+                        tracing::warn!(
+                            worker = %worker_id,
+                            error = %s.message(),
+                            "the coordinator does not know this worker"
                         );
                     }
                     tokio::time::sleep(backoff).await;
@@ -613,15 +605,21 @@ async fn wait_idle(active: &Active, limit: Duration) {
 /// A stopping worker takes no new leases. Its running episodes get `limit` to finish (their results are reported as
 /// usual, heartbeats keep their leases); the others are stopped, their planners cleaned up, and handed back to the
 /// queue, so they neither wait for their leases to expire nor use up an attempt.
-async fn drain(client: &mut Client, worker_id: &str, active: &Active, limit: Duration) {
+async fn drain(
+    client: &mut Client,
+    worker_id: &str,
+    active: &Active,
+    unstarted: &AtomicUsize,
+    limit: Duration,
+) {
     let n = running(active);
     if n == 0 {
         return;
     }
-    eprintln!(
-        "[{}] worker: stopping: {n} running episodes get {:.0} s to finish, the rest are handed back",
-        stamp(),
-        limit.as_secs_f64()
+    tracing::info!(
+        running = n,
+        drain_s = limit.as_secs_f64(),
+        "stopping: running episodes may finish, the rest are handed back"
     );
     wait_idle(active, limit).await;
     let left: Vec<(String, Arc<AtomicBool>)> = active
@@ -636,18 +634,19 @@ async fn drain(client: &mut Client, worker_id: &str, active: &Active, limit: Dur
             Ok(Err(s)) => s.message().to_string(),
             Err(_) => "the coordinator did not answer".to_string(),
         };
-        eprintln!(
-            "[{}] worker: could not hand back {lease_id} (its lease will expire): {why}",
-            stamp()
+        tracing::warn!(
+            lease = %lease_id,
+            reason = %why,
+            "could not hand back an episode (its lease will expire)"
         );
     }
     // The stopped episodes end their planners (process groups, containers) before the worker exits.
     wait_idle(active, HAND_BACK_TIMEOUT).await;
-    eprintln!(
-        "[{}] worker: stopped ({} finished, {} handed back)",
-        stamp(),
-        n.saturating_sub(left.len()),
-        left.len()
+    let unstarted = unstarted.load(Ordering::SeqCst);
+    tracing::info!(
+        finished = n.saturating_sub(left.len() + unstarted),
+        handed_back = left.len() + unstarted,
+        "worker stopped"
     );
 }
 

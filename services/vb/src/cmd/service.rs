@@ -181,6 +181,14 @@ fn parse_role(s: &str) -> Result<vb_store::TokenRole, String> {
 }
 
 /// Waits for Ctrl-C (SIGINT) or SIGTERM (what `docker stop`, systemd and Kubernetes send).
+/// A database URL for a log line: the password (and user) of `postgres://user:password@host/db` left out.
+fn without_credentials(url: &str) -> String {
+    match (url.split_once("://"), url.rsplit_once('@')) {
+        (Some((scheme, _)), Some((_, host))) => format!("{scheme}://***@{host}"),
+        _ => url.to_string(),
+    }
+}
+
 async fn stop_signal() -> anyhow::Result<()> {
     let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
     tokio::select! {
@@ -276,7 +284,7 @@ async fn start_coordinator(
             .serve_with_incoming(tokio_stream::wrappers::TcpListenerStream::new(listener))
             .await
         {
-            eprintln!("coordinator gRPC server stopped: {e}");
+            tracing::error!(error = %e, "coordinator gRPC server stopped");
         }
     });
     Ok(coord)
@@ -296,7 +304,7 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         let lb = Leaderboard::new(store.reader(), Some(tasks::TaskSet::load(&a.task_dir)?));
         tokio::spawn(async move {
             if let Err(e) = vb_leaderboard::serve(lb, http).await {
-                eprintln!("leaderboard stopped: {e}");
+                tracing::error!(error = %e, "leaderboard stopped");
             }
         });
         let (stop, shutdown) = tokio::sync::watch::channel(false);
@@ -319,7 +327,7 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         };
         let workers = tokio::spawn(async move {
             if let Err(e) = vb_worker::run_worker(wcfg, shutdown).await {
-                eprintln!("worker stopped: {e}");
+                tracing::error!(error = %e, "worker stopped");
             }
         });
         let token = coord
@@ -384,16 +392,12 @@ pub fn coordinator(a: CoordinatorArgs) -> anyhow::Result<()> {
         cfg.allow_exec = !a.no_exec;
         cfg.max_dropped_leases = a.max_dropped_leases;
         cfg.drop_window_s = a.drop_window_s;
-        eprintln!(
-            "coordinator on {} ({}, store {}, task set {})",
-            listener.local_addr()?,
-            if a.tls_cert.is_some() {
-                "TLS"
-            } else {
-                "plaintext"
-            },
-            a.db,
-            a.task_dir.display()
+        tracing::info!(
+            addr = %listener.local_addr()?,
+            tls = a.tls_cert.is_some(),
+            store = %without_credentials(&a.db),
+            task_dir = %a.task_dir.display(),
+            "coordinator listening"
         );
         let tls = match (&a.tls_cert, &a.tls_key) {
             (Some(cert), Some(key)) => Some(vb_coordinator::server_tls(cert, key)?),
@@ -410,7 +414,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
         let (stop, shutdown) = tokio::sync::watch::channel(false);
         tokio::spawn(async move {
             if stop_signal().await.is_ok() {
-                eprintln!("worker: stopping (its planners are stopped with it)");
+                tracing::info!("stopping (its planners are stopped with it)");
                 let _ = stop.send(true);
             }
         });
@@ -432,10 +436,10 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
         if let Some(addr) = a.sim {
             let sim = sim_service(&a.task_dir)?;
             let listener = bind(addr, "Sim API").await?;
-            eprintln!("Sim API on {}", listener.local_addr()?);
+            tracing::info!(addr = %listener.local_addr()?, "Sim API listening");
             tokio::spawn(async move {
                 if let Err(e) = sim.serve(listener).await {
-                    eprintln!("Sim API stopped: {e}");
+                    tracing::error!(error = %e, "Sim API stopped");
                 }
             });
         }
@@ -451,7 +455,7 @@ pub fn leaderboard(a: LeaderboardArgs) -> anyhow::Result<()> {
             .with_context(|| format!("opening the store at {}", a.db))?;
         let set = tasks::TaskSet::load(&a.task_dir).ok();
         let listener = bind(a.listen, "leaderboard").await?;
-        eprintln!("leaderboard on http://{}/", listener.local_addr()?);
+        tracing::info!(url = %format!("http://{}/", listener.local_addr()?), "leaderboard listening");
         tokio::select! {
             r = vb_leaderboard::serve(Leaderboard::new(reader, set), listener) => r?,
             r = stop_signal() => r?,
