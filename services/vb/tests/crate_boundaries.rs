@@ -36,6 +36,10 @@ fn linked(package: &str, features: &[&str]) -> BTreeSet<String> {
         "-p",
         package,
     ]);
+    // `--no-default-features` passes as a flag; the rest are features.
+    let (flags, features): (Vec<&str>, Vec<&str>) =
+        features.iter().partition(|f| f.starts_with("--"));
+    c.args(flags);
     if !features.is_empty() {
         c.args(["--features", &features.join(",")]);
     }
@@ -96,6 +100,26 @@ fn vb_submit_links_the_simulator_only_for_validate() {
             "vb-submit's validate feature does not bring {needed}"
         );
     }
+}
+
+/// candle only where the terrain model is trained: `swae`'s `train` feature (on by default in `swae` and `vb`);
+/// generation (`swae` without it) and `vb --no-default-features` link none of it.
+#[test]
+fn candle_is_a_feature_of_the_terrain_model() {
+    assert_links_none(
+        "swae",
+        &["--no-default-features"],
+        &["candle-core", "candle-nn"],
+    );
+    assert_links_none(
+        "vb",
+        &["--no-default-features"],
+        &["candle-core", "candle-nn"],
+    );
+    assert!(
+        linked("swae", &[]).contains("candle-core"),
+        "swae's train feature brings candle"
+    );
 }
 
 #[test]

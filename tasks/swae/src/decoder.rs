@@ -5,8 +5,8 @@
 //! only transcendental function, `tanh`, is computed here from `+ - * /` (see [`tanh`]), so the result does not
 //! depend on the platform's libm either.
 
-use crate::model::{BN_EPS, BOTTOM_PX, LEAKY};
 use crate::{SwaeError, CROP_PX};
+use crate::{BN_EPS, BOTTOM_PX, LEAKY};
 use safetensors::SafeTensors;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

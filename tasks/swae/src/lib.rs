@@ -15,10 +15,14 @@
 
 pub mod data;
 pub mod decoder;
+#[cfg(feature = "train")]
 pub mod eval;
+#[cfg(feature = "train")]
 pub mod model;
+#[cfg(feature = "train")]
 pub mod picture;
 pub mod source;
+#[cfg(feature = "train")]
 pub mod train;
 
 pub use decoder::Decoder;
@@ -28,6 +32,13 @@ use std::path::PathBuf;
 
 /// Side length of the training crops and of the decoder output, px.
 pub const CROP_PX: usize = 128;
+
+/// LeakyReLU slope (encoder and decoder).
+pub const LEAKY: f64 = 0.2;
+/// BatchNorm epsilon.
+pub const BN_EPS: f64 = 1e-5;
+/// Spatial size after the encoder's last conv.
+pub const BOTTOM_PX: usize = 4;
 
 /// Every error of this crate names the file where one is involved.
 #[derive(Debug, thiserror::Error)]
@@ -41,6 +52,7 @@ pub enum SwaeError {
     Data { path: PathBuf, message: String },
     #[error("{path}: invalid weights file: {message}")]
     Weights { path: PathBuf, message: String },
+    #[cfg(feature = "train")]
     #[error("candle: {0}")]
     Candle(#[from] candle_core::Error),
     #[error("invalid parameter `{field}`: {message}")]

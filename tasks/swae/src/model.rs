@@ -15,12 +15,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
-/// LeakyReLU slope (encoder and decoder).
-pub const LEAKY: f64 = 0.2;
-/// BatchNorm epsilon.
-pub const BN_EPS: f64 = 1e-5;
-/// Spatial size after the encoder's last conv.
-pub const BOTTOM_PX: usize = 4;
+pub use crate::{BN_EPS, BOTTOM_PX, LEAKY};
 
 /// Architecture.
 #[derive(Clone, Debug, PartialEq)]

@@ -68,6 +68,7 @@ pub enum TerrainCmd {
     },
 }
 
+#[cfg(feature = "train")]
 fn weights_path(w: Option<PathBuf>) -> PathBuf {
     w.unwrap_or_else(|| {
         PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -75,6 +76,7 @@ fn weights_path(w: Option<PathBuf>) -> PathBuf {
     })
 }
 
+#[cfg(feature = "train")]
 fn source(w: &std::path::Path) -> anyhow::Result<swae::SwaeSource> {
     Ok(swae::SwaeSource::from_file(
         w,
@@ -82,6 +84,16 @@ fn source(w: &std::path::Path) -> anyhow::Result<swae::SwaeSource> {
     )?)
 }
 
+/// Without the `train` feature (`--no-default-features`) vb links no candle and has no terrain-model commands.
+#[cfg(not(feature = "train"))]
+pub fn run(_: TerrainCmd) -> anyhow::Result<()> {
+    anyhow::bail!(
+        "this vb was built without the terrain model's training and evaluation (candle): rebuild it with \
+         `--features train` (the default)"
+    )
+}
+
+#[cfg(feature = "train")]
 pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
     match cmd {
         TerrainCmd::Train {
