@@ -206,19 +206,30 @@ async fn do_submit(
         .await?;
         eprintln!();
         println!("{}", vb_submit::status_line(&last));
-        // A run in which the planner never worked is a failure of the command, not a result.
+        // Episodes that failed because of the planner or the infrastructure (not by how the vehicle drove) make
+        // the command fail: a script waiting on it must not take them for results.
         let results = vb_submit::results(&mut client, &r.submission_id).await?;
-        let broken = |o: &str| o == "planner_failure" || o == "error";
-        let done: Vec<_> = results
+        let finished = results
             .episodes
             .iter()
             .filter(|e| !e.outcome.is_empty())
+            .count();
+        let broken: Vec<_> = results
+            .episodes
+            .iter()
+            .filter(|e| {
+                contracts::RecordedOutcome::parse(&e.outcome)
+                    .is_ok_and(|o| o.is_failure_of_planner_or_infrastructure())
+            })
             .collect();
-        if !done.is_empty() && done.iter().all(|e| broken(&e.outcome)) {
+        if let Some(first) = broken.first() {
             bail!(
-                "every finished episode failed because of the planner or the infrastructure ({}, ...): see \
-                 `vb-submit results {}`",
-                done[0].reason,
+                "{} of {finished} finished episodes failed because of the planner or the infrastructure (first: {} \
+                 {}: {}): see `vb-submit results {} --format json`",
+                broken.len(),
+                first.task_id,
+                first.reason,
+                first.detail,
                 r.submission_id
             );
         }
