@@ -11,14 +11,17 @@ use std::time::Duration;
 use vb_proto::v1 as pb;
 
 fn run(program: &Path, args: &[&str]) -> String {
-    let out = Command::new(program)
-        .args(args)
-        .output()
-        .expect("running a CLI");
+    let mut c = Command::new(program);
+    c.args(args);
+    run_command(c)
+}
+
+/// Runs a command to its successful end; its stdout.
+fn run_command(mut c: Command) -> String {
+    let out = c.output().expect("running a CLI");
     assert!(
         out.status.success(),
-        "{} {args:?}: {}",
-        program.display(),
+        "{c:?}: {}",
         String::from_utf8_lossy(&out.stderr)
     );
     String::from_utf8_lossy(&out.stdout).into_owned()
@@ -84,19 +87,14 @@ async fn service_results_are_vb_evals_files() -> anyhow::Result<()> {
 
     let service = dir.join("service");
     let url = format!("http://127.0.0.1:{port}");
-    let out = run(
-        &vb_submit_bin(),
-        &[
-            "--coordinator",
-            &url,
-            "--token",
-            &token,
-            "results",
-            &id,
-            "--out",
-            service.to_str().unwrap(),
-        ],
-    );
+    // `vb-submit results ID ARGS...` against this coordinator.
+    let results = |args: &[&str]| {
+        let mut c = Command::new(vb_submit_bin());
+        c.args(["--coordinator", &url, "--token", &token, "results", &id]);
+        c.args(args);
+        c
+    };
+    let out = run_command(results(&["--out", service.to_str().unwrap()]));
     assert!(
         out.contains("success"),
         "it prints vb eval's summary: {out}"
@@ -150,26 +148,12 @@ async fn service_results_are_vb_evals_files() -> anyhow::Result<()> {
     assert!(cmp.contains("10"), "{cmp}");
     assert!(cmp.contains("+0.0"), "no difference: {cmp}");
     // The streamed CSV carries episodes.csv's columns and rows.
-    let csv = run(
-        &vb_submit_bin(),
-        &["--coordinator", &url, "--token", &token, "results", &id],
-    );
+    let csv = run_command(results(&[]));
     let streamed = dir.join("streamed.csv");
     std::fs::write(&streamed, csv)?;
     assert_eq!(csv_without_wall_time(&streamed), (sh, srows));
     // A directory that already holds an evaluation is refused (nothing overwritten).
-    let again = Command::new(vb_submit_bin())
-        .args([
-            "--coordinator",
-            &url,
-            "--token",
-            &token,
-            "results",
-            &id,
-            "--out",
-        ])
-        .arg(&local)
-        .output()?;
+    let again = results(&["--out", local.to_str().unwrap()]).output()?;
     assert!(!again.status.success());
     assert!(String::from_utf8_lossy(&again.stderr).contains("already holds an evaluation"));
     Ok(())

@@ -13,13 +13,7 @@ struct SideView {
 
 struct Line {
     label: String,
-    tasks: usize,
-    rate_a: String,
-    rate_b: String,
-    difference: String,
-    ci: String,
-    discordant: String,
-    mcnemar: String,
+    cells: super::PairedCells,
 }
 
 #[derive(Template)]
@@ -52,21 +46,7 @@ fn side(s: &Side) -> SideView {
 fn line(label: &str, c: &Comparison) -> Line {
     Line {
         label: label.to_string(),
-        tasks: c.paired_tasks,
-        rate_a: format!("{:.1}%", 100.0 * c.success_a),
-        rate_b: format!("{:.1}%", 100.0 * c.success_b),
-        difference: format!("{:+.1}", 100.0 * c.difference),
-        ci: format!(
-            "[{:+.1}, {:+.1}]",
-            100.0 * c.difference_ci95.0,
-            100.0 * c.difference_ci95.1
-        ),
-        discordant: format!("{} / {}", c.a_only, c.b_only),
-        mcnemar: format!(
-            "{}{}",
-            results::compare::p_text(c.mcnemar_p),
-            if c.significant { " *" } else { "" }
-        ),
+        cells: super::PairedCells::new(c),
     }
 }
 

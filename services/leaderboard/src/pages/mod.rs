@@ -120,6 +120,40 @@ impl AggView {
     }
 }
 
+/// A paired comparison's cells, formatted: A's and B's success rates, A minus B in points with its 95% interval, the
+/// discordant pairs and the exact McNemar test (`*` when p < 0.05).
+pub struct PairedCells {
+    pub tasks: usize,
+    pub rate_a: String,
+    pub rate_b: String,
+    pub difference: String,
+    pub ci: String,
+    pub discordant: String,
+    pub mcnemar: String,
+}
+
+impl PairedCells {
+    pub fn new(c: &results::compare::Comparison) -> PairedCells {
+        PairedCells {
+            tasks: c.paired_tasks,
+            rate_a: format!("{:.1}%", 100.0 * c.success_a),
+            rate_b: format!("{:.1}%", 100.0 * c.success_b),
+            difference: format!("{:+.1}", 100.0 * c.difference),
+            ci: format!(
+                "[{:+.1}, {:+.1}]",
+                100.0 * c.difference_ci95.0,
+                100.0 * c.difference_ci95.1
+            ),
+            discordant: format!("{} / {}", c.a_only, c.b_only),
+            mcnemar: format!(
+                "{}{}",
+                results::compare::p_text(c.mcnemar_p),
+                if c.significant { " *" } else { "" }
+            ),
+        }
+    }
+}
+
 /// Renders a page (as [`results::charts::Markup::render`] renders any of our templates).
 pub(crate) fn render(t: &impl Template) -> String {
     results::charts::Markup::render(t).into_string()

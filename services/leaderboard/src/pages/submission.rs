@@ -18,15 +18,11 @@ struct Breakdown {
     rows: Vec<(String, AggView)>,
 }
 
+/// A density contrast: A is the denser layout, B the sparser.
 struct Contrast {
     sparser: String,
     denser: String,
-    tasks: usize,
-    rate_sparser: String,
-    rate_denser: String,
-    difference: String,
-    ci: String,
-    mcnemar: String,
+    cells: super::PairedCells,
 }
 
 struct EpisodeLine {
@@ -135,24 +131,10 @@ fn breakdown(
 }
 
 fn contrast(c: &results::summary::DensityContrast) -> Contrast {
-    let m = &c.comparison;
     Contrast {
         sparser: c.sparser.clone(),
         denser: c.denser.clone(),
-        tasks: m.paired_tasks,
-        rate_sparser: format!("{:.1}%", 100.0 * m.success_b),
-        rate_denser: format!("{:.1}%", 100.0 * m.success_a),
-        difference: format!("{:+.1}", 100.0 * m.difference),
-        ci: format!(
-            "[{:+.1}, {:+.1}]",
-            100.0 * m.difference_ci95.0,
-            100.0 * m.difference_ci95.1
-        ),
-        mcnemar: format!(
-            "{}{}",
-            results::compare::p_text(m.mcnemar_p),
-            if m.significant { " *" } else { "" }
-        ),
+        cells: super::PairedCells::new(&c.comparison),
     }
 }
 
