@@ -8,6 +8,8 @@
 #![allow(clippy::result_large_err)]
 
 mod convert;
+mod submission_api;
+mod worker_api;
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -16,9 +18,7 @@ use tasks::TaskSet;
 use tokio::sync::Mutex;
 use tonic::{Request, Response, Status};
 use vb_proto::v1 as pb;
-use vb_store::{
-    NewEpisode, NewSubmission, ReportOutcome, Store, StoreError, Submission, Token, TokenRole,
-};
+use vb_store::{NewEpisode, NewSubmission, Store, StoreError, Submission, Token, TokenRole};
 
 pub use convert::planner_ref_from_parts;
 
@@ -407,7 +407,7 @@ impl Coordinator {
     }
 }
 
-struct ValidSubmit {
+pub(crate) struct ValidSubmit {
     sub: NewSubmission,
     episodes: Vec<NewEpisode>,
 }
@@ -418,7 +418,7 @@ pub struct CoordinatorApi(Arc<Coordinator>);
 /// gRPC `WorkerPool` service.
 pub struct WorkerPoolApi(Arc<Coordinator>);
 
-type StatusStream = std::pin::Pin<
+pub(crate) type StatusStream = std::pin::Pin<
     Box<dyn tokio_stream::Stream<Item = Result<pb::SubmissionStatus, Status>> + Send>,
 >;
 
@@ -429,330 +429,6 @@ fn check_id(id: &str) -> Result<(), Status> {
         ));
     }
     Ok(())
-}
-
-#[tonic::async_trait]
-impl pb::coordinator_server::Coordinator for CoordinatorApi {
-    async fn submit(
-        &self,
-        req: Request<pb::SubmitRequest>,
-    ) -> Result<Response<pb::SubmitResponse>, Status> {
-        let owner = self.0.user(&req).await?;
-        let mut v = self.0.validate_submit(req.get_ref())?;
-        v.sub.owner = owner.name;
-        v.sub.owner_token = owner.id;
-        let id = self
-            .0
-            .store
-            .create_submission(&v.sub, &v.episodes, now())
-            .await
-            .map_err(store_status)?;
-        Ok(Response::new(pb::SubmitResponse {
-            submission_id: id,
-            episodes: v.episodes.len() as u32,
-        }))
-    }
-
-    async fn status(
-        &self,
-        req: Request<pb::StatusRequest>,
-    ) -> Result<Response<pb::SubmissionStatus>, Status> {
-        let token = self.0.user(&req).await?;
-        self.0.owned(&token, &req.get_ref().submission_id).await?;
-        Ok(Response::new(
-            self.0.status_of(&req.get_ref().submission_id).await?,
-        ))
-    }
-
-    async fn cancel(
-        &self,
-        req: Request<pb::CancelRequest>,
-    ) -> Result<Response<pb::SubmissionStatus>, Status> {
-        let token = self.0.user(&req).await?;
-        let id = &req.get_ref().submission_id;
-        self.0.owned(&token, id).await?;
-        {
-            let _g = self.0.lease_lock.lock().await;
-            self.0.store.cancel(id, now()).await.map_err(store_status)?;
-        }
-        self.0.refresh_summary(id).await;
-        Ok(Response::new(self.0.status_of(id).await?))
-    }
-
-    type WatchProgressStream = StatusStream;
-
-    async fn watch_progress(
-        &self,
-        req: Request<pb::StatusRequest>,
-    ) -> Result<Response<Self::WatchProgressStream>, Status> {
-        let token = self.0.user(&req).await?;
-        let id = req.into_inner().submission_id;
-        // Fail now on an unknown (or another owner's) id rather than in the stream.
-        self.0.owned(&token, &id).await?;
-        let (tx, rx) = tokio::sync::mpsc::channel(4);
-        let me = self.0.clone();
-        tokio::spawn(async move {
-            loop {
-                let s = me.status_of(&id).await;
-                let end = matches!(&s, Ok(s) if s.state == "done" || s.state == "cancelled")
-                    || s.is_err();
-                if tx.send(s).await.is_err() || end {
-                    break;
-                }
-                tokio::time::sleep(Duration::from_millis(500)).await;
-            }
-        });
-        Ok(Response::new(Box::pin(
-            tokio_stream::wrappers::ReceiverStream::new(rx),
-        )))
-    }
-
-    async fn list_submissions(
-        &self,
-        req: Request<pb::ListRequest>,
-    ) -> Result<Response<pb::SubmissionList>, Status> {
-        let token = self.0.user(&req).await?;
-        let subs = self
-            .0
-            .store
-            .reader()
-            .submissions()
-            .await
-            .map_err(store_status)?;
-        let mut out = Vec::with_capacity(subs.len());
-        let visible = subs
-            .into_iter()
-            .filter(|s| token.role == TokenRole::Admin || s.owner_token == token.id);
-        for s in visible {
-            out.push(self.0.status_of(&s.id).await?);
-        }
-        Ok(Response::new(pb::SubmissionList { submissions: out }))
-    }
-
-    async fn results(
-        &self,
-        req: Request<pb::StatusRequest>,
-    ) -> Result<Response<pb::ResultsResponse>, Status> {
-        let token = self.0.user(&req).await?;
-        let id = &req.get_ref().submission_id;
-        self.0.owned(&token, id).await?;
-        let status = self.0.status_of(id).await?;
-        let eps = self
-            .0
-            .store
-            .reader()
-            .episodes(id)
-            .await
-            .map_err(store_status)?;
-        Ok(Response::new(pb::ResultsResponse {
-            status: Some(status),
-            episodes: eps
-                .iter()
-                .map(|e| {
-                    let terrain = self
-                        .0
-                        .set
-                        .world_meta(e.world_id)
-                        .ok()
-                        .and_then(|m| m.terrain);
-                    convert::result_row(e, terrain)
-                })
-                .collect(),
-        }))
-    }
-}
-
-#[tonic::async_trait]
-impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
-    async fn register(
-        &self,
-        req: Request<pb::RegisterRequest>,
-    ) -> Result<Response<pb::RegisterResponse>, Status> {
-        let token = self.0.worker(&req).await?;
-        let r = req.into_inner();
-        if r.sim_version != SIM_VERSION {
-            return Err(Status::failed_precondition(format!(
-                "worker runs `{}` but this coordinator's results need `{SIM_VERSION}`",
-                r.sim_version
-            )));
-        }
-        if r.worker_name.len() > 200 || r.slots == 0 || r.slots > 1024 {
-            return Err(Status::invalid_argument(
-                "worker_name too long or slots not in 1..=1024",
-            ));
-        }
-        let id = self
-            .0
-            .store
-            .register_worker(&r.worker_name, r.slots, &r.sim_version, &token.id, now())
-            .await
-            .map_err(store_status)?;
-        Ok(Response::new(pb::RegisterResponse {
-            worker_id: id,
-            lease_s: self.0.cfg.lease_s,
-            heartbeat_s: self.0.cfg.heartbeat_s,
-        }))
-    }
-
-    async fn lease(
-        &self,
-        req: Request<pb::LeaseRequest>,
-    ) -> Result<Response<pb::LeaseResponse>, Status> {
-        let token = self.0.worker(&req).await?;
-        let r = req.into_inner();
-        let t = now();
-        self.0.known_worker(&r.worker_id, &token, t).await?;
-        let (limit, window) = (self.0.cfg.max_dropped_leases, self.0.cfg.drop_window_s);
-        let dropped = self
-            .0
-            .store
-            .drops_since(&token.id, t - window)
-            .await
-            .map_err(store_status)?;
-        if dropped >= limit {
-            return Err(Status::resource_exhausted(format!(
-                "throttled: this token's workers dropped {dropped} leases in the last {window:.0} s (limit {limit}); \
-                 no new leases until fewer remain in the window"
-            )));
-        }
-        let leases = {
-            let _g = self.0.lease_lock.lock().await;
-            self.0.store.expire_leases(t).await.map_err(store_status)?;
-            self.0
-                .store
-                .lease_kinds(
-                    &r.worker_id,
-                    r.max.min(64),
-                    self.0.cfg.lease_s,
-                    vb_store::PlannerKinds {
-                        exec: r.runs_exec_planners,
-                        // Image planners are untrusted code too: never to a worker that refuses exec planners.
-                        image: r.runs_exec_planners && r.runs_image_planners,
-                    },
-                    t,
-                )
-                .await
-                .map_err(store_status)?
-        };
-        Ok(Response::new(pb::LeaseResponse {
-            leases: leases.iter().map(convert::lease).collect(),
-        }))
-    }
-
-    async fn heartbeat(
-        &self,
-        req: Request<pb::HeartbeatRequest>,
-    ) -> Result<Response<pb::HeartbeatResponse>, Status> {
-        let token = self.0.worker(&req).await?;
-        let r = req.into_inner();
-        let t = now();
-        self.0.known_worker(&r.worker_id, &token, t).await?;
-        let gone = {
-            let _g = self.0.lease_lock.lock().await;
-            self.0
-                .store
-                .renew(&r.worker_id, &r.lease_ids, self.0.cfg.lease_s, t)
-                .await
-                .map_err(store_status)?
-        };
-        Ok(Response::new(pb::HeartbeatResponse {
-            expired_lease_ids: gone,
-        }))
-    }
-
-    async fn report_result(
-        &self,
-        req: Request<pb::EpisodeReport>,
-    ) -> Result<Response<pb::ReportAck>, Status> {
-        let token = self.0.worker(&req).await?;
-        let r = req.into_inner();
-        let t = now();
-        self.0.known_worker(&r.worker_id, &token, t).await?;
-        if r.handed_back {
-            let _g = self.0.lease_lock.lock().await;
-            let ok = self
-                .0
-                .store
-                .hand_back(&r.worker_id, &r.lease_id, t)
-                .await
-                .map_err(store_status)?;
-            if ok {
-                tracing::info!(
-                    worker = %r.worker_id,
-                    lease = %r.lease_id,
-                    "a stopping worker handed an episode back"
-                );
-            }
-            return Ok(Response::new(pb::ReportAck {
-                accepted: false,
-                duplicate: false,
-            }));
-        }
-        if r.infrastructure_failure {
-            tracing::warn!(
-                worker = %r.worker_id,
-                submission = %r.submission_id,
-                task = %r.task_id,
-                detail = %r.detail,
-                "a worker could not run an episode"
-            );
-            let _g = self.0.lease_lock.lock().await;
-            self.0
-                .store
-                .release(&r.worker_id, &r.lease_id, &r.detail, t)
-                .await
-                .map_err(store_status)?;
-            return Ok(Response::new(pb::ReportAck {
-                accepted: false,
-                duplicate: false,
-            }));
-        }
-        let result = convert::report(&r, MAX_LOG, MAX_TRAJECTORY)?;
-        if r.sim_version != SIM_VERSION {
-            return Err(Status::invalid_argument(format!(
-                "the result was computed by `{}`, not `{SIM_VERSION}`",
-                r.sim_version
-            )));
-        }
-        let sub = self
-            .0
-            .store
-            .reader()
-            .submission(&r.submission_id)
-            .await
-            .map_err(store_status)?;
-        if r.task_set_version != sub.task_set_version {
-            return Err(Status::invalid_argument(format!(
-                "the result was computed on task set `{}`, the submission needs `{}`",
-                r.task_set_version, sub.task_set_version
-            )));
-        }
-        let outcome = {
-            let _g = self.0.lease_lock.lock().await;
-            self.0
-                .store
-                .report(&r.worker_id, &result, t)
-                .await
-                .map_err(store_status)?
-        };
-        // A submission's last result: its final aggregates are stored before the worker hears back.
-        if outcome == ReportOutcome::Accepted {
-            let ended = self
-                .0
-                .store
-                .reader()
-                .submission(&r.submission_id)
-                .await
-                .map_err(store_status)?;
-            if ended.state == vb_store::SubmissionState::Done {
-                self.0.refresh_summary(&r.submission_id).await;
-            }
-        }
-        Ok(Response::new(pb::ReportAck {
-            accepted: outcome == ReportOutcome::Accepted,
-            duplicate: outcome == ReportOutcome::Duplicate,
-        }))
-    }
 }
 
 /// A gRPC server with the coordinator's two services (add more, e.g. the Sim API, before serving), over TLS when

@@ -1,0 +1,135 @@
+//! The public `Coordinator` gRPC service (`CoordinatorApi`): submit, status, progress stream, list, cancel and
+//! results, each checked against the caller's token.
+
+use crate::*;
+
+#[tonic::async_trait]
+impl pb::coordinator_server::Coordinator for CoordinatorApi {
+    async fn submit(
+        &self,
+        req: Request<pb::SubmitRequest>,
+    ) -> Result<Response<pb::SubmitResponse>, Status> {
+        let owner = self.0.user(&req).await?;
+        let mut v = self.0.validate_submit(req.get_ref())?;
+        v.sub.owner = owner.name;
+        v.sub.owner_token = owner.id;
+        let id = self
+            .0
+            .store
+            .create_submission(&v.sub, &v.episodes, now())
+            .await
+            .map_err(store_status)?;
+        Ok(Response::new(pb::SubmitResponse {
+            submission_id: id,
+            episodes: v.episodes.len() as u32,
+        }))
+    }
+
+    async fn status(
+        &self,
+        req: Request<pb::StatusRequest>,
+    ) -> Result<Response<pb::SubmissionStatus>, Status> {
+        let token = self.0.user(&req).await?;
+        self.0.owned(&token, &req.get_ref().submission_id).await?;
+        Ok(Response::new(
+            self.0.status_of(&req.get_ref().submission_id).await?,
+        ))
+    }
+
+    async fn cancel(
+        &self,
+        req: Request<pb::CancelRequest>,
+    ) -> Result<Response<pb::SubmissionStatus>, Status> {
+        let token = self.0.user(&req).await?;
+        let id = &req.get_ref().submission_id;
+        self.0.owned(&token, id).await?;
+        {
+            let _g = self.0.lease_lock.lock().await;
+            self.0.store.cancel(id, now()).await.map_err(store_status)?;
+        }
+        self.0.refresh_summary(id).await;
+        Ok(Response::new(self.0.status_of(id).await?))
+    }
+
+    type WatchProgressStream = StatusStream;
+
+    async fn watch_progress(
+        &self,
+        req: Request<pb::StatusRequest>,
+    ) -> Result<Response<Self::WatchProgressStream>, Status> {
+        let token = self.0.user(&req).await?;
+        let id = req.into_inner().submission_id;
+        // Fail now on an unknown (or another owner's) id rather than in the stream.
+        self.0.owned(&token, &id).await?;
+        let (tx, rx) = tokio::sync::mpsc::channel(4);
+        let me = self.0.clone();
+        tokio::spawn(async move {
+            loop {
+                let s = me.status_of(&id).await;
+                let end = matches!(&s, Ok(s) if s.state == "done" || s.state == "cancelled")
+                    || s.is_err();
+                if tx.send(s).await.is_err() || end {
+                    break;
+                }
+                tokio::time::sleep(Duration::from_millis(500)).await;
+            }
+        });
+        Ok(Response::new(Box::pin(
+            tokio_stream::wrappers::ReceiverStream::new(rx),
+        )))
+    }
+
+    async fn list_submissions(
+        &self,
+        req: Request<pb::ListRequest>,
+    ) -> Result<Response<pb::SubmissionList>, Status> {
+        let token = self.0.user(&req).await?;
+        let subs = self
+            .0
+            .store
+            .reader()
+            .submissions()
+            .await
+            .map_err(store_status)?;
+        let mut out = Vec::with_capacity(subs.len());
+        let visible = subs
+            .into_iter()
+            .filter(|s| token.role == TokenRole::Admin || s.owner_token == token.id);
+        for s in visible {
+            out.push(self.0.status_of(&s.id).await?);
+        }
+        Ok(Response::new(pb::SubmissionList { submissions: out }))
+    }
+
+    async fn results(
+        &self,
+        req: Request<pb::StatusRequest>,
+    ) -> Result<Response<pb::ResultsResponse>, Status> {
+        let token = self.0.user(&req).await?;
+        let id = &req.get_ref().submission_id;
+        self.0.owned(&token, id).await?;
+        let status = self.0.status_of(id).await?;
+        let eps = self
+            .0
+            .store
+            .reader()
+            .episodes(id)
+            .await
+            .map_err(store_status)?;
+        Ok(Response::new(pb::ResultsResponse {
+            status: Some(status),
+            episodes: eps
+                .iter()
+                .map(|e| {
+                    let terrain = self
+                        .0
+                        .set
+                        .world_meta(e.world_id)
+                        .ok()
+                        .and_then(|m| m.terrain);
+                    convert::result_row(e, terrain)
+                })
+                .collect(),
+        }))
+    }
+}

@@ -1,0 +1,198 @@
+//! The internal `WorkerPool` gRPC service (`WorkerPoolApi`): register, lease, heartbeat and report, each checked
+//! against the worker token; throttles tokens that drop leases.
+
+use crate::*;
+use vb_store::ReportOutcome;
+
+#[tonic::async_trait]
+impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
+    async fn register(
+        &self,
+        req: Request<pb::RegisterRequest>,
+    ) -> Result<Response<pb::RegisterResponse>, Status> {
+        let token = self.0.worker(&req).await?;
+        let r = req.into_inner();
+        if r.sim_version != SIM_VERSION {
+            return Err(Status::failed_precondition(format!(
+                "worker runs `{}` but this coordinator's results need `{SIM_VERSION}`",
+                r.sim_version
+            )));
+        }
+        if r.worker_name.len() > 200 || r.slots == 0 || r.slots > 1024 {
+            return Err(Status::invalid_argument(
+                "worker_name too long or slots not in 1..=1024",
+            ));
+        }
+        let id = self
+            .0
+            .store
+            .register_worker(&r.worker_name, r.slots, &r.sim_version, &token.id, now())
+            .await
+            .map_err(store_status)?;
+        Ok(Response::new(pb::RegisterResponse {
+            worker_id: id,
+            lease_s: self.0.cfg.lease_s,
+            heartbeat_s: self.0.cfg.heartbeat_s,
+        }))
+    }
+
+    async fn lease(
+        &self,
+        req: Request<pb::LeaseRequest>,
+    ) -> Result<Response<pb::LeaseResponse>, Status> {
+        let token = self.0.worker(&req).await?;
+        let r = req.into_inner();
+        let t = now();
+        self.0.known_worker(&r.worker_id, &token, t).await?;
+        let (limit, window) = (self.0.cfg.max_dropped_leases, self.0.cfg.drop_window_s);
+        let dropped = self
+            .0
+            .store
+            .drops_since(&token.id, t - window)
+            .await
+            .map_err(store_status)?;
+        if dropped >= limit {
+            return Err(Status::resource_exhausted(format!(
+                "throttled: this token's workers dropped {dropped} leases in the last {window:.0} s (limit {limit}); \
+                 no new leases until fewer remain in the window"
+            )));
+        }
+        let leases = {
+            let _g = self.0.lease_lock.lock().await;
+            self.0.store.expire_leases(t).await.map_err(store_status)?;
+            self.0
+                .store
+                .lease_kinds(
+                    &r.worker_id,
+                    r.max.min(64),
+                    self.0.cfg.lease_s,
+                    vb_store::PlannerKinds {
+                        exec: r.runs_exec_planners,
+                        // Image planners are untrusted code too: never to a worker that refuses exec planners.
+                        image: r.runs_exec_planners && r.runs_image_planners,
+                    },
+                    t,
+                )
+                .await
+                .map_err(store_status)?
+        };
+        Ok(Response::new(pb::LeaseResponse {
+            leases: leases.iter().map(convert::lease).collect(),
+        }))
+    }
+
+    async fn heartbeat(
+        &self,
+        req: Request<pb::HeartbeatRequest>,
+    ) -> Result<Response<pb::HeartbeatResponse>, Status> {
+        let token = self.0.worker(&req).await?;
+        let r = req.into_inner();
+        let t = now();
+        self.0.known_worker(&r.worker_id, &token, t).await?;
+        let gone = {
+            let _g = self.0.lease_lock.lock().await;
+            self.0
+                .store
+                .renew(&r.worker_id, &r.lease_ids, self.0.cfg.lease_s, t)
+                .await
+                .map_err(store_status)?
+        };
+        Ok(Response::new(pb::HeartbeatResponse {
+            expired_lease_ids: gone,
+        }))
+    }
+
+    async fn report_result(
+        &self,
+        req: Request<pb::EpisodeReport>,
+    ) -> Result<Response<pb::ReportAck>, Status> {
+        let token = self.0.worker(&req).await?;
+        let r = req.into_inner();
+        let t = now();
+        self.0.known_worker(&r.worker_id, &token, t).await?;
+        if r.handed_back {
+            let _g = self.0.lease_lock.lock().await;
+            let ok = self
+                .0
+                .store
+                .hand_back(&r.worker_id, &r.lease_id, t)
+                .await
+                .map_err(store_status)?;
+            if ok {
+                tracing::info!(
+                    worker = %r.worker_id,
+                    lease = %r.lease_id,
+                    "a stopping worker handed an episode back"
+                );
+            }
+            return Ok(Response::new(pb::ReportAck {
+                accepted: false,
+                duplicate: false,
+            }));
+        }
+        if r.infrastructure_failure {
+            tracing::warn!(
+                worker = %r.worker_id,
+                submission = %r.submission_id,
+                task = %r.task_id,
+                detail = %r.detail,
+                "a worker could not run an episode"
+            );
+            let _g = self.0.lease_lock.lock().await;
+            self.0
+                .store
+                .release(&r.worker_id, &r.lease_id, &r.detail, t)
+                .await
+                .map_err(store_status)?;
+            return Ok(Response::new(pb::ReportAck {
+                accepted: false,
+                duplicate: false,
+            }));
+        }
+        let result = convert::report(&r, MAX_LOG, MAX_TRAJECTORY)?;
+        if r.sim_version != SIM_VERSION {
+            return Err(Status::invalid_argument(format!(
+                "the result was computed by `{}`, not `{SIM_VERSION}`",
+                r.sim_version
+            )));
+        }
+        let sub = self
+            .0
+            .store
+            .reader()
+            .submission(&r.submission_id)
+            .await
+            .map_err(store_status)?;
+        if r.task_set_version != sub.task_set_version {
+            return Err(Status::invalid_argument(format!(
+                "the result was computed on task set `{}`, the submission needs `{}`",
+                r.task_set_version, sub.task_set_version
+            )));
+        }
+        let outcome = {
+            let _g = self.0.lease_lock.lock().await;
+            self.0
+                .store
+                .report(&r.worker_id, &result, t)
+                .await
+                .map_err(store_status)?
+        };
+        // A submission's last result: its final aggregates are stored before the worker hears back.
+        if outcome == ReportOutcome::Accepted {
+            let ended = self
+                .0
+                .store
+                .reader()
+                .submission(&r.submission_id)
+                .await
+                .map_err(store_status)?;
+            if ended.state == vb_store::SubmissionState::Done {
+                self.0.refresh_summary(&r.submission_id).await;
+            }
+        }
+        Ok(Response::new(pb::ReportAck {
+            accepted: outcome == ReportOutcome::Accepted,
+            duplicate: outcome == ReportOutcome::Duplicate,
+        }))
+    }
+}
