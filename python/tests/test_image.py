@@ -125,3 +125,32 @@ def test_an_image_planner_has_no_network(service, tmp_path):  # noqa: F811
         for cid in containers(tag):
             subprocess.run(["docker", "rm", "-f", cid], capture_output=True)
         subprocess.run(["docker", "image", "rm", "-f", tag], capture_output=True)
+
+
+def test_an_image_the_worker_lacks_waits_for_a_worker_that_has_it(service, tmp_path):  # noqa: F811
+    """The worker (vb serve's) has Docker but not this image: it hands the episode back as one it cannot run, so the
+    episode stays queued (no attempt used, never failed) for a worker that has the image, and the coordinator says
+    why in its log."""
+    if not docker_ok():
+        pytest.skip("SKIPPED: Docker is not available here")
+    url, token = service
+    env = dict(os.environ, VB_COORDINATOR=url, VB_TOKEN=token)
+    missing = "vertibench-test-no-such-image:0"
+    subprocess.run(["docker", "image", "rm", "-f", missing], capture_output=True)
+    r = subprocess.run([binary("VB_SUBMIT_BIN"), "image", missing, "--tasks", "w001-t0"],
+                       capture_output=True, text=True, timeout=60, env=env)
+    assert r.returncode == 0, r.stdout + r.stderr
+    sid = re.search(r"submitted (\S+)", r.stdout).group(1)
+    log = tmp_path / "serve.log"
+    for _ in range(300):
+        if "cannot run a submission" in log.read_text():
+            break
+        time.sleep(0.1)
+    text = log.read_text()
+    assert "cannot run a submission" in text and missing in text, text
+    # Still waiting, not failed: the episode went back to the queue.
+    time.sleep(1.0)
+    r = subprocess.run([binary("VB_SUBMIT_BIN"), "status", sid], capture_output=True, text=True, timeout=60, env=env)
+    assert r.returncode == 0, r.stderr
+    assert "0/1 done, 0 running" in r.stdout, r.stdout
+    subprocess.run([binary("VB_SUBMIT_BIN"), "cancel", sid], capture_output=True, timeout=60, env=env)

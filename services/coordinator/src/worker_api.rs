@@ -110,6 +110,27 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
         let r = req.into_inner();
         let t = now();
         self.0.known_worker(&r.worker_id, &token, t).await?;
+        if r.cannot_run {
+            let _g = self.0.lease_lock.lock().await;
+            if self
+                .0
+                .store
+                .refuse(&r.worker_id, &r.lease_id, &r.detail, t)
+                .await
+                .map_err(store_status)?
+            {
+                tracing::warn!(
+                    worker = %r.worker_id,
+                    submission = %r.submission_id,
+                    reason = %r.detail,
+                    "a worker cannot run a submission; its episodes wait for another"
+                );
+            }
+            return Ok(Response::new(pb::ReportAck {
+                accepted: false,
+                duplicate: false,
+            }));
+        }
         if r.handed_back {
             let _g = self.0.lease_lock.lock().await;
             let ok = self

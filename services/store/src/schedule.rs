@@ -187,11 +187,13 @@ impl Store {
             "SELECT e.submission_id, e.task_id, e.attempts FROM episodes e JOIN submissions s ON s.id = e.submission_id \
              WHERE e.state = 'queued' AND s.state IN ('queued', 'running') \
              AND ($2 = 1 OR s.planner_kind <> 'exec') AND ($3 = 1 OR s.planner_kind <> 'image') \
+             AND NOT EXISTS (SELECT 1 FROM worker_refusals r WHERE r.worker_id = $4 AND r.submission_id = s.id) \
              ORDER BY s.seq, e.ord LIMIT $1",
         )
         .bind(max as i64)
         .bind(i64::from(kinds.exec))
         .bind(i64::from(kinds.image))
+        .bind(worker_id)
         .fetch_all(&self.pool)
         .await?;
         let mut out = Vec::with_capacity(rows.len());
@@ -324,5 +326,52 @@ impl Store {
             self.finish_submissions(now).await?;
         }
         Ok(n > 0)
+    }
+
+    /// Worker `worker_id` cannot run its leased episode's submission at all (`why`: e.g. it lacks the image): the
+    /// episode goes back to the queue without using an attempt, with `why` as its detail, and no episode of that
+    /// submission is leased to this worker again, so they wait for a worker that can run them. Whether the lease
+    /// was still the worker's.
+    pub async fn refuse(
+        &self,
+        worker_id: &str,
+        lease_id: &str,
+        why: &str,
+        now: f64,
+    ) -> Result<bool> {
+        let _w = self.write.lock().await;
+        let mut tx = self.pool.begin().await?;
+        let row = sqlx::query(
+            "SELECT submission_id FROM episodes WHERE lease_id = $1 AND worker_id = $2 AND state = 'leased'",
+        )
+        .bind(lease_id)
+        .bind(worker_id)
+        .fetch_optional(&mut *tx)
+        .await?;
+        let Some(row) = row else {
+            return Ok(false);
+        };
+        let submission_id: String = row.try_get("submission_id")?;
+        sqlx::query(
+            "INSERT INTO worker_refusals (worker_id, submission_id, reason, at) VALUES ($1, $2, $3, $4) \
+             ON CONFLICT (worker_id, submission_id) DO NOTHING",
+        )
+        .bind(worker_id)
+        .bind(&submission_id)
+        .bind(why)
+        .bind(now)
+        .execute(&mut *tx)
+        .await?;
+        sqlx::query(
+            "UPDATE episodes SET state = 'queued', attempts = attempts - 1, detail = $3, lease_id = NULL, \
+             worker_id = NULL, lease_expires = NULL WHERE lease_id = $1 AND worker_id = $2 AND state = 'leased'",
+        )
+        .bind(lease_id)
+        .bind(worker_id)
+        .bind(format!("waiting for a worker that can run it: {why}"))
+        .execute(&mut *tx)
+        .await?;
+        tx.commit().await?;
+        Ok(true)
     }
 }

@@ -353,6 +353,66 @@ async fn image_planners_wait_for_a_worker_that_runs_them() -> anyhow::Result<()>
     Ok(())
 }
 
+/// A worker that cannot run a submission (it lacks the image) refuses it: the episode is queued again without using
+/// an attempt, says why it waits, and is never leased to that worker again; another worker gets it.
+#[tokio::test]
+async fn a_refused_submission_waits_for_a_worker_that_can_run_it() -> anyhow::Result<()> {
+    for url in backends("refuse").await? {
+        let store = Store::open(&url).await?;
+        let mut image = new_submission("image");
+        image.planner_kind = "image".into();
+        let id = store.create_submission(&image, &episodes(1), 0.0).await?;
+        let docker = PlannerKinds {
+            exec: true,
+            image: true,
+        };
+        let a = store
+            .register_worker("a", 1, "sim-core test", "tk-a", 1.0)
+            .await?;
+        let b = store
+            .register_worker("b", 1, "sim-core test", "tk-b", 1.0)
+            .await?;
+        let l = store.lease_kinds(&a, 1, 30.0, docker, 2.0).await?;
+        assert_eq!(l.len(), 1, "{url}");
+        assert!(
+            store
+                .refuse(&a, &l[0].lease_id, "no such image", 3.0)
+                .await?
+        );
+        // A second refusal of the same lease is no longer the worker's.
+        assert!(
+            !store
+                .refuse(&a, &l[0].lease_id, "no such image", 3.5)
+                .await?
+        );
+        let eps = store.reader().episodes(&id).await?;
+        assert_eq!(
+            (eps[0].state.as_str(), eps[0].attempts),
+            ("queued", 0),
+            "{url}"
+        );
+        assert!(
+            eps[0]
+                .detail
+                .as_deref()
+                .unwrap_or("")
+                .contains("no such image"),
+            "{url}"
+        );
+        assert!(
+            store
+                .lease_kinds(&a, 1, 30.0, docker, 4.0)
+                .await?
+                .is_empty(),
+            "{url}"
+        );
+        let l = store.lease_kinds(&b, 1, 30.0, docker, 5.0).await?;
+        assert_eq!(l.len(), 1, "{url}: another worker takes it");
+        assert_eq!(l[0].submission.id, id);
+    }
+    Ok(())
+}
+
 #[tokio::test]
 async fn cancel_keeps_finished_episodes_and_marks_the_rest_not_run() -> anyhow::Result<()> {
     for url in backends("cancel").await? {

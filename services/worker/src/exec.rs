@@ -352,6 +352,26 @@ pub async fn docker_available() -> Result<(), String> {
     }
 }
 
+/// `Err` (Docker's answer) when Docker says this machine has no image `image`; `Ok` otherwise (other failures are
+/// the episode's to report).
+pub async fn image_present(image: &str) -> Result<(), String> {
+    let out = Command::new("docker")
+        .args(["image", "inspect", "--format", "{{.Id}}", image])
+        .output()
+        .await;
+    match out {
+        Ok(o) if !o.status.success() => {
+            let err = String::from_utf8_lossy(&o.stderr).trim().to_string();
+            if err.to_ascii_lowercase().contains("no such image") {
+                Err(format!("this worker has no image `{image}`: {err}"))
+            } else {
+                Ok(())
+            }
+        }
+        _ => Ok(()),
+    }
+}
+
 pub async fn image_command(image: &str) -> Result<(Vec<String>, String), String> {
     let out = Command::new("docker")
         .args(["image", "inspect", "--format", "{{.Id}}", image])

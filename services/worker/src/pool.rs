@@ -34,6 +34,7 @@ fn report(
         wall_time_s: run.wall_time_s,
         infrastructure_failure: false,
         handed_back: false,
+        cannot_run: false,
     }
 }
 
@@ -420,6 +421,17 @@ async fn run_lease(
             lease.task_set_version
         );
         return Some(infra(msg));
+    }
+    // An image this worker does not have: another worker may (the coordinator leases it to this one no more).
+    if let Some(pb::planner_ref::Kind::Image(image)) =
+        lease.planner.as_ref().and_then(|p| p.kind.as_ref())
+    {
+        if let Err(why) = exec::image_present(image).await {
+            return Some(pb::EpisodeReport {
+                cannot_run: true,
+                ..infra(why)
+            });
+        }
     }
     let set_version = set.version().to_string();
     let set_version = set_version.as_str();
