@@ -15,6 +15,19 @@ fn tasks_generate_needs_an_output_directory() {
 }
 
 #[test]
+fn a_worker_with_an_empty_token_says_so_instead_of_retrying_forever() {
+    // As a compose file passes an unset variable: present but empty.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vb"))
+        .args(["worker", "--coordinator", "http://127.0.0.1:9"])
+        .env("VB_WORKER_TOKEN", "")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("worker token") && err.contains("--role worker"), "{err}");
+}
+
+#[test]
 fn admin_token_create_without_a_store_here_explains_instead_of_making_one() {
     let dir = std::env::temp_dir().join(format!("vb-admin-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

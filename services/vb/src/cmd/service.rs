@@ -410,6 +410,12 @@ pub fn coordinator(a: CoordinatorArgs) -> anyhow::Result<()> {
 }
 
 pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
+    if a.token.trim().is_empty() {
+        bail!(
+            "the worker token (--token or VB_WORKER_TOKEN) is empty: create one with `vb admin token create --name \
+             NAME --role worker --db STORE`"
+        );
+    }
     runtime()?.block_on(async move {
         let (stop, shutdown) = tokio::sync::watch::channel(false);
         tokio::spawn(async move {
