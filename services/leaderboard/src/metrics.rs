@@ -84,6 +84,27 @@ pub fn exposition(c: &Counts, latency: &Latency) -> String {
         "outcome",
         &c.outcomes,
     );
+    // Reasons are machine-readable names (`planner_crash`); anything else a worker reported counts as `other`, so
+    // the label set stays small and plain.
+    let mut failures = std::collections::BTreeMap::<String, u64>::new();
+    for (reason, n) in &c.failures_by_reason {
+        let plain = !reason.is_empty()
+            && reason.len() <= 40
+            && reason.bytes().all(|b| b.is_ascii_lowercase() || b == b'_');
+        *failures
+            .entry(if plain {
+                reason.clone()
+            } else {
+                "other".into()
+            })
+            .or_default() += n;
+    }
+    family(
+        "vb_episode_failures",
+        "Finished episodes that did not succeed, by reason.",
+        "reason",
+        &failures.into_iter().collect::<Vec<_>>(),
+    );
     for (name, help, v) in [
         (
             "vb_episodes_finished_last_minute",
@@ -119,6 +140,12 @@ mod tests {
             submissions_by_state: vec![("done".into(), 3), ("running".into(), 1)],
             episodes_by_state: vec![("done".into(), 3000)],
             outcomes: vec![("su\"cc\\ess\n".into(), 7)],
+            failures_by_reason: vec![
+                ("planner_crash".into(), 2),
+                ("stuck".into(), 9),
+                ("<b>odd</b>".into(), 1),
+                ("Weird".into(), 1),
+            ],
             finished_last_minute: 42,
             workers_live: 2,
             slots_live: 16,
@@ -135,6 +162,10 @@ mod tests {
             "{t}"
         );
         assert!(t.contains("vb_episodes_finished_last_minute 42\n"));
+        assert!(t.contains(
+            "vb_episode_failures{reason=\"other\"} 2\nvb_episode_failures{reason=\"planner_crash\"} 2\n\
+             vb_episode_failures{reason=\"stuck\"} 9\n"
+        ));
         assert!(t.contains("vb_worker_slots_live 16\n"));
         assert!(t.contains("vb_lease_drops_total 5\n"));
         // Cumulative buckets: 0.5 ms is under every bound, 9 s under none.

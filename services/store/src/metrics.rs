@@ -11,6 +11,8 @@ pub struct Counts {
     pub episodes_by_state: Vec<(String, u64)>,
     /// Finished episodes by outcome.
     pub outcomes: Vec<(String, u64)>,
+    /// Finished episodes that did not succeed, by reason (stuck, rollover, planner_crash, infrastructure, ...).
+    pub failures_by_reason: Vec<(String, u64)>,
     /// Episodes finished in the last minute.
     pub finished_last_minute: u64,
     /// Workers heard from in the last minute, and their slots.
@@ -46,6 +48,11 @@ impl Reader {
              AND outcome IS NOT NULL GROUP BY outcome ORDER BY outcome",
         )
         .await?;
+        let failures_by_reason = grouped(
+            "SELECT reason AS k, CAST(COUNT(*) AS BIGINT) AS n FROM episodes WHERE state = 'done' \
+             AND outcome IS NOT NULL AND outcome <> 'success' AND reason IS NOT NULL GROUP BY reason ORDER BY reason",
+        )
+        .await?;
         let finished_last_minute = self.finished_since(now - 60.0).await?.n;
         let w = sqlx::query(
             "SELECT CAST(COUNT(*) AS BIGINT) AS n, CAST(COALESCE(SUM(slots), 0) AS BIGINT) AS slots FROM workers \
@@ -62,6 +69,7 @@ impl Reader {
             submissions_by_state,
             episodes_by_state,
             outcomes,
+            failures_by_reason,
             finished_last_minute,
             workers_live: w.try_get::<i64, _>("n")? as u64,
             slots_live: w.try_get::<i64, _>("slots")? as u64,

@@ -24,7 +24,10 @@ fn a_worker_with_an_empty_token_says_so_instead_of_retrying_forever() {
         .unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("worker token") && err.contains("--role worker"), "{err}");
+    assert!(
+        err.contains("worker token") && err.contains("--role worker"),
+        "{err}"
+    );
 }
 
 #[test]
