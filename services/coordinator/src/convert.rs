@@ -70,7 +70,7 @@ pub fn status(s: &Submission, p: &Progress, throughput_per_s: Option<f64>) -> pb
         eta_known,
         scale: s.scale,
         seed: s.seed,
-        rules: sim_core::episode::Rules::Paper.as_str().to_string(),
+        rules: vb_store::SERVICE_RULES.as_str().to_string(),
     }
 }
 

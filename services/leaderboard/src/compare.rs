@@ -98,7 +98,7 @@ impl Leaderboard {
     /// A submission (as the public sees it) and its finished episodes as evaluation rows.
     async fn finished_rows(&self, id: &str) -> Result<(Submission, Vec<EpisodeRow>), WebError> {
         let sub = public::submission(&self.reader, id).await?;
-        let eps = public::episodes(&self.reader, id).await?;
+        let eps = public::episodes(&self.reader, &sub).await?;
         let rows = vb_store::aggregate::rows(&sub, &eps, self.set.as_deref());
         Ok((sub, rows))
     }

@@ -165,7 +165,7 @@ impl Leaderboard {
         let summary = match &stored {
             Some(m) => m.summary.clone(),
             None => {
-                let eps = public::episodes(&self.reader, &sub.id).await?;
+                let eps = public::episodes(&self.reader, &sub).await?;
                 vb_store::aggregate::summary_of(&sub, &eps, self.set.as_deref())
             }
         };
@@ -422,8 +422,8 @@ async fn api_episodes(
     State(lb): St,
     Path(id): Path<String>,
 ) -> Result<Json<Vec<EpisodeRecord>>, WebError> {
-    public::submission(&lb.reader, &id).await?;
-    Ok(Json(public::episodes(&lb.reader, &id).await?))
+    let sub = public::submission(&lb.reader, &id).await?;
+    Ok(Json(public::episodes(&lb.reader, &sub).await?))
 }
 
 async fn api_episode(

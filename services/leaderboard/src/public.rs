@@ -63,12 +63,12 @@ pub async fn episodes_range(
         .collect())
 }
 
-pub async fn episodes(r: &Reader, id: &str) -> Result<Vec<EpisodeRecord>, StoreError> {
-    let kind = r.submission(id).await?.planner_kind;
-    Ok(r.episodes(id)
+/// Every episode of submission `sub` (as [`submission`] read it).
+pub async fn episodes(r: &Reader, sub: &Submission) -> Result<Vec<EpisodeRecord>, StoreError> {
+    Ok(r.episodes(&sub.id)
         .await?
         .into_iter()
-        .map(|e| redact_episode(&kind, e))
+        .map(|e| redact_episode(&sub.planner_kind, e))
         .collect())
 }
 

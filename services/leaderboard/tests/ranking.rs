@@ -155,7 +155,7 @@ async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
 
     // The full run's page shows its 1000 episodes 100 at a time.
     let full = by_name("full");
-    let eps = vb_leaderboard::public::episodes(&store.reader(), &full.submission.id)
+    let eps = vb_leaderboard::public::episodes(&store.reader(), &full.submission)
         .await
         .map_err(|e| anyhow::anyhow!("{e:?}"))?;
     assert_eq!(eps.len(), 1000);

@@ -61,11 +61,11 @@ pub struct EpisodeRow {
     pub wall_time_s: f64,
 }
 
-#[cfg(any(test, feature = "test-rows"))]
+#[cfg(test)]
 impl EpisodeRow {
     /// A PID episode with the HMMWV on a low, rigid, sparse world of task set `v`, for unit tests to override field
     /// by field.
-    pub fn for_test(task_id: &str, outcome: &str) -> Self {
+    pub(crate) fn for_test(task_id: &str, outcome: &str) -> Self {
         EpisodeRow {
             task_id: task_id.into(),
             world_id: 1,
@@ -86,6 +86,60 @@ impl EpisodeRow {
             detail: String::new(),
             metrics: EpisodeMetrics::default(),
             wall_time_s: 0.1,
+        }
+    }
+}
+
+/// What every episode of one run shares: who ran it, with which vehicle, on which task set and simulator, under
+/// which rules. The service builds its rows and summaries from a submission's facts (the store's and
+/// `vb-submit results`' alike).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunFacts {
+    pub planner: String,
+    pub vehicle: String,
+    pub scale: f64,
+    pub seed: u64,
+    pub task_set_version: String,
+    pub sim_version: String,
+    pub rules: Rules,
+}
+
+impl RunFacts {
+    /// A row of this run with the episode's own values still empty (to be filled in by struct update).
+    pub fn row(&self) -> EpisodeRow {
+        EpisodeRow {
+            task_id: String::new(),
+            world_id: 0,
+            task_index: 0,
+            level: String::new(),
+            semantics: String::new(),
+            density: String::new(),
+            terrain: None,
+            planner: self.planner.clone(),
+            vehicle: self.vehicle.clone(),
+            scale: self.scale,
+            seed: self.seed,
+            task_set_version: self.task_set_version.clone(),
+            sim_version: self.sim_version.clone(),
+            rules: self.rules,
+            outcome: String::new(),
+            reason: String::new(),
+            detail: String::new(),
+            metrics: EpisodeMetrics::default(),
+            wall_time_s: 0.0,
+        }
+    }
+
+    /// The summary of this run's `rows`, named and described by the run (also when it has no rows yet).
+    pub fn summary(&self, rows: &[EpisodeRow]) -> summary::Summary {
+        summary::Summary {
+            planner: self.planner.clone(),
+            vehicle: self.vehicle.clone(),
+            scale: self.scale,
+            task_set_version: self.task_set_version.clone(),
+            sim_version: self.sim_version.clone(),
+            rules: self.rules,
+            ..summary::summarise(rows)
         }
     }
 }

@@ -2,15 +2,29 @@
 //! summarises a local run (overall and per factor, with intervals and the matched density contrasts). The
 //! coordinator stores them ([`crate::Store::refresh_summary`]); the leaderboard reads them.
 
-use crate::{EpisodeRecord, Submission};
+use crate::{EpisodeRecord, Submission, SERVICE_RULES};
 use results::summary::Summary;
-use results::EpisodeRow;
+use results::{EpisodeRow, RunFacts};
 use tasks::TaskSet;
+
+/// The facts every row of a submission shares (the service runs every episode under [`SERVICE_RULES`]).
+pub fn facts(sub: &Submission) -> RunFacts {
+    RunFacts {
+        planner: sub.name.clone(),
+        vehicle: sub.vehicle.clone(),
+        scale: sub.scale,
+        seed: sub.seed,
+        task_set_version: sub.task_set_version.clone(),
+        sim_version: sub.sim_version.clone(),
+        rules: SERVICE_RULES,
+    }
+}
 
 /// Stored finished episodes as the evaluation rows summaries are computed from. `set`, when it is the submission's
 /// task set, gives each world's terrain group (for the matched density contrasts).
 pub fn rows(sub: &Submission, eps: &[EpisodeRecord], set: Option<&TaskSet>) -> Vec<EpisodeRow> {
     let set = set.filter(|s| s.version() == sub.task_set_version);
+    let facts = facts(sub);
     eps.iter()
         .filter(|e| e.state == crate::EpisodeState::Done)
         .map(|e| EpisodeRow {
@@ -23,17 +37,10 @@ pub fn rows(sub: &Submission, eps: &[EpisodeRecord], set: Option<&TaskSet>) -> V
             terrain: set
                 .and_then(|s| s.world_meta(e.world_id).ok())
                 .and_then(|m| m.terrain),
-            planner: sub.name.clone(),
-            vehicle: sub.vehicle.clone(),
-            scale: sub.scale,
-            seed: sub.seed,
-            task_set_version: sub.task_set_version.clone(),
             sim_version: e
                 .sim_version
                 .clone()
                 .unwrap_or_else(|| sub.sim_version.clone()),
-            // The service runs every episode under the paper's rules.
-            rules: Default::default(),
             outcome: e
                 .outcome
                 .map(|o| o.as_str().to_string())
@@ -46,17 +53,12 @@ pub fn rows(sub: &Submission, eps: &[EpisodeRecord], set: Option<&TaskSet>) -> V
                 .and_then(|m| serde_json::from_str(m).ok())
                 .unwrap_or_default(),
             wall_time_s: e.wall_time_s.unwrap_or(0.0),
+            ..facts.row()
         })
         .collect()
 }
 
 /// The summary of a submission's finished episodes, named after the submission.
 pub fn summary_of(sub: &Submission, eps: &[EpisodeRecord], set: Option<&TaskSet>) -> Summary {
-    let mut summary = results::summary::summarise(&rows(sub, eps, set));
-    summary.planner = sub.name.clone();
-    summary.vehicle = sub.vehicle.clone();
-    summary.scale = sub.scale;
-    summary.task_set_version = sub.task_set_version.clone();
-    summary.sim_version = sub.sim_version.clone();
-    summary
+    facts(sub).summary(&rows(sub, eps, set))
 }

@@ -311,17 +311,9 @@ impl Store {
     /// lease. Whether the lease was still the worker's.
     pub async fn hand_back(&self, worker_id: &str, lease_id: &str, now: f64) -> Result<bool> {
         let _w = self.write.lock().await;
-        let n = sqlx::query(
-            "UPDATE episodes SET state = CASE WHEN submission_id IN \
-             (SELECT id FROM submissions WHERE state = 'cancelled') THEN 'not_run' ELSE 'queued' END, \
-             attempts = attempts - 1, lease_id = NULL, worker_id = NULL, lease_expires = NULL \
-             WHERE lease_id = $1 AND worker_id = $2 AND state = 'leased'",
-        )
-        .bind(lease_id)
-        .bind(worker_id)
-        .execute(&self.pool)
-        .await?
-        .rows_affected();
+        let mut tx = self.pool.begin().await?;
+        let n = requeue_unused(&mut tx, worker_id, lease_id, None).await?;
+        tx.commit().await?;
         if n > 0 {
             self.finish_submissions(now).await?;
         }
@@ -362,16 +354,33 @@ impl Store {
         .bind(now)
         .execute(&mut *tx)
         .await?;
-        sqlx::query(
-            "UPDATE episodes SET state = 'queued', attempts = attempts - 1, detail = $3, lease_id = NULL, \
-             worker_id = NULL, lease_expires = NULL WHERE lease_id = $1 AND worker_id = $2 AND state = 'leased'",
-        )
-        .bind(lease_id)
-        .bind(worker_id)
-        .bind(format!("waiting for a worker that can run it: {why}"))
-        .execute(&mut *tx)
-        .await?;
+        let why = format!("waiting for a worker that can run it: {why}");
+        requeue_unused(&mut tx, worker_id, lease_id, Some(&why)).await?;
         tx.commit().await?;
+        self.finish_submissions(now).await?;
         Ok(true)
     }
+}
+
+/// Returns worker `worker_id`'s leased episode `lease_id` unused: queued again (not run, if its submission was
+/// cancelled meanwhile) with its attempt given back and, when given, `detail` saying why. The episodes changed (0
+/// when the lease is no longer the worker's).
+async fn requeue_unused(
+    tx: &mut sqlx::Transaction<'static, sqlx::Any>,
+    worker_id: &str,
+    lease_id: &str,
+    detail: Option<&str>,
+) -> Result<u64> {
+    Ok(sqlx::query(
+        "UPDATE episodes SET state = CASE WHEN submission_id IN \
+         (SELECT id FROM submissions WHERE state = 'cancelled') THEN 'not_run' ELSE 'queued' END, \
+         attempts = attempts - 1, detail = COALESCE($3, detail), lease_id = NULL, worker_id = NULL, \
+         lease_expires = NULL WHERE lease_id = $1 AND worker_id = $2 AND state = 'leased'",
+    )
+    .bind(lease_id)
+    .bind(worker_id)
+    .bind(detail)
+    .execute(&mut **tx)
+    .await?
+    .rows_affected())
 }

@@ -6,6 +6,9 @@ use serde::{Deserialize, Serialize};
 use sqlx::any::AnyRow;
 use sqlx::Row;
 
+/// The episode rules of every episode the service runs (results carry them; the service has no other variant).
+pub const SERVICE_RULES: contracts::Rules = contracts::Rules::Paper;
+
 /// What a token may do.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

@@ -3,13 +3,13 @@
 //! streamed as the same CSV columns and JSON rows.
 
 use crate::SubmitError;
-use results::EpisodeRow;
+use results::summary::Summary;
+use results::{EpisodeRow, RunFacts};
 use std::path::Path;
 use vb_proto::v1 as pb;
 
-/// The finished episodes of `r` as `vb eval`'s rows (each world's terrain group, for the matched density contrasts,
-/// as the coordinator read it from the task set).
-pub fn rows(r: &pb::ResultsResponse) -> Result<Vec<EpisodeRow>, SubmitError> {
+/// The facts every row of the submission shares, from its status.
+fn facts(r: &pb::ResultsResponse) -> Result<RunFacts, SubmitError> {
     let s = r.status.clone().unwrap_or_default();
     let rules = contracts::Rules::parse(&s.rules).ok_or_else(|| {
         SubmitError::Protocol(format!(
@@ -17,6 +17,21 @@ pub fn rows(r: &pb::ResultsResponse) -> Result<Vec<EpisodeRow>, SubmitError> {
             s.rules
         ))
     })?;
+    Ok(RunFacts {
+        planner: s.name,
+        vehicle: s.vehicle,
+        scale: s.scale,
+        seed: s.seed,
+        task_set_version: s.task_set_version,
+        sim_version: s.sim_version,
+        rules,
+    })
+}
+
+/// The finished episodes of `r` as `vb eval`'s rows (each world's terrain group, for the matched density contrasts,
+/// as the coordinator read it from the task set).
+pub fn rows(r: &pb::ResultsResponse) -> Result<Vec<EpisodeRow>, SubmitError> {
+    let facts = facts(r)?;
     r.episodes
         .iter()
         .filter(|e| e.state == "done")
@@ -31,22 +46,17 @@ pub fn rows(r: &pb::ResultsResponse) -> Result<Vec<EpisodeRow>, SubmitError> {
                 semantics: e.semantics.clone(),
                 density: e.density.clone(),
                 terrain: e.terrain,
-                planner: s.name.clone(),
-                vehicle: s.vehicle.clone(),
-                scale: s.scale,
-                seed: s.seed,
-                task_set_version: s.task_set_version.clone(),
                 sim_version: if e.sim_version.is_empty() {
-                    s.sim_version.clone()
+                    facts.sim_version.clone()
                 } else {
                     e.sim_version.clone()
                 },
-                rules,
                 outcome: e.outcome.clone(),
                 reason: e.reason.clone(),
                 detail: e.detail.clone(),
                 metrics,
                 wall_time_s: e.wall_time_s,
+                ..facts.row()
             })
         })
         .collect()
@@ -62,23 +72,13 @@ pub fn unfinished(r: &pb::ResultsResponse) -> Vec<(String, String)> {
 }
 
 /// The summary of the finished rows, named and described as the submission.
-pub fn summary(r: &pb::ResultsResponse, rows: &[EpisodeRow]) -> results::summary::Summary {
-    let s = r.status.clone().unwrap_or_default();
-    let mut summary = results::summary::summarise(rows);
-    summary.planner = s.name;
-    summary.vehicle = s.vehicle;
-    summary.scale = s.scale;
-    summary.task_set_version = s.task_set_version;
-    summary.sim_version = s.sim_version;
-    summary
+pub fn summary(r: &pb::ResultsResponse, rows: &[EpisodeRow]) -> Result<Summary, SubmitError> {
+    Ok(facts(r)?.summary(rows))
 }
 
 /// Writes what `vb eval` writes into `dir` (results.jsonl, episodes.csv, episodes.parquet, summary.json,
 /// summary.txt, charts.svg) from the finished episodes. Refuses a directory that already holds an evaluation.
-pub fn write_dir(
-    dir: &Path,
-    r: &pb::ResultsResponse,
-) -> Result<results::summary::Summary, SubmitError> {
+pub fn write_dir(dir: &Path, r: &pb::ResultsResponse) -> Result<Summary, SubmitError> {
     let io = |p: &Path, e: std::io::Error| SubmitError::Io(format!("{}: {e}", p.display()));
     if dir.join("results.jsonl").exists() || dir.join("summary.json").exists() {
         return Err(SubmitError::Io(format!(
@@ -95,7 +95,7 @@ pub fn write_dir(
     }
     let p = dir.join("results.jsonl");
     std::fs::write(&p, jsonl).map_err(|e| io(&p, e))?;
-    let summary = summary(r, &rows);
+    let summary = summary(r, &rows)?;
     results::report::write(dir, &rows, &summary).map_err(|e| SubmitError::Io(e.to_string()))?;
     Ok(summary)
 }

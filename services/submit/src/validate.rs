@@ -59,7 +59,7 @@ pub async fn validate(
         Duration::from_secs(30),
     )
     .await
-    .map_err(SubmitError::Usage)?;
+    .map_err(|e| SubmitError::Usage(e.to_string()))?;
     let mut rt = run.round_trips.clone();
     rt.sort_by(f64::total_cmp);
     let r = &run.result;

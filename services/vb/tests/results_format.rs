@@ -10,12 +10,6 @@ use std::process::Command;
 use std::time::Duration;
 use vb_proto::v1 as pb;
 
-fn run(program: &Path, args: &[&str]) -> String {
-    let mut c = Command::new(program);
-    c.args(args);
-    run_command(c)
-}
-
 /// Runs a command to its successful end; its stdout.
 fn run_command(mut c: Command) -> String {
     let out = c.output().expect("running a CLI");
@@ -100,20 +94,17 @@ async fn service_results_are_vb_evals_files() -> anyhow::Result<()> {
         "it prints vb eval's summary: {out}"
     );
     let local = dir.join("local");
-    run(
-        &vb(),
-        &[
-            "eval",
-            "--planner",
-            "pid",
-            "--tasks",
-            "1",
-            "--threads",
-            "1",
-            "--out",
-            local.to_str().unwrap(),
-        ],
-    );
+    vb_run(&[
+        "eval",
+        "--planner",
+        "pid",
+        "--tasks",
+        "1",
+        "--threads",
+        "1",
+        "--out",
+        local.to_str().unwrap(),
+    ]);
     for f in [
         "results.jsonl",
         "episodes.csv",
@@ -137,14 +128,11 @@ async fn service_results_are_vb_evals_files() -> anyhow::Result<()> {
         summary_without_wall_time(&local.join("summary.json"))
     );
     // vb compare takes the service's directory beside the local one: the same results, no difference.
-    let cmp = run(
-        &vb(),
-        &[
-            "compare",
-            service.to_str().unwrap(),
-            local.to_str().unwrap(),
-        ],
-    );
+    let cmp = vb_run(&[
+        "compare",
+        service.to_str().unwrap(),
+        local.to_str().unwrap(),
+    ]);
     assert!(cmp.contains("10"), "{cmp}");
     assert!(cmp.contains("+0.0"), "no difference: {cmp}");
     // The streamed CSV carries episodes.csv's columns and rows.

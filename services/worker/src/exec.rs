@@ -13,6 +13,7 @@
 //! episode's private directory, mounted into the container.
 
 use crate::remote::{PlannerLog, RemotePlanner, SharedLog};
+use crate::EpisodeError;
 use sha2::{Digest, Sha256};
 use sim_core::planner::PlannerError;
 use std::path::{Path, PathBuf};
@@ -352,37 +353,21 @@ pub async fn docker_available() -> Result<(), String> {
     }
 }
 
-/// `Err` (Docker's answer) when Docker says this machine has no image `image`; `Ok` otherwise (other failures are
-/// the episode's to report).
-pub async fn image_present(image: &str) -> Result<(), String> {
-    let out = Command::new("docker")
-        .args(["image", "inspect", "--format", "{{.Id}}", image])
-        .output()
-        .await;
-    match out {
-        Ok(o) if !o.status.success() => {
-            let err = String::from_utf8_lossy(&o.stderr).trim().to_string();
-            if err.to_ascii_lowercase().contains("no such image") {
-                Err(format!("this worker has no image `{image}`: {err}"))
-            } else {
-                Ok(())
-            }
-        }
-        _ => Ok(()),
-    }
-}
-
-pub async fn image_command(image: &str) -> Result<(Vec<String>, String), String> {
+pub async fn image_command(image: &str) -> Result<(Vec<String>, String), EpisodeError> {
     let out = Command::new("docker")
         .args(["image", "inspect", "--format", "{{.Id}}", image])
         .output()
         .await
         .map_err(|e| format!("docker is not available on this worker: {e}"))?;
     if !out.status.success() {
-        return Err(format!(
-            "docker image inspect {image} failed: {}",
-            String::from_utf8_lossy(&out.stderr).trim()
-        ));
+        let err = String::from_utf8_lossy(&out.stderr).trim().to_string();
+        // Another worker may have the image: this one cannot run the submission at all.
+        if err.to_ascii_lowercase().contains("no such image") {
+            return Err(EpisodeError::CannotRun(format!(
+                "this worker has no image `{image}`: {err}"
+            )));
+        }
+        return Err(format!("docker image inspect {image} failed: {err}").into());
     }
     let id = String::from_utf8_lossy(&out.stdout).trim().to_string();
     let mut name = [0u8; 8];

@@ -166,6 +166,23 @@ fn failed(
     }
 }
 
+/// Why a worker could not run an episode (never the planner's fault).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum EpisodeError {
+    /// This worker cannot run the submission at all (it lacks the image); another worker may.
+    #[error("{0}")]
+    CannotRun(String),
+    /// Anything else: the coordinator retries the episode, up to its attempts.
+    #[error("{0}")]
+    Infrastructure(String),
+}
+
+impl From<String> for EpisodeError {
+    fn from(why: String) -> Self {
+        EpisodeError::Infrastructure(why)
+    }
+}
+
 /// Runs one episode. `Err` means the worker could not run it (not the planner's fault): the coordinator re-queues
 /// it. Planner failures are an `Ok` run with outcome `planner_failure`.
 pub async fn run_episode(
@@ -173,7 +190,7 @@ pub async fn run_episode(
     spec: EpisodeSpec,
     cancel: Arc<AtomicBool>,
     planner_startup: Duration,
-) -> Result<EpisodeRun, String> {
+) -> Result<EpisodeRun, EpisodeError> {
     let t0 = Instant::now();
     let (w, t) =
         parse_task_id(&spec.task_id).ok_or_else(|| format!("bad task id `{}`", spec.task_id))?;
@@ -207,7 +224,7 @@ pub async fn run_episode(
                 AnyPlanner::Builtin(p),
                 format!("builtin:{name} ({SIM_VERSION})"),
             ),
-            None => return Err(format!("this worker has no builtin planner `{name}`")),
+            None => return Err(format!("this worker has no builtin planner `{name}`").into()),
         },
         Kind::Endpoint(url) => {
             let identity = format!("endpoint:{url}");
@@ -231,7 +248,11 @@ pub async fn run_episode(
             let (argv, identity) = match kind_ref(&spec.planner) {
                 Some(Kind::Image(image)) => exec::image_command(image).await?,
                 Some(Kind::Exec(e)) => (e.argv.clone(), exec::exec_identity(&e.argv)),
-                _ => return Err("unsupported planner kind".into()),
+                _ => {
+                    return Err(EpisodeError::Infrastructure(
+                        "unsupported planner kind".into(),
+                    ))
+                }
             };
             let user = spec
                 .planner_user

@@ -217,10 +217,7 @@ pub async fn run_worker(
     loop {
         if *shutdown.borrow() {
             drain(&mut client, &worker_id, &active, &unstarted, cfg.drain).await;
-            let t0 = Instant::now();
-            while reporting.load(Ordering::SeqCst) > 0 && t0.elapsed() < REPORTS_AT_EXIT {
-                tokio::time::sleep(Duration::from_millis(20)).await;
-            }
+            wait_until(REPORTS_AT_EXIT, || reporting.load(Ordering::SeqCst) == 0).await;
             heartbeats.abort();
             return Ok(());
         }
@@ -315,10 +312,10 @@ fn running(active: &Active) -> usize {
     active.lock().map(|a| a.len()).unwrap_or(0)
 }
 
-/// Waits until no episode runs, or `limit` has passed.
-async fn wait_idle(active: &Active, limit: Duration) {
+/// Waits until `done()` holds, or `limit` has passed (only a stopping worker waits like this).
+async fn wait_until(limit: Duration, done: impl Fn() -> bool) {
     let t0 = Instant::now();
-    while running(active) > 0 && t0.elapsed() < limit {
+    while !done() && t0.elapsed() < limit {
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
 }
@@ -342,7 +339,7 @@ async fn drain(
         drain_s = limit.as_secs_f64(),
         "stopping: running episodes may finish, the rest are handed back"
     );
-    wait_idle(active, limit).await;
+    wait_until(limit, || running(active) == 0).await;
     let left: Vec<(String, Arc<AtomicBool>)> = active
         .lock()
         .map(|a| a.iter().map(|(k, v)| (k.clone(), v.clone())).collect())
@@ -362,7 +359,7 @@ async fn drain(
         );
     }
     // The stopped episodes end their planners (process groups, containers) before the worker exits.
-    wait_idle(active, HAND_BACK_TIMEOUT).await;
+    wait_until(HAND_BACK_TIMEOUT, || running(active) == 0).await;
     let unstarted = unstarted.load(Ordering::SeqCst);
     tracing::info!(
         finished = n.saturating_sub(left.len() + unstarted),
@@ -422,17 +419,6 @@ async fn run_lease(
         );
         return Some(infra(msg));
     }
-    // An image this worker does not have: another worker may (the coordinator leases it to this one no more).
-    if let Some(pb::planner_ref::Kind::Image(image)) =
-        lease.planner.as_ref().and_then(|p| p.kind.as_ref())
-    {
-        if let Err(why) = exec::image_present(image).await {
-            return Some(pb::EpisodeReport {
-                cannot_run: true,
-                ..infra(why)
-            });
-        }
-    }
     let set_version = set.version().to_string();
     let set_version = set_version.as_str();
     let spec = EpisodeSpec {
@@ -446,7 +432,12 @@ async fn run_lease(
         planner_user,
     };
     match run_episode(set, spec, cancel.clone(), startup).await {
-        Err(msg) => Some(infra(msg)),
+        Err(EpisodeError::Infrastructure(why)) => Some(infra(why)),
+        // Another worker may run it (the coordinator leases this submission to this one no more).
+        Err(EpisodeError::CannotRun(why)) => Some(pb::EpisodeReport {
+            cannot_run: true,
+            ..infra(why)
+        }),
         // The lease was taken back (expired, finished elsewhere, or the submission was cancelled).
         Ok(_) if cancel.load(Ordering::Relaxed) => None,
         Ok(run) => Some(report(worker_id, &lease, &run, set_version)),
