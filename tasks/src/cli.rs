@@ -18,13 +18,17 @@ pub fn generate_set(
 /// [`generate_set`], or with `surface = Some(kind)` the set's surface counterfactual (every world on ground of
 /// semantics kind `kind`, everything else unchanged; [`generate::generate_with_surface`]). The manifest's
 /// generator then ends in ` surface=<kind>`, so the counterfactual has its own version and is never mistaken for
-/// the benchmark's set.
+/// the benchmark's set. A set from any seed but the benchmark's must be held out from it
+/// ([`generate::check_held_out`]).
 pub fn generate_set_with_surface(
     out: &Path,
     seed: u64,
     source: &dyn HeightSource,
     surface: Option<SemanticsKind>,
 ) -> Result<format::Manifest, TasksError> {
+    if seed != generate::DEFAULT_SEED {
+        generate::check_held_out(seed)?;
+    }
     let ids: Vec<u32> = (1..=crate::design::WORLDS).collect();
     let records = generate::generate_with_surface(seed, &ids, source, surface)?;
     let generator = match surface {

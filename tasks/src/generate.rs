@@ -8,7 +8,7 @@
 //! the layout is resampled (up to 100 times; every one of the 1000 tasks must have a path). Everything is a pure
 //! function of the seed and the height source, so the set is reproducible byte for byte.
 
-use crate::design::{factors, group_members, TASKS_PER_WORLD};
+use crate::design::{factors, group_members, TASKS_PER_WORLD, TERRAIN_GROUPS};
 use crate::format::WorldRecord;
 use crate::path::{occupancy, plan_on_grid, DEFAULT_INFLATION};
 use crate::{obstacles, semantics, TasksError};
@@ -37,6 +37,30 @@ pub fn terrain_seed(master: u64, terrain: u32) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)
+}
+
+/// Checks that a set made from master seed `seed` is held out from the benchmark's set: none of its terrain
+/// groups has the seed of one of the benchmark's groups ([`DEFAULT_SEED`]), so it shares no heightmap, patches,
+/// obstacles or tasks with it (every one of those is drawn from the group's seed). Distinct master seeds almost
+/// always give disjoint group seeds; this refuses the few that do not (training sets for a hidden test split).
+pub fn check_held_out(seed: u64) -> Result<(), TasksError> {
+    let benchmark: Vec<u64> = (1..=TERRAIN_GROUPS)
+        .map(|g| terrain_seed(DEFAULT_SEED, g))
+        .collect();
+    for g in 1..=TERRAIN_GROUPS {
+        let s = terrain_seed(seed, g);
+        if let Some(b) = benchmark.iter().position(|&b| b == s) {
+            return Err(TasksError::Param {
+                field: "seed".into(),
+                message: format!(
+                    "seed {seed}'s terrain group {g} would repeat terrain group {} of the benchmark's set (seed \
+                     {DEFAULT_SEED}): choose another seed",
+                    b + 1
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The ten start/goal pairs at full scale.

@@ -8,7 +8,8 @@
 //! - [`format`]: the versioned on-disk format (`FORMAT.md`) and [`TaskSet`] loading and saving.
 //! - [`heightmap_io`]: external heightmaps (8/16-bit PNG/BMP, `.npy`).
 //! - [`import`]: the original Verti-Bench release's worlds.
-//! - [`interim`]: a procedural height source (the committed set's, until the SWAE generator, crate `swae`, passes).
+//! - [`interim`]: procedural height sources (the committed set v2's is calibrated to the original worlds), until the
+//!   SWAE generator, crate `swae`, passes.
 //! - [`stats`]: composition and geometry statistics.
 //! - [`render`]: PNG pictures of worlds and a contact sheet.
 

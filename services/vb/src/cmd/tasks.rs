@@ -1,23 +1,36 @@
 //! `vb tasks ...`: generate, inspect, render and import task sets.
 
-use clap::Subcommand;
+use clap::{Subcommand, ValueEnum};
 use sim_core::world::SemanticsKind;
 use std::path::PathBuf;
 use tasks::TaskSet;
+
+/// Where a generated set's heights come from (`vb tasks generate --generator`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Generator {
+    /// The calibrated band-spectrum generator of the committed set v2 (`tasks::interim::BandedSource`).
+    Interim,
+    /// The 1/f spectral generator of set v1 (`tasks::interim::SpectralSource`).
+    #[value(name = "interim-v1")]
+    InterimV1,
+    /// The SWAE decoder (crate `swae`).
+    Swae,
+}
 
 #[derive(Subcommand)]
 pub enum TasksCmd {
     /// Generate the 100-world task set from a seed (byte-identical for the same seed and generator).
     Generate {
-        /// Output directory (required: the benchmark's committed set is tasks/data/v1; name it to regenerate it).
+        /// Output directory (required: the benchmark's committed set is tasks/data/v2; name it to regenerate it).
         #[arg(long)]
         out: PathBuf,
         #[arg(long, default_value_t = tasks::generate::DEFAULT_SEED)]
         seed: u64,
-        /// Height source: `interim` (the spectral generator of the committed set) or `swae` (the SWAE decoder with
-        /// the committed weights; not yet the default, see BENCHMARKS.md).
-        #[arg(long, default_value = "interim")]
-        generator: String,
+        /// Height source: `interim` (the calibrated band-spectrum generator of the committed set v2),
+        /// `interim-v1` (the 1/f generator of set v1) or `swae` (the SWAE decoder with the committed weights; not
+        /// yet the default, see BENCHMARKS.md).
+        #[arg(long, value_enum, default_value_t = Generator::Interim)]
+        generator: Generator,
         /// SWAE weights file instead of the committed one (only with `--generator swae`).
         #[arg(long)]
         weights: Option<PathBuf>,
@@ -84,18 +97,15 @@ pub fn run(cmd: TasksCmd) -> anyhow::Result<()> {
                 surface.is_none() || !same_dir(&out, &TaskSet::default_dir()),
                 "--surface makes a counterfactual, never the benchmark's committed set: give another --out DIR"
             );
-            let source: Box<dyn tasks::generate::HeightSource> = match (generator.as_str(), weights)
-            {
-                ("swae", None) => Box::new(swae::SwaeSource::committed()?),
-                ("swae", Some(w)) => Box::new(swae::SwaeSource::from_file(
+            let source: Box<dyn tasks::generate::HeightSource> = match (generator, weights) {
+                (Generator::Swae, None) => Box::new(swae::SwaeSource::committed()?),
+                (Generator::Swae, Some(w)) => Box::new(swae::SwaeSource::from_file(
                     &w,
                     swae::source::FULL_SCALE_HEIGHT,
                 )?),
-                ("interim", None) => Box::new(tasks::interim::SpectralSource::default()),
-                ("interim", Some(_)) => anyhow::bail!("--weights only applies to --generator swae"),
-                (other, _) => {
-                    anyhow::bail!("unknown generator `{other}`: use `swae` or `interim`")
-                }
+                (Generator::Interim, None) => Box::new(tasks::interim::BandedSource),
+                (Generator::InterimV1, None) => Box::new(tasks::interim::SpectralSource::default()),
+                (_, Some(_)) => anyhow::bail!("--weights only applies to --generator swae"),
             };
             let m = tasks::cli::generate_set_with_surface(&out, seed, source.as_ref(), surface)?;
             println!(
