@@ -11,6 +11,17 @@ use safetensors::SafeTensors;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+/// How a decoder stage doubles the resolution.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DecoderKind {
+    /// Transposed conv, kernel 4, stride 2, padding 1 (`dec.deconv{i}`, weight `[in, out, 4, 4]`): the v1 model.
+    Deconv,
+    /// Nearest-neighbour x2 upsampling, then a 3 x 3 conv with padding 1 (`dec.up{i}`, weight `[out, in, 3, 3]`).
+    #[default]
+    Upsample,
+}
+
 struct Tensor {
     shape: Vec<usize>,
     data: Vec<f64>,
@@ -22,10 +33,11 @@ struct Affine {
     shift: Vec<f64>,
 }
 
-struct Deconv {
+/// One resolution-doubling stage.
+struct Stage {
     cin: usize,
     cout: usize,
-    /// `[cin, cout, 4, 4]`
+    /// `[cin, cout, 4, 4]` (transposed conv) or `[cout, cin, 3, 3]` (upsample + conv).
     weight: Vec<f64>,
     bias: Vec<f64>,
     bn: Option<Affine>,
@@ -39,7 +51,8 @@ pub struct Decoder {
     fc_weight: Vec<f64>,
     fc_bias: Vec<f64>,
     bn0: Affine,
-    deconvs: Vec<Deconv>,
+    kind: DecoderKind,
+    stages: Vec<Stage>,
     encoder_channels: Vec<usize>,
 }
 
@@ -138,26 +151,43 @@ impl Decoder {
         expect_len("dec.fc.bias", fc_b, flat)?;
         let bn0 = bn("dec.bn0", bottom_channels)?;
         let stages = (CROP_PX / BOTTOM_PX).trailing_zeros() as usize;
-        let mut deconvs = Vec::new();
+        let kind = if t.contains_key("dec.up0.weight") {
+            DecoderKind::Upsample
+        } else {
+            DecoderKind::Deconv
+        };
+        let mut layers = Vec::new();
         let mut cin = bottom_channels;
         for i in 0..stages {
-            let name = format!("dec.deconv{i}.weight");
+            let prefix = match kind {
+                DecoderKind::Deconv => format!("dec.deconv{i}"),
+                DecoderKind::Upsample => format!("dec.up{i}"),
+            };
+            let name = format!("{prefix}.weight");
             let w = get(&name, 4)?;
-            if w.shape[0] != cin || w.shape[2] != 4 || w.shape[3] != 4 {
+            let (win, wout, k) = match kind {
+                DecoderKind::Deconv => (w.shape[0], w.shape[1], 4),
+                DecoderKind::Upsample => (w.shape[1], w.shape[0], 3),
+            };
+            if win != cin || w.shape[2] != k || w.shape[3] != k {
+                let expected = match kind {
+                    DecoderKind::Deconv => format!("[{cin}, out, 4, 4]"),
+                    DecoderKind::Upsample => format!("[out, {cin}, 3, 3]"),
+                };
                 return Err(bad(format!(
-                    "tensor `{name}` has shape {:?}, expected [{cin}, out, 4, 4]",
+                    "tensor `{name}` has shape {:?}, expected {expected}",
                     w.shape
                 )));
             }
-            let cout = w.shape[1];
+            let cout = wout;
             let last = i + 1 == stages;
             if last && cout != 1 {
                 return Err(bad(format!("tensor `{name}` must have 1 output channel")));
             }
-            let bname = format!("dec.deconv{i}.bias");
+            let bname = format!("{prefix}.bias");
             let b = get(&bname, 1)?;
             expect_len(&bname, b, cout)?;
-            deconvs.push(Deconv {
+            layers.push(Stage {
                 cin,
                 cout,
                 weight: w.data.clone(),
@@ -176,7 +206,8 @@ impl Decoder {
             fc_weight: fc_w.data.clone(),
             fc_bias: fc_b.data.clone(),
             bn0,
-            deconvs,
+            kind,
+            stages: layers,
             encoder_channels,
         })
     }
@@ -184,6 +215,11 @@ impl Decoder {
     /// Size of the latent code.
     pub fn latent(&self) -> usize {
         self.latent
+    }
+
+    /// How the decoder's stages double the resolution (from the tensor names).
+    pub fn kind(&self) -> DecoderKind {
+        self.kind
     }
 
     /// Encoder channels found in the file (empty for a decoder-only file).
@@ -212,39 +248,15 @@ impl Decoder {
             *out = s;
         }
         apply_bn_leaky(&mut h, &self.bn0, side * side);
-        for d in &self.deconvs {
+        for d in &self.stages {
             let out_side = side * 2;
             let mut out = vec![0.0; d.cout * out_side * out_side];
             for oc in 0..d.cout {
                 out[oc * out_side * out_side..(oc + 1) * out_side * out_side].fill(d.bias[oc]);
             }
-            // Transposed conv, kernel 4, stride 2, padding 1: input (iy, ix) adds to output
-            // (2 iy - 1 + ky, 2 ix - 1 + kx).
-            for ic in 0..d.cin {
-                let plane = &h[ic * side * side..(ic + 1) * side * side];
-                for oc in 0..d.cout {
-                    let k = &d.weight[(ic * d.cout + oc) * 16..(ic * d.cout + oc + 1) * 16];
-                    let dst = &mut out[oc * out_side * out_side..(oc + 1) * out_side * out_side];
-                    for iy in 0..side {
-                        for ky in 0..4 {
-                            let oy = (2 * iy + ky) as isize - 1;
-                            if oy < 0 || oy >= out_side as isize {
-                                continue;
-                            }
-                            let drow =
-                                &mut dst[oy as usize * out_side..(oy as usize + 1) * out_side];
-                            let srow = &plane[iy * side..(iy + 1) * side];
-                            for (ix, &v) in srow.iter().enumerate() {
-                                for kx in 0..4 {
-                                    let ox = (2 * ix + kx) as isize - 1;
-                                    if ox >= 0 && ox < out_side as isize {
-                                        drow[ox as usize] += v * k[ky * 4 + kx];
-                                    }
-                                }
-                            }
-                        }
-                    }
-                }
+            match self.kind {
+                DecoderKind::Deconv => transposed_conv(&h, side, d, &mut out),
+                DecoderKind::Upsample => upsample_conv(&h, side, d, &mut out),
             }
             match &d.bn {
                 Some(bn) => apply_bn_leaky(&mut out, bn, out_side * out_side),
@@ -254,6 +266,67 @@ impl Decoder {
             side = out_side;
         }
         Ok(h)
+    }
+}
+
+/// Transposed conv, kernel 4, stride 2, padding 1: input (iy, ix) adds to output (2 iy - 1 + ky, 2 ix - 1 + kx).
+fn transposed_conv(h: &[f64], side: usize, d: &Stage, out: &mut [f64]) {
+    let out_side = 2 * side;
+    for ic in 0..d.cin {
+        let plane = &h[ic * side * side..(ic + 1) * side * side];
+        for oc in 0..d.cout {
+            let k = &d.weight[(ic * d.cout + oc) * 16..(ic * d.cout + oc + 1) * 16];
+            let dst = &mut out[oc * out_side * out_side..(oc + 1) * out_side * out_side];
+            for iy in 0..side {
+                for ky in 0..4 {
+                    let oy = (2 * iy + ky) as isize - 1;
+                    if oy < 0 || oy >= out_side as isize {
+                        continue;
+                    }
+                    let drow = &mut dst[oy as usize * out_side..(oy as usize + 1) * out_side];
+                    let srow = &plane[iy * side..(iy + 1) * side];
+                    for (ix, &v) in srow.iter().enumerate() {
+                        for kx in 0..4 {
+                            let ox = (2 * ix + kx) as isize - 1;
+                            if ox >= 0 && ox < out_side as isize {
+                                drow[ox as usize] += v * k[ky * 4 + kx];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Nearest-neighbour x2 upsampling, then a 3 x 3 cross-correlation with zero padding 1: output (oy, ox) adds
+/// `w[oc, ic, ky, kx] * u(oy + ky - 1, ox + kx - 1)` with `u(y, x) = h(y / 2, x / 2)`.
+fn upsample_conv(h: &[f64], side: usize, d: &Stage, out: &mut [f64]) {
+    let out_side = 2 * side;
+    for oc in 0..d.cout {
+        let dst = &mut out[oc * out_side * out_side..(oc + 1) * out_side * out_side];
+        for ic in 0..d.cin {
+            let plane = &h[ic * side * side..(ic + 1) * side * side];
+            let k = &d.weight[(oc * d.cin + ic) * 9..(oc * d.cin + ic + 1) * 9];
+            for oy in 0..out_side {
+                let drow = &mut dst[oy * out_side..(oy + 1) * out_side];
+                for ky in 0..3 {
+                    let uy = oy as isize + ky as isize - 1;
+                    if uy < 0 || uy >= out_side as isize {
+                        continue;
+                    }
+                    let srow = &plane[(uy as usize / 2) * side..(uy as usize / 2 + 1) * side];
+                    for (ox, o) in drow.iter_mut().enumerate() {
+                        for kx in 0..3 {
+                            let ux = ox as isize + kx as isize - 1;
+                            if ux >= 0 && ux < out_side as isize {
+                                *o += k[ky * 3 + kx] * srow[ux as usize / 2];
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
 }
 

@@ -2,8 +2,10 @@
 //!
 //! - [`data`]: the training crops (8-bit 128 x 128 BMP/PNG elevation maps), normalised to [-1, 1], and the fixed
 //!   train/validation split.
-//! - [`model`]: the candle model (conv encoder, transposed-conv decoder, BatchNorm, LeakyReLU, tanh), the
-//!   sliced-Wasserstein distance and the loss; used for training and evaluation only.
+//! - [`model`]: the candle model (conv encoder, upsampling or transposed-conv decoder, BatchNorm, LeakyReLU,
+//!   tanh); used for training and evaluation only.
+//! - [`loss`]: pixel, gradient-domain, slope-distribution and sliced-Wasserstein terms.
+//! - [`optim`]: Adam with its state in a file, so training resumes where a checkpoint left it.
 //! - [`train`]: the training loop behind `vb terrain train`.
 //! - [`decoder`]: a plain-Rust decoder (f64, fixed loop order, no threads) reading the same weights file; this is
 //!   what generation uses, so generated heights are bit-identical on every machine and thread count.
@@ -18,7 +20,11 @@ pub mod decoder;
 #[cfg(feature = "train")]
 pub mod eval;
 #[cfg(feature = "train")]
+pub mod loss;
+#[cfg(feature = "train")]
 pub mod model;
+#[cfg(feature = "train")]
+pub mod optim;
 #[cfg(feature = "train")]
 pub mod picture;
 pub mod source;

@@ -1,28 +1,32 @@
-//! The candle SWAE: a strided-conv encoder and a mirrored transposed-conv decoder (kernel 4, stride 2, BatchNorm,
-//! LeakyReLU 0.2, tanh output), the sliced-Wasserstein distance to an N(0, I) prior and the training loss.
+//! The candle SWAE: a strided-conv encoder and a mirrored decoder (BatchNorm, LeakyReLU 0.2, tanh output). The
+//! decoder doubles the resolution per stage either by a transposed conv (kernel 4, stride 2: [`DecoderKind::Deconv`],
+//! the v1 model, which leaves a checkerboard grid in its outputs) or by nearest-neighbour upsampling followed by a
+//! 3 x 3 conv ([`DecoderKind::Upsample`], no grid). The loss is in [`crate::loss`].
 //!
 //! Tensor names in the weights file (what [`crate::decoder::Decoder`] reads):
-//! `enc.conv{i}`, `enc.bn{i}`, `enc.fc`, `dec.fc`, `dec.bn0`, `dec.deconv{i}`, `dec.bn{i+1}` (no BatchNorm after
-//! the last deconv), each with `weight`/`bias` and BatchNorm's `running_mean`/`running_var`.
+//! `enc.conv{i}`, `enc.bn{i}`, `enc.fc`, `dec.fc`, `dec.bn0`, `dec.deconv{i}` or `dec.up{i}`, `dec.bn{i+1}` (no
+//! BatchNorm after the last stage), each with `weight`/`bias` and BatchNorm's `running_mean`/`running_var`.
 
 use crate::{SwaeError, CROP_PX};
-use candle_core::{DType, Device, Module, ModuleT, Tensor, D};
+use candle_core::{DType, Device, Module, ModuleT, Tensor};
 use candle_nn::{
     batch_norm, conv2d, conv_transpose2d, linear, BatchNorm, Conv2d, Conv2dConfig, ConvTranspose2d,
     ConvTranspose2dConfig, Linear, VarBuilder, VarMap,
 };
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::StandardNormal;
 
+pub use crate::decoder::DecoderKind;
 pub use crate::{BN_EPS, BOTTOM_PX, LEAKY};
 
 /// Architecture.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Config {
     /// Encoder channels, one stride-2 conv each (5 convs take 128 px to 4 px); the decoder mirrors them.
     pub channels: Vec<usize>,
     pub latent: usize,
+    #[serde(default)]
+    pub decoder: DecoderKind,
 }
 
 impl Default for Config {
@@ -30,8 +34,15 @@ impl Default for Config {
         Config {
             channels: vec![8, 16, 32, 64, 64],
             latent: 64,
+            decoder: DecoderKind::Upsample,
         }
     }
+}
+
+/// One decoder stage's resolution-doubling layer.
+enum Stage {
+    Deconv(ConvTranspose2d),
+    Upsample(Conv2d),
 }
 
 impl Config {
@@ -48,6 +59,21 @@ impl Config {
         if self.latent == 0 || self.channels.contains(&0) {
             return Err(SwaeError::param("latent", "sizes must be positive"));
         }
+        // The encoder's convs run on candle's conv2d, which is wrong when an input's channels equal its side
+        // (see `conv3x3_same`): the input of conv i has channels[i - 1] channels on CROP_PX >> i px.
+        for (i, pair) in self.channels.windows(2).enumerate() {
+            if pair[0] == CROP_PX >> (i + 1) {
+                return Err(SwaeError::param(
+                    "channels",
+                    format!(
+                        "{} channels on {} px: candle 0.9's conv2d miscomputes inputs whose channels equal their \
+                         side; choose another width",
+                        pair[0],
+                        pair[0]
+                    ),
+                ));
+            }
+        }
         Ok(())
     }
 }
@@ -60,7 +86,7 @@ pub struct Swae {
     enc_fc: Linear,
     dec_fc: Linear,
     dec_bn0: BatchNorm,
-    dec_deconvs: Vec<(ConvTranspose2d, Option<BatchNorm>)>,
+    dec_stages: Vec<(Stage, Option<BatchNorm>)>,
 }
 
 impl Swae {
@@ -80,6 +106,7 @@ impl Swae {
         let config = Config {
             channels: dec.encoder_channels(),
             latent: dec.latent(),
+            decoder: dec.kind(),
         };
         config.validate()?;
         let mut varmap = VarMap::new();
@@ -117,16 +144,31 @@ impl Swae {
         let enc_fc = linear(flat, config.latent, vb.pp("enc.fc"))?;
         let dec_fc = linear(config.latent, flat, vb.pp("dec.fc"))?;
         let dec_bn0 = batch_norm(cin, BN_EPS, vb.pp("dec.bn0"))?;
-        let mut dec_deconvs = Vec::new();
+        let same = Conv2dConfig {
+            padding: 1,
+            ..Default::default()
+        };
+        let mut dec_stages = Vec::new();
         let outs: Vec<usize> = ch.iter().rev().skip(1).copied().chain([1]).collect();
         for (i, &c) in outs.iter().enumerate() {
-            let deconv = conv_transpose2d(cin, c, 4, up, vb.pp(format!("dec.deconv{i}")))?;
+            let stage = match config.decoder {
+                DecoderKind::Deconv => Stage::Deconv(conv_transpose2d(
+                    cin,
+                    c,
+                    4,
+                    up,
+                    vb.pp(format!("dec.deconv{i}")),
+                )?),
+                DecoderKind::Upsample => {
+                    Stage::Upsample(conv2d(cin, c, 3, same, vb.pp(format!("dec.up{i}")))?)
+                }
+            };
             let bn = if i + 1 < outs.len() {
                 Some(batch_norm(c, BN_EPS, vb.pp(format!("dec.bn{}", i + 1)))?)
             } else {
                 None
             };
-            dec_deconvs.push((deconv, bn));
+            dec_stages.push((stage, bn));
             cin = c;
         }
         Ok(Swae {
@@ -136,7 +178,7 @@ impl Swae {
             enc_fc,
             dec_fc,
             dec_bn0,
-            dec_deconvs,
+            dec_stages,
         })
     }
 
@@ -190,8 +232,14 @@ impl Swae {
             .forward(z)?
             .reshape((b, c, BOTTOM_PX, BOTTOM_PX))?;
         let mut h = candle_nn::ops::leaky_relu(&self.dec_bn0.forward_t(&h, train)?, LEAKY)?;
-        for (deconv, bn) in &self.dec_deconvs {
-            h = deconv.forward(&h)?;
+        for (stage, bn) in &self.dec_stages {
+            h = match stage {
+                Stage::Deconv(deconv) => deconv.forward(&h)?,
+                Stage::Upsample(conv) => {
+                    let (side_y, side_x) = (h.dim(2)?, h.dim(3)?);
+                    conv3x3_same(&h.upsample_nearest2d(2 * side_y, 2 * side_x)?, conv)?
+                }
+            };
             h = match bn {
                 Some(bn) => candle_nn::ops::leaky_relu(&bn.forward_t(&h, train)?, LEAKY)?,
                 None => h.tanh()?,
@@ -212,96 +260,30 @@ impl Swae {
     }
 }
 
-/// `n x d` samples of N(0, 1) from `rng`.
-pub fn normal_tensor(rng: &mut ChaCha8Rng, n: usize, d: usize) -> Result<Tensor, SwaeError> {
-    let v: Vec<f32> = (0..n * d)
-        .map(|_| rng.sample::<f64, _>(StandardNormal) as f32)
-        .collect();
-    Ok(Tensor::from_vec(v, (n, d), &Device::Cpu)?)
-}
-
-/// `projections` random unit directions in `d` dimensions, as the columns of a `[d, projections]` tensor.
-pub fn projections(
-    rng: &mut ChaCha8Rng,
-    d: usize,
-    projections: usize,
-) -> Result<Tensor, SwaeError> {
-    let mut v = vec![0f32; d * projections];
-    for j in 0..projections {
-        let col: Vec<f64> = (0..d).map(|_| rng.sample(StandardNormal)).collect();
-        let norm = col.iter().map(|x| x * x).sum::<f64>().sqrt().max(1e-12);
-        for i in 0..d {
-            v[i * projections + j] = (col[i] / norm) as f32;
+/// A 3 x 3 cross-correlation with zero padding 1 and stride 1 (`conv.forward` computes the same function), as an
+/// explicit im2col and one matrix product.
+///
+/// candle 0.9's CPU `conv2d` returns wrong values when channels, height and width are equal (its tiled kernel
+/// mistakes the NCHW input for NHWC: huggingface/candle issue 3404, fixed after 0.9.2), which the default
+/// decoder meets at 32 channels on 32 x 32 px; `tests/model.rs` compares this against the plain-Rust decoder.
+fn conv3x3_same(x: &Tensor, conv: &Conv2d) -> Result<Tensor, SwaeError> {
+    let (b, c, h, w) = x.dims4()?;
+    let weight = conv.weight();
+    let o = weight.dim(0)?;
+    let padded = x.pad_with_zeros(2, 1, 1)?.pad_with_zeros(3, 1, 1)?;
+    let mut taps = Vec::with_capacity(9);
+    for ky in 0..3 {
+        for kx in 0..3 {
+            taps.push(padded.narrow(2, ky, h)?.narrow(3, kx, w)?);
         }
     }
-    Ok(Tensor::from_vec(v, (d, projections), &Device::Cpu)?)
-}
-
-/// Sliced-Wasserstein distance (p = 2) between the rows of `a` and `b` (both `[B, d]`) along the columns of
-/// `theta` (`[d, L]`): the mean over projections and quantiles of the squared difference of the sorted
-/// projections. Differentiable in `a` and `b`.
-pub fn sliced_wasserstein(a: &Tensor, b: &Tensor, theta: &Tensor) -> Result<Tensor, SwaeError> {
-    let sorted = |x: &Tensor| -> Result<Tensor, SwaeError> {
-        let p = x.matmul(theta)?.t()?.contiguous()?; // [L, B]
-        let idx = p.arg_sort_last_dim(true)?;
-        Ok(p.gather(&idx, D::Minus1)?)
-    };
-    let d = (sorted(a)? - sorted(b)?)?;
-    Ok(d.sqr()?.mean_all()?)
-}
-
-/// Loss weights. The original weighted the sliced-Wasserstein term 100; on our 25-minute budget that made the
-/// encoder all prior and no content (after 8 epochs the held-out RMSE, 0.126, was no better than predicting the
-/// mean crop, 0.118), so the default is 1 (see BENCHMARKS.md).
-#[derive(Clone, Copy, Debug)]
-pub struct LossWeights {
-    pub l2: f64,
-    pub l1: f64,
-    pub sw: f64,
-    pub projections: usize,
-}
-
-impl Default for LossWeights {
-    fn default() -> Self {
-        LossWeights {
-            l2: 1.0,
-            l1: 1.0,
-            sw: 1.0,
-            projections: 200,
-        }
-    }
-}
-
-/// Loss terms of one batch.
-pub struct Loss {
-    pub total: Tensor,
-    pub l2: f32,
-    pub l1: f32,
-    pub sw: f32,
-}
-
-/// Forward pass and loss of a training batch `x` (`[B, 1, 128, 128]`); prior samples and projections from `rng`.
-pub fn loss(
-    model: &Swae,
-    x: &Tensor,
-    w: &LossWeights,
-    rng: &mut ChaCha8Rng,
-) -> Result<Loss, SwaeError> {
-    let z = model.encode(x, true)?;
-    let y = model.decode(&z, true)?;
-    let diff = (&y - x)?;
-    let l2 = diff.sqr()?.mean_all()?;
-    let l1 = diff.abs()?.mean_all()?;
-    let (b, d) = z.dims2()?;
-    let prior = normal_tensor(rng, b, d)?;
-    let theta = projections(rng, d, w.projections)?;
-    let sw = sliced_wasserstein(&z, &prior, &theta)?;
-    let total = ((l2.affine(w.l2, 0.0)? + l1.affine(w.l1, 0.0)?)? + sw.affine(w.sw, 0.0)?)?;
-    Ok(Loss {
-        total,
-        l2: l2.to_scalar()?,
-        l1: l1.to_scalar()?,
-        sw: sw.to_scalar()?,
+    // [B, C, 9, H, W] -> [B, C * 9, H * W]: rows in the weight's (c, ky, kx) order.
+    let cols = Tensor::stack(&taps, 2)?.reshape((b, c * 9, h * w))?;
+    let y = weight.reshape((o, c * 9))?.broadcast_matmul(&cols)?;
+    let y = y.reshape((b, o, h, w))?;
+    Ok(match conv.bias() {
+        Some(bias) => y.broadcast_add(&bias.reshape((1, o, 1, 1))?)?,
+        None => y,
     })
 }
 

@@ -5,14 +5,17 @@ use candle_core::{Device, Tensor};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use swae::data::Crop;
-use swae::model::{self, Config, Swae};
-use swae::train::{train, TrainOptions};
+use swae::decoder::DecoderKind;
+use swae::loss;
+use swae::model::{Config, Swae};
+use swae::train::{resume, sidecar, train, TrainOptions, TrainState};
 use swae::{Decoder, CROP_PX};
 
 fn small() -> Config {
     Config {
-        channels: vec![4, 4, 8, 8, 8],
+        channels: vec![4, 6, 6, 12, 12],
         latent: 8,
+        decoder: DecoderKind::Upsample,
     }
 }
 
@@ -83,28 +86,39 @@ fn max_diff(a: &[f64], b: &[f64]) -> f64 {
 
 #[test]
 fn plain_rust_decoder_matches_candle_after_some_training() {
+    for kind in [DecoderKind::Upsample, DecoderKind::Deconv] {
+        decoders_agree(kind);
+    }
+}
+
+fn decoders_agree(kind: DecoderKind) {
     // Train briefly so that BatchNorm statistics and weights are not at their initial values.
     let crops = synthetic(16, 1);
     let opts = TrainOptions {
-        config: small(),
+        config: Config {
+            decoder: kind,
+            ..small()
+        },
         epochs: 2,
         batch: 8,
         ..Default::default()
     };
     let (model, _) = train(&crops, &[], &opts, None, |_| {}).unwrap();
-    let path = tmp("equiv.safetensors");
+    let path = tmp(&format!("equiv-{kind:?}.safetensors"));
     model.save(&path).unwrap();
     let dec = Decoder::load(&path).unwrap();
     assert_eq!(dec.latent(), 8);
-    assert_eq!(dec.encoder_channels(), vec![4, 4, 8, 8, 8]);
+    assert_eq!(dec.kind(), kind);
+    assert_eq!(dec.encoder_channels(), vec![4, 6, 6, 12, 12]);
     let reloaded = Swae::load(&path).unwrap();
+    assert_eq!(reloaded.config, opts.config);
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     for _ in 0..3 {
         let z: Vec<f64> = (0..8).map(|_| rng.gen_range(-2.5..2.5)).collect();
         let plain = dec.decode(&z).unwrap();
         assert_eq!(plain.len(), CROP_PX * CROP_PX);
         let d = max_diff(&plain, &candle_decode(&model, &z));
-        assert!(d < 1e-4, "plain vs candle: max difference {d}");
+        assert!(d < 1e-4, "{kind:?}: plain vs candle: max difference {d}");
         let d = max_diff(&plain, &candle_decode(&reloaded, &z));
         assert!(d < 1e-4, "plain vs reloaded candle: max difference {d}");
     }
@@ -148,15 +162,15 @@ fn training_on_small_synthetic_data_reduces_the_loss() {
 #[test]
 fn sliced_wasserstein_is_near_zero_on_the_prior_and_large_when_shifted() {
     let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let a = model::normal_tensor(&mut rng, 512, 16).unwrap();
-    let b = model::normal_tensor(&mut rng, 512, 16).unwrap();
-    let theta = model::projections(&mut rng, 16, 200).unwrap();
-    let same: f32 = model::sliced_wasserstein(&a, &b, &theta)
+    let a = loss::normal_tensor(&mut rng, 512, 16).unwrap();
+    let b = loss::normal_tensor(&mut rng, 512, 16).unwrap();
+    let theta = loss::projections(&mut rng, 16, 200).unwrap();
+    let same: f32 = loss::sliced_wasserstein(&a, &b, &theta)
         .unwrap()
         .to_scalar()
         .unwrap();
     let shifted = (&b + 2.0).unwrap();
-    let far: f32 = model::sliced_wasserstein(&a, &shifted, &theta)
+    let far: f32 = loss::sliced_wasserstein(&a, &shifted, &theta)
         .unwrap()
         .to_scalar()
         .unwrap();
@@ -186,4 +200,124 @@ fn tanh_and_exp_are_accurate() {
         let (a, b) = (swae::decoder::exp(x), x.exp());
         assert!(((a - b) / b).abs() < 1e-14, "exp({x}): {a} vs {b}");
     }
+}
+
+#[test]
+fn gradient_domain_terms_are_exact_on_polynomials() {
+    // h = a x^2 + c y: forward differences a (2x + 1) along x and c along y; the five-point Laplacian of a
+    // quadratic is exact, 2a; the central-difference slope at (x, y) is |(2 a x, c)|.
+    let (a, c, n) = (0.01f32, 0.03f32, 8usize);
+    let v: Vec<f32> = (0..n * n)
+        .map(|i| {
+            let (x, y) = ((i % n) as f32, (i / n) as f32);
+            a * x * x + c * y
+        })
+        .collect();
+    let t = Tensor::from_vec(v, (1, 1, n, n), &Device::Cpu).unwrap();
+    let (dx, dy) = loss::forward_differences(&t).unwrap();
+    let dx: Vec<Vec<f32>> = dx
+        .squeeze(0)
+        .unwrap()
+        .squeeze(0)
+        .unwrap()
+        .to_vec2()
+        .unwrap();
+    assert!((dx[3][4] - a * 9.0).abs() < 1e-6, "{}", dx[3][4]);
+    let dy: Vec<f32> = dy.flatten_all().unwrap().to_vec1().unwrap();
+    assert!(dy.iter().all(|d| (d - c).abs() < 1e-6));
+    let lap: Vec<f32> = loss::laplacian(&t)
+        .unwrap()
+        .flatten_all()
+        .unwrap()
+        .to_vec1()
+        .unwrap();
+    assert_eq!(lap.len(), (n - 2) * (n - 2));
+    assert!(lap.iter().all(|l| (l - 2.0 * a).abs() < 1e-5), "{lap:?}");
+    let s: Vec<Vec<f32>> = loss::slope_magnitudes(&t).unwrap().to_vec2().unwrap();
+    // Row-major interior: index 0 is (x, y) = (1, 1).
+    let want = ((2.0 * a).powi(2) + c * c).sqrt();
+    assert!((s[0][0] - want).abs() < 1e-4, "{} vs {want}", s[0][0]);
+}
+
+#[test]
+fn training_resumes_from_its_checkpoint_where_it_stopped() {
+    // Two epochs, then a resume to four, against four epochs in one go: the resumed run continues the schedule,
+    // the optimiser's moments and the random stream (same shuffles, augmentation and prior samples), so its
+    // losses follow the unbroken run's (to float rounding of candle's threaded kernels).
+    let crops = synthetic(24, 4);
+    let opts = TrainOptions {
+        config: small(),
+        epochs: 4,
+        batch: 8,
+        lr: 3e-3,
+        session_epochs: 2,
+        ..Default::default()
+    };
+    let out = tmp("resume.safetensors");
+    let (_, first) = train(&crops, &crops[..8], &opts, Some(&out), |_| {}).unwrap();
+    assert_eq!(first.len(), 2);
+    let (_, rest) = resume(&crops, &crops[..8], &out, None, 0.0, |_| {}).unwrap();
+    assert_eq!(rest.iter().map(|l| l.epoch).collect::<Vec<_>>(), [3, 4]);
+    let state: TrainState =
+        serde_json::from_str(&std::fs::read_to_string(sidecar(&out, "state.json")).unwrap())
+            .unwrap();
+    assert_eq!((state.epochs_done, state.adam_step), (4, 12));
+    let log = std::fs::read_to_string(sidecar(&out, "train.log")).unwrap();
+    assert_eq!(log.lines().filter(|l| l.starts_with("epoch")).count(), 4);
+    let unbroken = TrainOptions {
+        session_epochs: 0,
+        ..opts.clone()
+    };
+    let (_, whole) = train(&crops, &crops[..8], &unbroken, None, |_| {}).unwrap();
+    for (a, b) in whole[2..].iter().zip(&rest) {
+        assert!(
+            (a.l2 - b.l2).abs() <= 1e-3 * a.l2.max(1e-6),
+            "epoch {}: unbroken l2 {} vs resumed {}",
+            a.epoch,
+            a.l2,
+            b.l2
+        );
+    }
+    // Weights that do not match the state (a save interrupted between the files) are refused.
+    std::fs::write(&out, b"not the weights").unwrap();
+    let err = resume(&crops, &[], &out, None, 0.0, |_| {})
+        .err()
+        .expect("mismatched checkpoint refused")
+        .to_string();
+    assert!(err.contains("interrupted while saving"), "{err}");
+    for suffix in [
+        "safetensors",
+        "optim.safetensors",
+        "state.json",
+        "train.log",
+    ] {
+        let _ = std::fs::remove_file(sidecar(&out, suffix));
+    }
+}
+
+#[test]
+fn the_default_decoder_matches_candle_where_candle_conv2d_would_not() {
+    // The default upsampling decoder convolves 32 channels on 32 x 32 px, where candle 0.9.2's conv2d is wrong
+    // (huggingface/candle issue 3404); the model's own im2col conv must agree with the plain-Rust decoder there.
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let model = Swae::new(Config::default(), &mut rng).unwrap();
+    let path = tmp("default-upsample.safetensors");
+    model.save(&path).unwrap();
+    let dec = Decoder::load(&path).unwrap();
+    let z: Vec<f64> = (0..64).map(|_| rng.gen_range(-2.5..2.5)).collect();
+    let d = max_diff(&dec.decode(&z).unwrap(), &candle_decode(&model, &z));
+    assert!(d < 1e-4, "plain vs candle: max difference {d}");
+    std::fs::remove_file(&path).unwrap();
+    // An encoder that would meet the bug is refused with the reason.
+    let err = Swae::new(
+        Config {
+            channels: vec![4, 4, 8, 8, 8],
+            ..small()
+        },
+        &mut rng,
+    )
+    .err()
+    .expect("8 channels on 8 px refused")
+    .to_string();
+    assert!(err.contains("8 channels on 8 px"), "{err}");
 }

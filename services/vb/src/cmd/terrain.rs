@@ -6,14 +6,20 @@ use std::path::PathBuf;
 #[derive(Subcommand)]
 pub enum TerrainCmd {
     /// Train the SWAE on a directory of 128 x 128 8-bit elevation maps (the release's BenchMaps/elev_maps).
+    /// Every epoch checkpoints OUT (with OUT's .optim.safetensors, .state.json and .train.log beside it);
+    /// `--resume` goes on from the last completed epoch with the checkpoint's own options.
     Train {
         #[arg(long)]
         data: PathBuf,
         /// Weights file to write (safetensors; rewritten after every epoch).
         #[arg(long)]
         out: PathBuf,
-        #[arg(long, default_value_t = 30)]
-        epochs: usize,
+        /// Continue the checkpoint OUT instead of starting afresh (only --epochs and --max-minutes apply).
+        #[arg(long)]
+        resume: bool,
+        /// Length of the learning-rate schedule (with --resume: extends the checkpoint's).
+        #[arg(long)]
+        epochs: Option<usize>,
         #[arg(long, default_value_t = 8)]
         batch: usize,
         #[arg(long, default_value_t = 2e-3)]
@@ -23,9 +29,21 @@ pub enum TerrainCmd {
         channels: Vec<usize>,
         #[arg(long, default_value_t = 64)]
         latent: usize,
+        /// Decoder stages: `upsample` (nearest x2, then a 3 x 3 conv) or `deconv` (transposed conv, the v1 model).
+        #[arg(long, default_value = "upsample", value_parser = parse_decoder)]
+        decoder: swae::decoder::DecoderKind,
         /// Weight of the sliced-Wasserstein term.
         #[arg(long, default_value_t = 1.0)]
         sw_weight: f64,
+        /// Weight of the L1 loss on finite-difference slopes (0: off, as v1; default: swae's LossWeights::DEFAULT).
+        #[arg(long)]
+        gradient_weight: Option<f64>,
+        /// Weight of the L1 loss on the Laplacian (0: off, as v1; default: LossWeights::DEFAULT).
+        #[arg(long)]
+        laplacian_weight: Option<f64>,
+        /// Weight of the slope-distribution term (0: off, as v1; default: LossWeights::DEFAULT).
+        #[arg(long)]
+        slope_weight: Option<f64>,
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// Stop after the epoch in which this many minutes have passed (0: no limit).
@@ -68,6 +86,16 @@ pub enum TerrainCmd {
     },
 }
 
+fn parse_decoder(s: &str) -> Result<swae::decoder::DecoderKind, String> {
+    match s {
+        "upsample" => Ok(swae::decoder::DecoderKind::Upsample),
+        "deconv" => Ok(swae::decoder::DecoderKind::Deconv),
+        other => Err(format!(
+            "unknown decoder `{other}`: use `upsample` or `deconv`"
+        )),
+    }
+}
+
 #[cfg(feature = "train")]
 fn weights_path(w: Option<PathBuf>) -> PathBuf {
     w.unwrap_or_else(|| {
@@ -99,12 +127,17 @@ pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
         TerrainCmd::Train {
             data,
             out,
+            resume,
             epochs,
             batch,
             lr,
             channels,
             latent,
+            decoder,
             sw_weight,
+            gradient_weight,
+            laplacian_weight,
+            slope_weight,
             seed,
             max_minutes,
             max_batches,
@@ -116,21 +149,40 @@ pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
                 val.len(),
                 data.display()
             );
-            let opts = swae::train::TrainOptions {
-                config: swae::model::Config { channels, latent },
-                loss: swae::model::LossWeights {
-                    sw: sw_weight,
-                    ..Default::default()
-                },
-                epochs,
-                batch,
-                lr,
-                seed,
-                max_seconds: max_minutes * 60.0,
-                max_batches,
-            };
-            swae::train::train(&train, &val, &opts, Some(&out), |l| println!("{l}"))?;
-            println!("wrote {}", out.display());
+            let log = |l: &swae::train::EpochLog| println!("{l}");
+            if resume {
+                swae::train::resume(&train, &val, &out, epochs, max_minutes * 60.0, log)?;
+            } else {
+                let opts = swae::train::TrainOptions {
+                    config: swae::model::Config {
+                        channels,
+                        latent,
+                        decoder,
+                    },
+                    loss: {
+                        let d = swae::loss::LossWeights::DEFAULT;
+                        swae::loss::LossWeights {
+                            sw: sw_weight,
+                            gradient: gradient_weight.unwrap_or(d.gradient),
+                            laplacian: laplacian_weight.unwrap_or(d.laplacian),
+                            slope_distribution: slope_weight.unwrap_or(d.slope_distribution),
+                            ..d
+                        }
+                    },
+                    epochs: epochs.unwrap_or(30),
+                    batch,
+                    lr,
+                    seed,
+                    max_seconds: max_minutes * 60.0,
+                    max_batches,
+                    session_epochs: 0,
+                };
+                swae::train::train(&train, &val, &opts, Some(&out), log)?;
+            }
+            println!(
+                "wrote {} (state, optimiser and log beside it)",
+                out.display()
+            );
         }
         TerrainCmd::Eval {
             data,
