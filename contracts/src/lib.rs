@@ -139,3 +139,27 @@ pub struct TrajectorySample {
     pub steering: f64,
     pub brake: f64,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Metrics cross processes as JSON (the store's rows, the results API) and must come back to the last bit, so
+    /// a service's summary equals a local `vb eval`'s: serde_json's `float_roundtrip` (its default parser may be
+    /// one ulp off on such values, seen on 3.9066006773336635 and 9.992706353594361).
+    #[test]
+    fn metrics_survive_json_to_the_last_bit() {
+        let mut m = EpisodeMetrics {
+            time: 28.768000000002946,
+            throttle_tv: 3.9066006773336635,
+            final_goal_distance: 9.992706353594361,
+            steering_mean: 0.47018710466033653,
+            ..Default::default()
+        };
+        m.pitch.mean = -2.0042475476114894;
+        m.roll.var = 13.808526635729677;
+        let back: EpisodeMetrics =
+            serde_json::from_str(&serde_json::to_string(&m).unwrap()).unwrap();
+        assert_eq!(back, m);
+    }
+}

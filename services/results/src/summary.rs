@@ -186,8 +186,17 @@ pub struct Summary {
     pub episode_wall_s: f64,
 }
 
-/// Summarises the rows of one evaluation.
+/// Summarises the rows of one evaluation, in task order whatever order they come in (a service gets them in the
+/// order they finished), so the sums, and the summary, are the same to the last bit as a local `vb eval`'s.
 pub fn summarise(rows: &[EpisodeRow]) -> Summary {
+    let ordered = |a: &EpisodeRow, b: &EpisodeRow| {
+        (a.world_id, a.task_index, &a.task_id).cmp(&(b.world_id, b.task_index, &b.task_id))
+    };
+    if !rows.is_sorted_by(|a, b| ordered(a, b).is_le()) {
+        let mut sorted = rows.to_vec();
+        sorted.sort_by(ordered);
+        return summarise(&sorted);
+    }
     let by = |key: fn(&EpisodeRow) -> &str| {
         let mut keys: Vec<&str> = rows.iter().map(key).collect();
         keys.sort_unstable();
@@ -280,6 +289,28 @@ mod tests {
         let adj = semantics_level_adjusted(&rows);
         assert_eq!(adj["rigid"], 0.625);
         assert_eq!(adj["mixed"], 0.625);
+    }
+
+    #[test]
+    fn the_summary_does_not_depend_on_the_rows_order() {
+        // Times whose sum depends on the order of addition in f64: (0.1 + 0.2) + 0.3 != 0.1 + (0.2 + 0.3).
+        let rows: Vec<EpisodeRow> = [0.1, 0.2, 0.3, 1e16, 1.0]
+            .iter()
+            .enumerate()
+            .map(|(k, &time)| EpisodeRow {
+                task_index: k as u32,
+                metrics: contracts::EpisodeMetrics {
+                    time,
+                    ..Default::default()
+                },
+                ..EpisodeRow::for_test(&format!("w001-t{k}"), "success")
+            })
+            .collect();
+        let forward = serde_json::to_value(summarise(&rows)).unwrap();
+        for order in [[4, 3, 2, 1, 0], [2, 0, 4, 1, 3]] {
+            let shuffled: Vec<EpisodeRow> = order.iter().map(|&k| rows[k].clone()).collect();
+            assert_eq!(serde_json::to_value(summarise(&shuffled)).unwrap(), forward);
+        }
     }
 
     #[test]
