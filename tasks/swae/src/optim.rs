@@ -59,13 +59,17 @@ impl Adam {
             let Some(g) = grads.get(&self.vars[i]) else {
                 continue;
             };
+            // Detached: the moments are running sums over every step, and a moment that tracked its operands
+            // would hold every earlier step's gradient graph (a 6-epoch run grew to 24 GB and was killed).
+            let g = g.detach();
+            let g = &g;
             let m = ((&self.m[i] * BETA1)? + (g * (1.0 - BETA1))?)?;
             let v = ((&self.v[i] * BETA2)? + (g.sqr()? * (1.0 - BETA2))?)?;
             let denom = ((&v / c2)?.sqrt()? + EPSILON)?;
             let update = ((&m / c1)?.div(&denom)? * self.lr)?;
             self.vars[i].set(&(self.vars[i].as_tensor() - update)?)?;
-            self.m[i] = m;
-            self.v[i] = v;
+            self.m[i] = m.detach();
+            self.v[i] = v.detach();
         }
         Ok(())
     }
