@@ -22,6 +22,16 @@ pub enum DecoderKind {
     Upsample,
 }
 
+/// The names `vb terrain train --decoder` takes: serde's (`deconv`, `upsample`), as the training state writes them.
+impl std::str::FromStr for DecoderKind {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        serde_json::from_value(serde_json::Value::String(s.into()))
+            .map_err(|_| format!("unknown decoder `{s}`: use `upsample` or `deconv`"))
+    }
+}
+
 struct Tensor {
     shape: Vec<usize>,
     data: Vec<f64>,

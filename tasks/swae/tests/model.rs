@@ -321,3 +321,13 @@ fn the_default_decoder_matches_candle_where_candle_conv2d_would_not() {
     .to_string();
     assert!(err.contains("8 channels on 8 px"), "{err}");
 }
+
+#[test]
+fn decoder_names_are_the_training_states() {
+    for kind in [DecoderKind::Deconv, DecoderKind::Upsample] {
+        let name = serde_json::to_value(kind).unwrap();
+        assert_eq!(name.as_str().unwrap().parse::<DecoderKind>(), Ok(kind));
+    }
+    let err = "conv".parse::<DecoderKind>().unwrap_err();
+    assert!(err.contains("upsample"), "{err}");
+}

@@ -30,7 +30,7 @@ pub enum TerrainCmd {
         #[arg(long, default_value_t = 64)]
         latent: usize,
         /// Decoder stages: `upsample` (nearest x2, then a 3 x 3 conv) or `deconv` (transposed conv, the v1 model).
-        #[arg(long, default_value = "upsample", value_parser = parse_decoder)]
+        #[arg(long, default_value = "upsample")]
         decoder: swae::decoder::DecoderKind,
         /// Weight of the sliced-Wasserstein term.
         #[arg(long, default_value_t = 1.0)]
@@ -84,16 +84,6 @@ pub enum TerrainCmd {
         #[arg(long, default_value = "out/terrain/swae_contact_sheet.png")]
         out: PathBuf,
     },
-}
-
-fn parse_decoder(s: &str) -> Result<swae::decoder::DecoderKind, String> {
-    match s {
-        "upsample" => Ok(swae::decoder::DecoderKind::Upsample),
-        "deconv" => Ok(swae::decoder::DecoderKind::Deconv),
-        other => Err(format!(
-            "unknown decoder `{other}`: use `upsample` or `deconv`"
-        )),
-    }
 }
 
 #[cfg(feature = "train")]
@@ -153,6 +143,7 @@ pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
             if resume {
                 swae::train::resume(&train, &val, &out, epochs, max_minutes * 60.0, log)?;
             } else {
+                let defaults = swae::train::TrainOptions::default();
                 let opts = swae::train::TrainOptions {
                     config: swae::model::Config {
                         channels,
@@ -169,13 +160,13 @@ pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
                             ..d
                         }
                     },
-                    epochs: epochs.unwrap_or(30),
                     batch,
                     lr,
                     seed,
                     max_seconds: max_minutes * 60.0,
                     max_batches,
-                    session_epochs: 0,
+                    epochs: epochs.unwrap_or(defaults.epochs),
+                    ..defaults
                 };
                 swae::train::train(&train, &val, &opts, Some(&out), log)?;
             }
