@@ -84,3 +84,41 @@ fn vb_serve_stops_cleanly_on_sigterm() {
     };
     assert!(status.success(), "{status}");
 }
+
+#[test]
+fn tasks_generate_takes_a_full_scale_height_only_for_the_swae() {
+    let dir = std::env::temp_dir().join(format!("vb-full-scale-{}", std::process::id()));
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_vb"))
+            .args(["tasks", "generate", "--out"])
+            .arg(&dir)
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let out = run(&["--full-scale", "10"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--full-scale only applies to --generator swae"),
+        "{err}"
+    );
+    let out = run(&["--generator", "swae", "--full-scale=-3"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("full_scale") && err.contains("positive"),
+        "{err}"
+    );
+    assert!(!dir.exists(), "nothing written for refused options");
+    // Accepted, and named in the set's generator (so its version differs from the calibrated set's).
+    let out = run(&["--generator", "swae", "--full-scale", "20"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("full_scale=20"), "{text}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

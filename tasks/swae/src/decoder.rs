@@ -5,6 +5,8 @@
 //! only transcendental function, `tanh`, is computed here from `+ - * /` (see [`tanh`]), so the result does not
 //! depend on the platform's libm either.
 
+use crate::detail::{self, Detail};
+pub use crate::num::{exp, tanh};
 use crate::{SwaeError, CROP_PX};
 use crate::{BN_EPS, BOTTOM_PX, LEAKY};
 use safetensors::SafeTensors;
@@ -64,6 +66,12 @@ pub struct Decoder {
     kind: DecoderKind,
     stages: Vec<Stage>,
     encoder_channels: Vec<usize>,
+    /// `dec.lin` (`[CROP_PX^2, latent]` weight, bias), added to the conv path's output.
+    linear: Option<(Vec<f64>, Vec<f64>)>,
+    /// `detail.kernel`: the observation model samples add.
+    detail: Option<Detail>,
+    /// `ref.conv0..2`: the full-resolution refiner, `(cin, cout, weight [cout, cin, 3, 3], bias)` per conv.
+    refiner: Vec<(usize, usize, Vec<f64>, Vec<f64>)>,
 }
 
 impl Decoder {
@@ -210,7 +218,61 @@ impl Decoder {
             });
             cin = cout;
         }
+        let linear = if t.contains_key("dec.lin.weight") {
+            let (w, b) = (get("dec.lin.weight", 2)?, get("dec.lin.bias", 1)?);
+            let d = CROP_PX * CROP_PX;
+            if w.shape != [d, latent] {
+                return Err(bad(format!(
+                    "tensor `dec.lin.weight` has shape {:?}, expected [{d}, {latent}]",
+                    w.shape
+                )));
+            }
+            expect_len("dec.lin.bias", b, d)?;
+            Some((w.data.clone(), b.data.clone()))
+        } else {
+            None
+        };
+        let detail = match t.get("detail.kernel") {
+            Some(k) if k.shape != [detail::SIDE, detail::SIDE] => {
+                return Err(bad(format!(
+                    "tensor `detail.kernel` has shape {:?}, expected [{s}, {s}]",
+                    k.shape,
+                    s = detail::SIDE
+                )))
+            }
+            Some(k) => Some(Detail {
+                kernel: k.data.clone(),
+            }),
+            None => None,
+        };
+        let mut refiner = Vec::new();
+        if t.contains_key("ref.conv0.weight") {
+            let mut cin = 1;
+            for i in 0..3 {
+                let (wn, bn) = (format!("ref.conv{i}.weight"), format!("ref.conv{i}.bias"));
+                let w = get(&wn, 4)?;
+                let cout = w.shape[0];
+                if w.shape[1..] != [cin, 3, 3] || (i == 2 && cout != 1) {
+                    return Err(bad(format!(
+                        "tensor `{wn}` has shape {:?}, expected [{}, {cin}, 3, 3]",
+                        w.shape,
+                        if i == 2 {
+                            "1".to_string()
+                        } else {
+                            "out".to_string()
+                        }
+                    )));
+                }
+                let b = get(&bn, 1)?;
+                expect_len(&bn, b, cout)?;
+                refiner.push((cin, cout, w.data.clone(), b.data.clone()));
+                cin = cout;
+            }
+        }
         Ok(Decoder {
+            refiner,
+            linear,
+            detail,
             latent,
             bottom_channels,
             fc_weight: fc_w.data.clone(),
@@ -232,12 +294,41 @@ impl Decoder {
         self.kind
     }
 
+    /// Whether the file has a linear path beside the conv decoder (`dec.lin`).
+    pub fn has_linear_skip(&self) -> bool {
+        self.linear.is_some()
+    }
+
+    /// Channels of the full-resolution refiner (0: none).
+    pub fn refiner_channels(&self) -> usize {
+        self.refiner.first().map_or(0, |r| r.1)
+    }
+
+    /// The observation model, if the file has one.
+    pub fn detail(&self) -> Option<&Detail> {
+        self.detail.as_ref()
+    }
+
+    /// A sample of the generative model for the code `z`: the decoded mean plus, where the file has an
+    /// observation model, a residual field drawn from `rng`; clipped to the data's range [-1, 1].
+    pub fn sample(&self, z: &[f64], rng: &mut impl rand::Rng) -> Result<Vec<f64>, SwaeError> {
+        let mut x = self.decode(z)?;
+        if let Some(d) = &self.detail {
+            for (v, e) in x.iter_mut().zip(d.synthesise(rng)) {
+                *v += e;
+            }
+        }
+        x.iter_mut().for_each(|v| *v = v.clamp(-1.0, 1.0));
+        Ok(x)
+    }
+
     /// Encoder channels found in the file (empty for a decoder-only file).
     pub fn encoder_channels(&self) -> Vec<usize> {
         self.encoder_channels.clone()
     }
 
-    /// Decodes a latent code into a 128 x 128 map in (-1, 1), row-major.
+    /// Decodes a latent code into a 128 x 128 map (the generative model's mean), row-major: in (-1, 1) for a plain
+    /// decoder (tanh output); a linear skip's sum may leave that range slightly.
     pub fn decode(&self, z: &[f64]) -> Result<Vec<f64>, SwaeError> {
         if z.len() != self.latent {
             return Err(SwaeError::param(
@@ -274,6 +365,35 @@ impl Decoder {
             }
             h = out;
             side = out_side;
+        }
+        if let Some((w, b)) = &self.linear {
+            for (p, (v, bias)) in h.iter_mut().zip(b).enumerate() {
+                let row = &w[p * self.latent..(p + 1) * self.latent];
+                let mut s = *bias;
+                for (wi, zi) in row.iter().zip(z) {
+                    s += wi * zi;
+                }
+                *v += s;
+            }
+        }
+        if !self.refiner.is_empty() {
+            let mut r = h.clone();
+            for (i, (cin, cout, w, b)) in self.refiner.iter().enumerate() {
+                let mut out = vec![0.0; cout * CROP_PX * CROP_PX];
+                for (oc, plane) in out.chunks_mut(CROP_PX * CROP_PX).enumerate() {
+                    plane.fill(b[oc]);
+                }
+                conv3x3_same(&r, CROP_PX, *cin, *cout, w, &mut out);
+                if i + 1 < self.refiner.len() {
+                    out.iter_mut().for_each(|v| {
+                        if *v < 0.0 {
+                            *v *= LEAKY
+                        }
+                    });
+                }
+                r = out;
+            }
+            h.iter_mut().zip(&r).for_each(|(v, d)| *v += d);
         }
         Ok(h)
     }
@@ -340,51 +460,41 @@ fn upsample_conv(h: &[f64], side: usize, d: &Stage, out: &mut [f64]) {
     }
 }
 
+/// A 3 x 3 cross-correlation with zero padding 1 on `side x side` planes: output (oc, y, x) adds
+/// `w[oc, ic, ky, kx] * h(ic, y + ky - 1, x + kx - 1)`.
+fn conv3x3_same(h: &[f64], side: usize, cin: usize, cout: usize, w: &[f64], out: &mut [f64]) {
+    for oc in 0..cout {
+        let dst = &mut out[oc * side * side..(oc + 1) * side * side];
+        for ic in 0..cin {
+            let plane = &h[ic * side * side..(ic + 1) * side * side];
+            let k = &w[(oc * cin + ic) * 9..(oc * cin + ic + 1) * 9];
+            for y in 0..side {
+                let drow = &mut dst[y * side..(y + 1) * side];
+                for ky in 0..3 {
+                    let sy = y as isize + ky as isize - 1;
+                    if sy < 0 || sy >= side as isize {
+                        continue;
+                    }
+                    let srow = &plane[sy as usize * side..(sy as usize + 1) * side];
+                    for (x, o) in drow.iter_mut().enumerate() {
+                        for kx in 0..3 {
+                            let sx = x as isize + kx as isize - 1;
+                            if sx >= 0 && sx < side as isize {
+                                *o += k[ky * 3 + kx] * srow[sx as usize];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
 fn apply_bn_leaky(h: &mut [f64], bn: &Affine, plane: usize) {
     for (c, chunk) in h.chunks_mut(plane).enumerate() {
         for v in chunk {
             let y = *v * bn.scale[c] + bn.shift[c];
             *v = if y >= 0.0 { y } else { y * LEAKY };
         }
-    }
-}
-
-/// `e^x` from `+ - * /` only (range reduction by ln 2, degree-16 Taylor polynomial, exact power of two), accurate
-/// to a few ulp and identical on every IEEE-754 machine.
-pub fn exp(x: f64) -> f64 {
-    if x > 700.0 {
-        return f64::INFINITY;
-    }
-    if x < -700.0 {
-        return 0.0;
-    }
-    const LN2: f64 = std::f64::consts::LN_2;
-    let k = (x / LN2).round();
-    let r = x - k * LN2;
-    let mut term = 1.0;
-    let mut sum = 1.0;
-    for i in 1..=16 {
-        term = term * r / i as f64;
-        sum += term;
-    }
-    sum * f64::from_bits(((k as i64 + 1023) as u64) << 52)
-}
-
-/// `tanh` from [`exp`]: `1 - 2 / (e^{2x} + 1)`, odd-symmetric.
-pub fn tanh(x: f64) -> f64 {
-    let a = x.abs();
-    let t = if a > 20.0 {
-        1.0
-    } else if a < 1e-3 {
-        // Avoid cancellation near 0: x - x^3/3 + 2x^5/15.
-        let a2 = a * a;
-        a * (1.0 - a2 / 3.0 + 2.0 * a2 * a2 / 15.0)
-    } else {
-        1.0 - 2.0 / (exp(2.0 * a) + 1.0)
-    };
-    if x < 0.0 {
-        -t
-    } else {
-        t
     }
 }

@@ -221,6 +221,11 @@ impl MapSet {
 
 /// Decoded samples of the generator for seeds `0..n` (plain-Rust decoder), normalised units.
 pub fn samples(source: &SwaeSource, n: usize) -> Result<Vec<Vec<f64>>, SwaeError> {
+    (0..n as u64).map(|s| source.sample(s)).collect()
+}
+
+/// The decoder's means for the same codes (no observation model), normalised units.
+pub fn sample_means(source: &SwaeSource, n: usize) -> Result<Vec<Vec<f64>>, SwaeError> {
     (0..n as u64)
         .map(|s| source.decoder().decode(&source.latent(s)))
         .collect()
@@ -286,7 +291,7 @@ pub fn report(
     let pca_samples: Vec<Vec<f64>> = (0..n_samples).map(|_| pca.sample(&mut rng)).collect();
     let gen = samples(source, n_samples)?;
     let reference = MapSet::new("training crops", &train_maps, fs);
-    let sets = [
+    let mut sets = vec![
         MapSet::new("held-out crops", &val_maps, fs),
         MapSet::new("SWAE reconstructions of held-out crops", &rec, fs),
         MapSet::new(&format!("SWAE samples (n={n_samples})"), &gen, fs),
@@ -296,6 +301,17 @@ pub fn report(
             fs,
         ),
     ];
+    if source.decoder().detail().is_some() {
+        let means = sample_means(source, n_samples)?;
+        sets.insert(
+            3,
+            MapSet::new(
+                &format!("SWAE decoder means, no observation model (n={n_samples})"),
+                &means,
+                fs,
+            ),
+        );
+    }
     let _ = writeln!(
         out,
         "\nGenerated vs training maps, 128 x 128 at 1 m, heights at the high level ({fs} m for a decoded +1):\n"

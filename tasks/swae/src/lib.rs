@@ -9,6 +9,7 @@
 //! - [`train`]: the training loop behind `vb terrain train`.
 //! - [`decoder`]: a plain-Rust decoder (f64, fixed loop order, no threads) reading the same weights file; this is
 //!   what generation uses, so generated heights are bit-identical on every machine and thread count.
+//! - [`detail`]: the observation model, the residual field a sample adds to the decoder's mean.
 //! - [`source`]: [`SwaeSource`], the task set's [`tasks::generate::HeightSource`]: seeded latent, decode, resize to
 //!   129 x 129 at 1 m, scale to the elevation level.
 //! - [`eval`]: reconstruction errors against PCA and mean-crop references, distribution comparisons and the
@@ -17,12 +18,14 @@
 
 pub mod data;
 pub mod decoder;
+pub mod detail;
 #[cfg(feature = "train")]
 pub mod eval;
 #[cfg(feature = "train")]
 pub mod loss;
 #[cfg(feature = "train")]
 pub mod model;
+mod num;
 #[cfg(feature = "train")]
 pub mod optim;
 #[cfg(feature = "train")]

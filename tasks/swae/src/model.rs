@@ -27,6 +27,21 @@ pub struct Config {
     pub latent: usize,
     #[serde(default)]
     pub decoder: DecoderKind,
+    /// A linear path beside the convolutional ones (`enc.lin`: crop -> latent, `dec.lin`: latent -> crop), set to
+    /// the training crops' whitened PCA when training starts and then frozen; the conv paths (whose last layers
+    /// start at zero) learn what the linear model misses. So the model starts where a PCA of the latent's size is
+    /// and training moves it from there.
+    #[serde(default)]
+    pub linear_skip: bool,
+    /// An observation model (`detail.kernel`, [`crate::detail`]): the residual field that samples add to the
+    /// decoder's mean, refitted at every checkpoint.
+    #[serde(default)]
+    pub detail: bool,
+    /// Channels of a full-resolution refiner (0: none): three 3 x 3 convs (1 -> c -> c -> 1, LeakyReLU between,
+    /// the last starting at zero) whose output is added to the decoded map, so it learns what sharpens the
+    /// smooth decoded relief (ridges, valleys) from the map itself, the same everywhere on it.
+    #[serde(default)]
+    pub refiner: usize,
 }
 
 impl Default for Config {
@@ -35,6 +50,9 @@ impl Default for Config {
             channels: vec![8, 16, 32, 64, 64],
             latent: 64,
             decoder: DecoderKind::Upsample,
+            linear_skip: false,
+            detail: false,
+            refiner: 0,
         }
     }
 }
@@ -87,6 +105,17 @@ pub struct Swae {
     dec_fc: Linear,
     dec_bn0: BatchNorm,
     dec_stages: Vec<(Stage, Option<BatchNorm>)>,
+    /// `(enc.lin, dec.lin)` when [`Config::linear_skip`].
+    skip: Option<(Linear, Linear)>,
+    /// `detail.kernel` when [`Config::detail`].
+    detail: Option<candle_core::Tensor>,
+    /// `ref.conv0..2` when [`Config::refiner`] > 0.
+    refiner: Vec<Conv2d>,
+}
+
+/// Variables training leaves alone: the linear skip (set from a PCA) and the detail kernel (fitted, not trained).
+pub fn is_frozen(name: &str) -> bool {
+    name.starts_with("enc.lin.") || name.starts_with("dec.lin.") || name.starts_with("detail.")
 }
 
 impl Swae {
@@ -97,6 +126,12 @@ impl Swae {
         let vb = VarBuilder::from_varmap(&varmap, DType::F32, &Device::Cpu);
         let model = Self::build(config, varmap.clone(), vb)?;
         model.reinit(rng)?;
+        if let Some(last) = model.refiner.last() {
+            // The refiner starts as the identity (its correction zero).
+            model
+                .var_of(last.weight())?
+                .set(&last.weight().zeros_like()?)?;
+        }
         Ok(model)
     }
 
@@ -107,6 +142,9 @@ impl Swae {
             channels: dec.encoder_channels(),
             latent: dec.latent(),
             decoder: dec.kind(),
+            linear_skip: dec.has_linear_skip(),
+            detail: dec.detail().is_some(),
+            refiner: dec.refiner_channels(),
         };
         config.validate()?;
         let mut varmap = VarMap::new();
@@ -171,7 +209,30 @@ impl Swae {
             dec_stages.push((stage, bn));
             cin = c;
         }
+        let d = CROP_PX * CROP_PX;
+        let skip = if config.linear_skip {
+            Some((
+                linear(d, config.latent, vb.pp("enc.lin"))?,
+                linear(config.latent, d, vb.pp("dec.lin"))?,
+            ))
+        } else {
+            None
+        };
+        let detail = if config.detail {
+            let side = crate::detail::SIDE;
+            Some(vb.get_with_hints((side, side), "detail.kernel", candle_nn::Init::Const(0.0))?)
+        } else {
+            None
+        };
+        let mut refiner = Vec::new();
+        if config.refiner > 0 {
+            let c = config.refiner;
+            for (i, (a, b)) in [(1, c), (c, c), (c, 1)].into_iter().enumerate() {
+                refiner.push(conv2d(a, b, 3, same, vb.pp(format!("ref.conv{i}")))?);
+            }
+        }
         Ok(Swae {
+            refiner,
             config,
             varmap,
             enc_convs,
@@ -179,6 +240,8 @@ impl Swae {
             dec_fc,
             dec_bn0,
             dec_stages,
+            skip,
+            detail,
         })
     }
 
@@ -194,7 +257,8 @@ impl Swae {
             }
             let var = &data[name];
             let dims = var.dims().to_vec();
-            if name.ends_with(".bias") {
+            // Frozen variables start at zero (set from data by `init_linear_skip` and `fit_detail`).
+            if name.ends_with(".bias") || is_frozen(name) {
                 var.set(&Tensor::zeros(dims.as_slice(), DType::F32, &Device::Cpu)?)?;
                 continue;
             }
@@ -220,7 +284,11 @@ impl Swae {
         for (conv, bn) in &self.enc_convs {
             h = candle_nn::ops::leaky_relu(&bn.forward_t(&conv.forward(&h)?, train)?, LEAKY)?;
         }
-        Ok(self.enc_fc.forward(&h.flatten_from(1)?)?)
+        let z = self.enc_fc.forward(&h.flatten_from(1)?)?;
+        Ok(match &self.skip {
+            Some((enc_lin, _)) => (z + enc_lin.forward(&x.flatten_from(1)?)?)?,
+            None => z,
+        })
     }
 
     /// `z`: `[B, latent]` -> `[B, 1, 128, 128]` in (-1, 1).
@@ -245,7 +313,112 @@ impl Swae {
                 None => h.tanh()?,
             };
         }
-        Ok(h)
+        let base = match &self.skip {
+            Some((_, dec_lin)) => (h + dec_lin.forward(z)?.reshape((b, 1, CROP_PX, CROP_PX))?)?,
+            None => h,
+        };
+        if self.refiner.is_empty() {
+            return Ok(base);
+        }
+        let mut r = base.clone();
+        for (i, conv) in self.refiner.iter().enumerate() {
+            r = conv3x3_same(&r, conv)?;
+            if i + 1 < self.refiner.len() {
+                r = candle_nn::ops::leaky_relu(&r, LEAKY)?;
+            }
+        }
+        Ok((base + r)?)
+    }
+
+    /// Sets the linear skip to the whitened PCA of `pca` (encoder: `z_i = u_i . (x - mean) / sqrt(var_i)`,
+    /// decoder: `mean + sum_i sqrt(var_i) z_i u_i`) and zeroes the conv paths' last layers (`enc.fc`, the last
+    /// decoder stage), so the model reconstructs exactly as the PCA does until training changes the conv paths.
+    pub fn init_linear_skip(&self, pca: &crate::eval::Pca) -> Result<(), SwaeError> {
+        let Some((enc_lin, dec_lin)) = &self.skip else {
+            return Err(SwaeError::param(
+                "linear_skip",
+                "this model has no linear skip",
+            ));
+        };
+        let (k, d) = (self.config.latent, CROP_PX * CROP_PX);
+        if pca.basis.len() != k {
+            return Err(SwaeError::param(
+                "linear_skip",
+                format!("PCA has {} components, the latent {k}", pca.basis.len()),
+            ));
+        }
+        let mut enc_w = vec![0f32; k * d];
+        let mut enc_b = vec![0f32; k];
+        let mut dec_w = vec![0f32; d * k];
+        for (i, (u, var)) in pca.basis.iter().zip(&pca.variance).enumerate() {
+            let s = var.sqrt().max(1e-9);
+            let mut b = 0.0;
+            for (j, (uj, mj)) in u.iter().zip(&pca.mean).enumerate() {
+                enc_w[i * d + j] = (uj / s) as f32;
+                b -= uj * mj / s;
+                dec_w[j * k + i] = (uj * s) as f32;
+            }
+            enc_b[i] = b as f32;
+        }
+        let dec_b: Vec<f32> = pca.mean.iter().map(|&m| m as f32).collect();
+        let cpu = &Device::Cpu;
+        let set = |t: &Tensor, v: Tensor| -> Result<(), SwaeError> {
+            let var = self.var_of(t)?;
+            var.set(&v)?;
+            Ok(())
+        };
+        set(enc_lin.weight(), Tensor::from_vec(enc_w, (k, d), cpu)?)?;
+        set(
+            enc_lin.bias().expect("linear has a bias"),
+            Tensor::from_vec(enc_b, k, cpu)?,
+        )?;
+        set(dec_lin.weight(), Tensor::from_vec(dec_w, (d, k), cpu)?)?;
+        set(
+            dec_lin.bias().expect("linear has a bias"),
+            Tensor::from_vec(dec_b, d, cpu)?,
+        )?;
+        let zero = |t: &Tensor| set(t, Tensor::zeros(t.dims(), DType::F32, cpu)?);
+        zero(self.enc_fc.weight())?;
+        zero(self.enc_fc.bias().expect("linear has a bias"))?;
+        let (last, _) = self.dec_stages.last().expect("validated");
+        let conv = match last {
+            Stage::Deconv(c) => (c.weight(), c.bias()),
+            Stage::Upsample(c) => (c.weight(), c.bias()),
+        };
+        zero(conv.0)?;
+        if let Some(b) = conv.1 {
+            zero(b)?;
+        }
+        Ok(())
+    }
+
+    /// The detail kernel, if the model has one.
+    pub fn detail_kernel(&self) -> Option<&Tensor> {
+        self.detail.as_ref()
+    }
+
+    /// Sets the detail kernel (`SIDE x SIDE`).
+    pub fn set_detail(&self, detail: &crate::detail::Detail) -> Result<(), SwaeError> {
+        let Some(t) = &self.detail else {
+            return Err(SwaeError::param(
+                "detail",
+                "this model has no detail kernel",
+            ));
+        };
+        let side = crate::detail::SIDE;
+        let v: Vec<f32> = detail.kernel.iter().map(|&k| k as f32).collect();
+        self.var_of(t)?
+            .set(&Tensor::from_vec(v, (side, side), &Device::Cpu)?)?;
+        Ok(())
+    }
+
+    /// The variable of `varmap` behind a layer's tensor (same storage).
+    fn var_of(&self, t: &Tensor) -> Result<candle_core::Var, SwaeError> {
+        let data = self.varmap.data().lock().expect("varmap lock");
+        data.values()
+            .find(|v| v.as_tensor().id() == t.id())
+            .cloned()
+            .ok_or_else(|| SwaeError::param("model", "a layer's tensor is not in the varmap"))
     }
 
     /// Saves every variable (weights and BatchNorm statistics) as safetensors.

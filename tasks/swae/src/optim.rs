@@ -25,12 +25,13 @@ pub struct Adam {
 }
 
 impl Adam {
-    /// Fresh state (zero moments) for the variables of `varmap` except scalars.
+    /// Fresh state (zero moments) for the variables of `varmap` except scalars and the frozen ones
+    /// ([`crate::model::is_frozen`]).
     pub fn new(varmap: &VarMap, lr: f64) -> Result<Adam, SwaeError> {
         let data = varmap.data().lock().expect("varmap lock");
         let mut names: Vec<String> = data
             .iter()
-            .filter(|(_, v)| !v.dims().is_empty())
+            .filter(|(n, v)| !v.dims().is_empty() && !crate::model::is_frozen(n))
             .map(|(n, _)| n.clone())
             .collect();
         names.sort();

@@ -1,7 +1,8 @@
 //! [`SwaeSource`]: heights of generated worlds from the trained decoder.
 //!
 //! For a world seed: z ~ N(0, I) from `ChaCha8Rng::seed_from_u64(seed)`, decoded by the plain-Rust
-//! [`Decoder`] to 128 x 128 values in (-1, 1); mapped like the original (`(x + 1) / 2`, i.e. gray / 255) and
+//! [`Decoder`] to 128 x 128 values (plus the observation model's residual field where the weights have one,
+//! clipped to [-1, 1]); mapped like the original (`(x + 1) / 2`, i.e. gray / 255) and
 //! resized bilinearly to 129 x 129 samples at 1 m (corner-aligned); heights = that value times
 //! [`FULL_SCALE_HEIGHT`] times the level's fraction (30 / 60 / 100 %). Image row 0 is the north edge.
 
@@ -85,9 +86,20 @@ impl SwaeSource {
             .collect()
     }
 
-    /// Decoded 129 x 129 map in [0, 1] (`(x + 1) / 2`), row 0 = north, before height scaling.
+    /// The generative model's 128 x 128 sample for a seed, in [-1, 1]: the latent code (as [`Self::latent`]),
+    /// decoded, plus the observation model's residual field drawn from the same stream after the code, where the
+    /// weights have one ([`Decoder::sample`]).
+    pub fn sample(&self, seed: u64) -> Result<Vec<f64>, SwaeError> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let z: Vec<f64> = (0..self.decoder.latent())
+            .map(|_| rng.sample(StandardNormal))
+            .collect();
+        self.decoder.sample(&z, &mut rng)
+    }
+
+    /// Sampled 129 x 129 map in [0, 1] (`(x + 1) / 2`), row 0 = north, before height scaling.
     pub fn unit_map(&self, seed: u64) -> Result<Vec<f64>, SwaeError> {
-        let d = self.decoder.decode(&self.latent(seed))?;
+        let d = self.sample(seed)?;
         Ok(resize_bilinear(&d, CROP_PX, MAP_PX)
             .into_iter()
             .map(|v| (v + 1.0) * 0.5)

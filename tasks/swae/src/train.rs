@@ -39,6 +39,10 @@ pub struct TrainOptions {
     /// Stop after the epoch during which this many seconds have passed (0: no limit).
     #[serde(skip)]
     pub max_seconds: f64,
+    /// Random dihedral augmentation of the training crops (v1, v2). A linear-skip model is set from the PCA of
+    /// the crops as they are, which is not invariant under rotation, so it trains without.
+    #[serde(default = "yes")]
+    pub augment: bool,
     /// Stop after this many batches per epoch (0: all); for smoke tests.
     #[serde(default)]
     pub max_batches: usize,
@@ -57,10 +61,15 @@ impl Default for TrainOptions {
             lr: 2e-3,
             seed: 1,
             max_seconds: 0.0,
+            augment: true,
             max_batches: 0,
             session_epochs: 0,
         }
     }
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// What a checkpoint needs to go on: written to `X.state.json` after every epoch.
@@ -127,6 +136,9 @@ pub fn train(
     check(train, opts)?;
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
     let model = Swae::new(opts.config.clone(), &mut rng)?;
+    if opts.config.linear_skip {
+        model.init_linear_skip(&crate::eval::Pca::fit(train, opts.config.latent)?)?;
+    }
     let adam = Adam::new(&model.varmap, opts.lr)?;
     if let Some(out) = out {
         let log = sidecar(out, "train.log");
@@ -247,7 +259,11 @@ fn run(
             }
             let aug: Vec<Vec<f32>> = chunk
                 .iter()
-                .map(|&i| data::dihedral(&train[i].values, CROP_PX, rng.gen_range(0..8)))
+                .map(|&i| {
+                    // The draw is made either way, so the stream does not depend on the option.
+                    let k = rng.gen_range(0..8);
+                    data::dihedral(&train[i].values, CROP_PX, if opts.augment { k } else { 0 })
+                })
                 .collect();
             let refs: Vec<&[f32]> = aug.iter().map(|v| v.as_slice()).collect();
             let x = model::batch(&refs)?;
@@ -282,6 +298,9 @@ fn run(
             },
             seconds,
         };
+        if model.detail_kernel().is_some() {
+            fit_detail(&model, train)?;
+        }
         if let Some(out) = out {
             checkpoint(out, &model, &adam, &rng, opts, epoch, seconds, &log)?;
         }
@@ -353,6 +372,29 @@ pub fn reconstruct(model: &Swae, crops: &[Crop]) -> Result<Vec<Vec<f32>>, SwaeEr
         }
     }
     Ok(out)
+}
+
+/// Training crops whose residuals the observation model is fitted on (the first ones in file order).
+pub const DETAIL_CROPS: usize = 300;
+
+/// Fits the model's observation model ([`crate::detail`]) to the residuals of its reconstructions of the first
+/// [`DETAIL_CROPS`] training crops.
+pub fn fit_detail(model: &Swae, train: &[Crop]) -> Result<crate::detail::Detail, SwaeError> {
+    let crops = &train[..train.len().min(DETAIL_CROPS)];
+    let residuals: Vec<Vec<f64>> = reconstruct(model, crops)?
+        .iter()
+        .zip(crops)
+        .map(|(r, c)| {
+            c.values
+                .iter()
+                .zip(r)
+                .map(|(x, y)| (x - y) as f64)
+                .collect()
+        })
+        .collect();
+    let detail = crate::detail::Detail::fit(&residuals);
+    model.set_detail(&detail)?;
+    Ok(detail)
 }
 
 /// Root-mean-square reconstruction error over crops, normalised units.

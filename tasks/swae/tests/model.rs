@@ -16,6 +16,9 @@ fn small() -> Config {
         channels: vec![4, 6, 6, 12, 12],
         latent: 8,
         decoder: DecoderKind::Upsample,
+        linear_skip: false,
+        detail: false,
+        refiner: 0,
     }
 }
 
@@ -87,16 +90,20 @@ fn max_diff(a: &[f64], b: &[f64]) -> f64 {
 #[test]
 fn plain_rust_decoder_matches_candle_after_some_training() {
     for kind in [DecoderKind::Upsample, DecoderKind::Deconv] {
-        decoders_agree(kind);
+        decoders_agree(kind, false);
     }
+    decoders_agree(DecoderKind::Upsample, true);
 }
 
-fn decoders_agree(kind: DecoderKind) {
+fn decoders_agree(kind: DecoderKind, skip: bool) {
     // Train briefly so that BatchNorm statistics and weights are not at their initial values.
     let crops = synthetic(16, 1);
     let opts = TrainOptions {
         config: Config {
             decoder: kind,
+            linear_skip: skip,
+            detail: skip,
+            refiner: if skip { 4 } else { 0 },
             ..small()
         },
         epochs: 2,
@@ -104,11 +111,37 @@ fn decoders_agree(kind: DecoderKind) {
         ..Default::default()
     };
     let (model, _) = train(&crops, &[], &opts, None, |_| {}).unwrap();
-    let path = tmp(&format!("equiv-{kind:?}.safetensors"));
+    let path = tmp(&format!("equiv-{kind:?}-{skip}.safetensors"));
     model.save(&path).unwrap();
     let dec = Decoder::load(&path).unwrap();
     assert_eq!(dec.latent(), 8);
     assert_eq!(dec.kind(), kind);
+    assert_eq!(dec.has_linear_skip(), skip);
+    assert_eq!(dec.detail().is_some(), skip);
+    assert_eq!(dec.refiner_channels(), if skip { 4 } else { 0 });
+    if let Some(d) = dec.detail() {
+        // Fitted at the checkpoint: the residual field has the residuals' variance (not the zero it starts at).
+        assert!(d.std() > 1e-3, "detail std {}", d.std());
+        // A sample is the mean plus a field drawn from the stream: a pure function of the stream, in [-1, 1].
+        let z: Vec<f64> = (0..8).map(|i| 0.3 * i as f64 - 1.0).collect();
+        let a = dec.sample(&z, &mut ChaCha8Rng::seed_from_u64(9)).unwrap();
+        let b = dec.sample(&z, &mut ChaCha8Rng::seed_from_u64(9)).unwrap();
+        assert_eq!(a, b);
+        assert!(a.iter().all(|v| (-1.0..=1.0).contains(v)));
+        let mean = dec.decode(&z).unwrap();
+        let spread = (a
+            .iter()
+            .zip(&mean)
+            .map(|(x, m)| (x - m).powi(2))
+            .sum::<f64>()
+            / a.len() as f64)
+            .sqrt();
+        assert!(
+            spread > 0.3 * d.std(),
+            "sample - mean rms {spread}, field std {}",
+            d.std()
+        );
+    }
     assert_eq!(dec.encoder_channels(), vec![4, 6, 6, 12, 12]);
     let reloaded = Swae::load(&path).unwrap();
     assert_eq!(reloaded.config, opts.config);
@@ -123,6 +156,31 @@ fn decoders_agree(kind: DecoderKind) {
         assert!(d < 1e-4, "plain vs reloaded candle: max difference {d}");
     }
     std::fs::remove_file(&path).unwrap();
+}
+
+/// A model with a linear skip starts as the PCA it is set from: its reconstructions equal the PCA's (the conv
+/// paths' last layers are zero), so training starts from the PCA's error.
+#[test]
+fn a_linear_skip_model_starts_as_its_pca() {
+    let crops = synthetic(24, 5);
+    let config = Config {
+        linear_skip: true,
+        ..small()
+    };
+    let model = Swae::new(config, &mut ChaCha8Rng::seed_from_u64(1)).unwrap();
+    let pca = swae::eval::Pca::fit(&crops, 8).unwrap();
+    model.init_linear_skip(&pca).unwrap();
+    let held_out = synthetic(4, 6);
+    let rec = swae::train::reconstruct(&model, &held_out).unwrap();
+    for (c, r) in held_out.iter().zip(&rec) {
+        let p = pca.reconstruct(&c.values);
+        let r: Vec<f64> = r.iter().map(|&v| v as f64).collect();
+        let d = max_diff(&r, &p);
+        assert!(d < 1e-4, "skip model vs PCA: max difference {d}");
+    }
+    // And a model without the skip refuses to be set from a PCA.
+    let plain = Swae::new(small(), &mut ChaCha8Rng::seed_from_u64(1)).unwrap();
+    assert!(plain.init_linear_skip(&pca).is_err());
 }
 
 #[test]

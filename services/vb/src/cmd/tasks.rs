@@ -34,6 +34,10 @@ pub enum TasksCmd {
         /// SWAE weights file instead of the committed one (only with `--generator swae`).
         #[arg(long)]
         weights: Option<PathBuf>,
+        /// Height, m, of a decoded +1 at the high level for `--generator swae` (default: the committed weights'
+        /// calibrated value; `vb terrain calibrate --weights W` derives it for other weights).
+        #[arg(long)]
+        full_scale: Option<f64>,
         /// Surface counterfactual: every world keeps its heights, obstacles, tasks and paths but gets ground of this
         /// semantics kind (`rigid`, `mixed` or `deformable`). Evaluating a planner on the three counterfactuals
         /// pairs each task with itself on the three kinds (`vb compare`); the set gets its own version.
@@ -91,17 +95,26 @@ pub fn run(cmd: TasksCmd) -> anyhow::Result<()> {
             seed,
             generator,
             weights,
+            full_scale,
             surface,
         } => {
+            anyhow::ensure!(
+                full_scale.is_none() || generator == Generator::Swae,
+                "--full-scale only applies to --generator swae"
+            );
             anyhow::ensure!(
                 surface.is_none() || !same_dir(&out, &TaskSet::default_dir()),
                 "--surface makes a counterfactual, never the benchmark's committed set: give another --out DIR"
             );
             let source: Box<dyn tasks::generate::HeightSource> = match (generator, weights) {
-                (Generator::Swae, None) => Box::new(swae::SwaeSource::committed()?),
+                (Generator::Swae, None) => Box::new(swae::SwaeSource::from_bytes(
+                    swae::source::DEFAULT_WEIGHTS,
+                    std::path::Path::new(swae::source::DEFAULT_WEIGHTS_PATH),
+                    full_scale.unwrap_or(swae::source::FULL_SCALE_HEIGHT),
+                )?),
                 (Generator::Swae, Some(w)) => Box::new(swae::SwaeSource::from_file(
                     &w,
-                    swae::source::FULL_SCALE_HEIGHT,
+                    full_scale.unwrap_or(swae::source::FULL_SCALE_HEIGHT),
                 )?),
                 (Generator::Interim, None) => Box::new(tasks::interim::BandedSource),
                 (Generator::InterimV1, None) => Box::new(tasks::interim::SpectralSource::default()),

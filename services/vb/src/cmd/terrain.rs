@@ -32,6 +32,16 @@ pub enum TerrainCmd {
         /// Decoder stages: `upsample` (nearest x2, then a 3 x 3 conv) or `deconv` (transposed conv, the v1 model).
         #[arg(long, default_value = "upsample")]
         decoder: swae::decoder::DecoderKind,
+        /// A linear path set to the training crops' whitened PCA and frozen, beside the conv paths (which start
+        /// at zero): the model starts at the PCA's reconstruction error.
+        #[arg(long)]
+        linear_skip: bool,
+        /// An observation model: the residual field samples add to the decoder's mean, refitted every epoch.
+        #[arg(long)]
+        detail: bool,
+        /// Channels of a full-resolution 3-conv refiner added to the decoded map (0: none).
+        #[arg(long, default_value_t = 0)]
+        refiner: usize,
         /// Weight of the sliced-Wasserstein term.
         #[arg(long, default_value_t = 1.0)]
         sw_weight: f64,
@@ -46,6 +56,9 @@ pub enum TerrainCmd {
         slope_weight: Option<f64>,
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Train on the crops as they are, without random rotations and mirrors.
+        #[arg(long)]
+        no_augment: bool,
         /// Stop after the epoch in which this many minutes have passed (0: no limit).
         #[arg(long, default_value_t = 0.0)]
         max_minutes: f64,
@@ -124,11 +137,15 @@ pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
             channels,
             latent,
             decoder,
+            linear_skip,
+            detail,
+            refiner,
             sw_weight,
             gradient_weight,
             laplacian_weight,
             slope_weight,
             seed,
+            no_augment,
             max_minutes,
             max_batches,
         } => {
@@ -149,6 +166,9 @@ pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
                         channels,
                         latent,
                         decoder,
+                        linear_skip,
+                        detail,
+                        refiner,
                     },
                     loss: {
                         let d = swae::loss::LossWeights::DEFAULT;
@@ -163,6 +183,7 @@ pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
                     batch,
                     lr,
                     seed,
+                    augment: !no_augment,
                     max_seconds: max_minutes * 60.0,
                     max_batches,
                     epochs: epochs.unwrap_or(defaults.epochs),
