@@ -383,7 +383,7 @@ impl Decoder {
                 for (oc, plane) in out.chunks_mut(CROP_PX * CROP_PX).enumerate() {
                     plane.fill(b[oc]);
                 }
-                conv3x3_same(&r, CROP_PX, *cin, *cout, w, &mut out);
+                conv3x3(&r, CROP_PX, 1, *cin, *cout, w, &mut out);
                 if i + 1 < self.refiner.len() {
                     out.iter_mut().for_each(|v| {
                         if *v < 0.0 {
@@ -429,15 +429,21 @@ fn transposed_conv(h: &[f64], side: usize, d: &Stage, out: &mut [f64]) {
     }
 }
 
-/// Nearest-neighbour x2 upsampling, then a 3 x 3 cross-correlation with zero padding 1: output (oy, ox) adds
-/// `w[oc, ic, ky, kx] * u(oy + ky - 1, ox + kx - 1)` with `u(y, x) = h(y / 2, x / 2)`.
+/// Nearest-neighbour x2 upsampling, then a 3 x 3 cross-correlation with zero padding 1 ([`conv3x3`] with `up` 2).
 fn upsample_conv(h: &[f64], side: usize, d: &Stage, out: &mut [f64]) {
-    let out_side = 2 * side;
-    for oc in 0..d.cout {
+    conv3x3(h, side, 2, d.cin, d.cout, &d.weight, out);
+}
+
+/// A 3 x 3 cross-correlation with zero padding 1 on the `side x side` input planes upsampled `up`-fold by nearest
+/// neighbour (`up` 1: none): output (oc, oy, ox) adds `w[oc, ic, ky, kx] * u(ic, oy + ky - 1, ox + kx - 1)` with
+/// `u(ic, y, x) = h(ic, y / up, x / up)`.
+fn conv3x3(h: &[f64], side: usize, up: usize, cin: usize, cout: usize, w: &[f64], out: &mut [f64]) {
+    let out_side = up * side;
+    for oc in 0..cout {
         let dst = &mut out[oc * out_side * out_side..(oc + 1) * out_side * out_side];
-        for ic in 0..d.cin {
+        for ic in 0..cin {
             let plane = &h[ic * side * side..(ic + 1) * side * side];
-            let k = &d.weight[(oc * d.cin + ic) * 9..(oc * d.cin + ic + 1) * 9];
+            let k = &w[(oc * cin + ic) * 9..(oc * cin + ic + 1) * 9];
             for oy in 0..out_side {
                 let drow = &mut dst[oy * out_side..(oy + 1) * out_side];
                 for ky in 0..3 {
@@ -445,42 +451,12 @@ fn upsample_conv(h: &[f64], side: usize, d: &Stage, out: &mut [f64]) {
                     if uy < 0 || uy >= out_side as isize {
                         continue;
                     }
-                    let srow = &plane[(uy as usize / 2) * side..(uy as usize / 2 + 1) * side];
+                    let srow = &plane[(uy as usize / up) * side..(uy as usize / up + 1) * side];
                     for (ox, o) in drow.iter_mut().enumerate() {
                         for kx in 0..3 {
                             let ux = ox as isize + kx as isize - 1;
                             if ux >= 0 && ux < out_side as isize {
-                                *o += k[ky * 3 + kx] * srow[ux as usize / 2];
-                            }
-                        }
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// A 3 x 3 cross-correlation with zero padding 1 on `side x side` planes: output (oc, y, x) adds
-/// `w[oc, ic, ky, kx] * h(ic, y + ky - 1, x + kx - 1)`.
-fn conv3x3_same(h: &[f64], side: usize, cin: usize, cout: usize, w: &[f64], out: &mut [f64]) {
-    for oc in 0..cout {
-        let dst = &mut out[oc * side * side..(oc + 1) * side * side];
-        for ic in 0..cin {
-            let plane = &h[ic * side * side..(ic + 1) * side * side];
-            let k = &w[(oc * cin + ic) * 9..(oc * cin + ic + 1) * 9];
-            for y in 0..side {
-                let drow = &mut dst[y * side..(y + 1) * side];
-                for ky in 0..3 {
-                    let sy = y as isize + ky as isize - 1;
-                    if sy < 0 || sy >= side as isize {
-                        continue;
-                    }
-                    let srow = &plane[sy as usize * side..(sy as usize + 1) * side];
-                    for (x, o) in drow.iter_mut().enumerate() {
-                        for kx in 0..3 {
-                            let sx = x as isize + kx as isize - 1;
-                            if sx >= 0 && sx < side as isize {
-                                *o += k[ky * 3 + kx] * srow[sx as usize];
+                                *o += k[ky * 3 + kx] * srow[ux as usize / up];
                             }
                         }
                     }

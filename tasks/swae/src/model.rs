@@ -113,9 +113,25 @@ pub struct Swae {
     refiner: Vec<Conv2d>,
 }
 
-/// Variables training leaves alone: the linear skip (set from a PCA) and the detail kernel (fitted, not trained).
-pub fn is_frozen(name: &str) -> bool {
+/// Variables set from data rather than trained: the linear skip (from a PCA) and the detail kernel (fitted).
+pub fn is_fitted(name: &str) -> bool {
     name.starts_with("enc.lin.") || name.starts_with("dec.lin.") || name.starts_with("detail.")
+}
+
+/// Variables of the convolutional encoder and decoder paths (everything but the linear skip, the refiner and the
+/// detail kernel).
+pub fn is_conv_path(name: &str) -> bool {
+    [
+        "enc.conv",
+        "enc.bn",
+        "enc.fc",
+        "dec.fc",
+        "dec.bn",
+        "dec.up",
+        "dec.deconv",
+    ]
+    .iter()
+    .any(|p| name.starts_with(p))
 }
 
 impl Swae {
@@ -258,7 +274,7 @@ impl Swae {
             let var = &data[name];
             let dims = var.dims().to_vec();
             // Frozen variables start at zero (set from data by `init_linear_skip` and `fit_detail`).
-            if name.ends_with(".bias") || is_frozen(name) {
+            if name.ends_with(".bias") || is_fitted(name) {
                 var.set(&Tensor::zeros(dims.as_slice(), DType::F32, &Device::Cpu)?)?;
                 continue;
             }

@@ -25,13 +25,12 @@ pub struct Adam {
 }
 
 impl Adam {
-    /// Fresh state (zero moments) for the variables of `varmap` except scalars and the frozen ones
-    /// ([`crate::model::is_frozen`]).
-    pub fn new(varmap: &VarMap, lr: f64) -> Result<Adam, SwaeError> {
+    /// Fresh state (zero moments) for the variables of `varmap` except scalars and those `frozen` names.
+    pub fn new(varmap: &VarMap, lr: f64, frozen: impl Fn(&str) -> bool) -> Result<Adam, SwaeError> {
         let data = varmap.data().lock().expect("varmap lock");
         let mut names: Vec<String> = data
             .iter()
-            .filter(|(n, v)| !v.dims().is_empty() && !crate::model::is_frozen(n))
+            .filter(|(n, v)| !v.dims().is_empty() && !frozen(n))
             .map(|(n, _)| n.clone())
             .collect();
         names.sort();

@@ -43,6 +43,10 @@ pub struct TrainOptions {
     /// the crops as they are, which is not invariant under rotation, so it trains without.
     #[serde(default = "yes")]
     pub augment: bool,
+    /// Train only the refiner: the conv encoder and decoder paths stay at their start (a linear-skip model's
+    /// conv paths start with zero output), so the model is its PCA plus the refiner. Needs `linear_skip`.
+    #[serde(default)]
+    pub freeze_conv: bool,
     /// Stop after this many batches per epoch (0: all); for smoke tests.
     #[serde(default)]
     pub max_batches: usize,
@@ -62,6 +66,7 @@ impl Default for TrainOptions {
             seed: 1,
             max_seconds: 0.0,
             augment: true,
+            freeze_conv: false,
             max_batches: 0,
             session_epochs: 0,
         }
@@ -70,6 +75,14 @@ impl Default for TrainOptions {
 
 fn yes() -> bool {
     true
+}
+
+impl TrainOptions {
+    /// Whether training leaves the variable `name` alone: the fitted ones always, the conv paths when
+    /// [`TrainOptions::freeze_conv`].
+    pub fn is_frozen(&self, name: &str) -> bool {
+        model::is_fitted(name) || (self.freeze_conv && model::is_conv_path(name))
+    }
 }
 
 /// What a checkpoint needs to go on: written to `X.state.json` after every epoch.
@@ -139,7 +152,7 @@ pub fn train(
     if opts.config.linear_skip {
         model.init_linear_skip(&crate::eval::Pca::fit(train, opts.config.latent)?)?;
     }
-    let adam = Adam::new(&model.varmap, opts.lr)?;
+    let adam = Adam::new(&model.varmap, opts.lr, |n| opts.is_frozen(n))?;
     if let Some(out) = out {
         let log = sidecar(out, "train.log");
         if let Some(dir) = log.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -196,7 +209,7 @@ pub fn resume(
             ),
         });
     }
-    let mut adam = Adam::new(&model.varmap, opts.lr)?;
+    let mut adam = Adam::new(&model.varmap, opts.lr, |n| opts.is_frozen(n))?;
     adam.load(&sidecar(out, "optim.safetensors"), state.adam_step)?;
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
     let pos: u128 = state.rng_word_pos.parse().map_err(|_| SwaeError::Data {
@@ -221,6 +234,12 @@ pub fn resume(
 fn check(train: &[Crop], opts: &TrainOptions) -> Result<(), SwaeError> {
     if train.is_empty() {
         return Err(SwaeError::param("data", "no training crops"));
+    }
+    if opts.freeze_conv && !opts.config.linear_skip {
+        return Err(SwaeError::param(
+            "freeze_conv",
+            "a model without a linear skip would learn nothing but its refiner on a zero map: add linear_skip",
+        ));
     }
     if opts.batch < 2 {
         return Err(SwaeError::param("batch", "need at least 2 (BatchNorm)"));

@@ -121,3 +121,48 @@ fn learned_from_the_release_crops() {
         "SWAE {rmse} vs mean crop {mean_rmse}"
     );
 }
+
+/// The v3 checkpoint (linear skip set from the PCA, refiner, observation model) on the release's crops: its
+/// held-out reconstruction RMSE is no worse than the 64-component PCA's (measured 0.0840 vs 0.0841; the refiner's
+/// gain is that small), and its samples' per-map slope p95 and roughness are within 20% of the training crops'
+/// (measured +0.1% and +6.8%; `vb terrain eval`, BENCHMARKS.md). The mean slope, 20.4% high, is not asserted.
+#[test]
+fn the_v3_checkpoint_matches_the_pca_and_the_crops_roughness() {
+    let Some(dir) = std::env::var_os("VB_RELEASE_DIR") else {
+        eprintln!("SKIPPED: VB_RELEASE_DIR is not set, so the v3 SWAE was not checked on the release's crops");
+        return;
+    };
+    let data = Path::new(&dir).join("BenchMaps/elev_maps");
+    let (train, val) = swae::train::load_split(&data).unwrap();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("weights/swae-v3.safetensors");
+    let model = swae::model::Swae::load(&path).unwrap();
+    let rmse = swae::train::reconstruction_rmse(&model, &val).unwrap();
+    let pca = swae::eval::Pca::fit(&train, 64).unwrap();
+    let pca_pred: Vec<Vec<f64>> = val.iter().map(|c| pca.reconstruct(&c.values)).collect();
+    let (pca_rmse, _) = swae::eval::errors(&val, &pca_pred);
+    assert!(rmse <= pca_rmse, "v3 {rmse} vs PCA {pca_rmse}");
+    let fs = swae::source::FULL_SCALE_HEIGHT;
+    let source = swae::SwaeSource::from_file(&path, fs).unwrap();
+    let samples = swae::eval::samples(&source, 100).unwrap();
+    let train_maps: Vec<Vec<f64>> = train
+        .iter()
+        .map(|c| c.values.iter().map(|&v| v as f64).collect())
+        .collect();
+    let (s, t) = (
+        swae::eval::MapSet::new("samples", &samples, fs),
+        swae::eval::MapSet::new("training", &train_maps, fs),
+    );
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    for (name, a, b) in [
+        ("slope p95 per map", &s.slope_p95, &t.slope_p95),
+        ("roughness", &s.roughness, &t.roughness),
+    ] {
+        let r = mean(a) / mean(b) - 1.0;
+        assert!(
+            r.abs() < 0.2,
+            "{name}: samples {:.3} vs crops {:.3}",
+            mean(a),
+            mean(b)
+        );
+    }
+}

@@ -183,6 +183,66 @@ fn a_linear_skip_model_starts_as_its_pca() {
     assert!(plain.init_linear_skip(&pca).is_err());
 }
 
+/// `freeze_conv` trains the refiner alone: the conv paths' weights are those the model started with, the
+/// refiner's have moved; without a linear skip the option is refused with the reason.
+#[test]
+fn freezing_the_conv_paths_trains_only_the_refiner() {
+    let crops = synthetic(16, 7);
+    let config = Config {
+        linear_skip: true,
+        refiner: 4,
+        ..small()
+    };
+    let opts = TrainOptions {
+        config: config.clone(),
+        freeze_conv: true,
+        epochs: 1,
+        batch: 8,
+        ..Default::default()
+    };
+    let (model, _) = train(&crops, &[], &opts, None, |_| {}).unwrap();
+    let start = Swae::new(config.clone(), &mut ChaCha8Rng::seed_from_u64(opts.seed)).unwrap();
+    start
+        .init_linear_skip(&swae::eval::Pca::fit(&crops, 8).unwrap())
+        .unwrap();
+    let values = |m: &Swae, name: &str| -> Vec<f32> {
+        m.varmap.data().lock().unwrap()[name]
+            .as_tensor()
+            .flatten_all()
+            .unwrap()
+            .to_vec1()
+            .unwrap()
+    };
+    for name in [
+        "enc.conv0.weight",
+        "enc.fc.weight",
+        "dec.fc.weight",
+        "dec.up4.weight",
+    ] {
+        assert_eq!(values(&model, name), values(&start, name), "{name} moved");
+    }
+    assert_ne!(
+        values(&model, "ref.conv2.weight"),
+        values(&start, "ref.conv2.weight"),
+        "the refiner did not train"
+    );
+    let err = train(
+        &crops,
+        &[],
+        &TrainOptions {
+            config: small(),
+            freeze_conv: true,
+            ..opts
+        },
+        None,
+        |_| {},
+    )
+    .err()
+    .expect("freeze_conv without a linear skip refused")
+    .to_string();
+    assert!(err.contains("linear_skip"), "{err}");
+}
+
 #[test]
 fn committed_weights_decode_like_candle() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("weights/swae-v1.safetensors");

@@ -59,6 +59,9 @@ pub enum TerrainCmd {
         /// Train on the crops as they are, without random rotations and mirrors.
         #[arg(long)]
         no_augment: bool,
+        /// Train only the refiner (needs --linear-skip): the conv paths keep their zero start.
+        #[arg(long)]
+        freeze_conv: bool,
         /// Stop after the epoch in which this many minutes have passed (0: no limit).
         #[arg(long, default_value_t = 0.0)]
         max_minutes: f64,
@@ -146,6 +149,7 @@ pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
             slope_weight,
             seed,
             no_augment,
+            freeze_conv,
             max_minutes,
             max_batches,
         } => {
@@ -184,6 +188,7 @@ pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
                     lr,
                     seed,
                     augment: !no_augment,
+                    freeze_conv,
                     max_seconds: max_minutes * 60.0,
                     max_batches,
                     epochs: epochs.unwrap_or(defaults.epochs),
