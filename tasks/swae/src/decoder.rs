@@ -240,9 +240,31 @@ impl Decoder {
                     s = detail::SIDE
                 )))
             }
-            Some(k) => Some(Detail {
-                kernel: k.data.clone(),
-            }),
+            Some(k) => {
+                // The marginal transform: absent (files before it) or all zero (never fitted) means none.
+                let marginal = match t.get("detail.marginal") {
+                    Some(m) if m.shape != [2, detail::KNOTS] => {
+                        return Err(bad(format!(
+                            "tensor `detail.marginal` has shape {:?}, expected [2, {}]",
+                            m.shape,
+                            detail::KNOTS
+                        )))
+                    }
+                    Some(m) if m.data.iter().any(|&v| v != 0.0) => {
+                        if m.data[..detail::KNOTS].windows(2).any(|w| w[1] < w[0])
+                            || m.data[detail::KNOTS..].windows(2).any(|w| w[1] < w[0])
+                        {
+                            return Err(bad("`detail.marginal` knots are not increasing".into()));
+                        }
+                        m.data.clone()
+                    }
+                    _ => Vec::new(),
+                };
+                Some(Detail {
+                    kernel: k.data.clone(),
+                    marginal,
+                })
+            }
             None => None,
         };
         let mut refiner = Vec::new();

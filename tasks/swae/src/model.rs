@@ -107,8 +107,8 @@ pub struct Swae {
     dec_stages: Vec<(Stage, Option<BatchNorm>)>,
     /// `(enc.lin, dec.lin)` when [`Config::linear_skip`].
     skip: Option<(Linear, Linear)>,
-    /// `detail.kernel` when [`Config::detail`].
-    detail: Option<candle_core::Tensor>,
+    /// `detail.kernel` and `detail.marginal` when [`Config::detail`].
+    detail: Option<(Tensor, Tensor)>,
     /// `ref.conv0..2` when [`Config::refiner`] > 0.
     refiner: Vec<Conv2d>,
 }
@@ -163,13 +163,30 @@ impl Swae {
             refiner: dec.refiner_channels(),
         };
         config.validate()?;
-        let mut varmap = VarMap::new();
+        let varmap = VarMap::new();
         let vb = VarBuilder::from_varmap(&varmap, DType::F32, &Device::Cpu);
         let model = Self::build(config, varmap.clone(), vb)?;
-        varmap.load(path).map_err(|e| SwaeError::Weights {
+        // As `VarMap::load`, except that `detail.marginal` may be missing (files written before it: no transform).
+        let bad = |message: String| SwaeError::Weights {
             path: path.into(),
-            message: e.to_string(),
-        })?;
+            message,
+        };
+        let file =
+            candle_core::safetensors::load(path, &Device::Cpu).map_err(|e| bad(e.to_string()))?;
+        for (name, var) in varmap.data().lock().expect("varmap lock").iter() {
+            match file.get(name) {
+                Some(t) if t.dims() == var.dims() => var.set(&t.to_dtype(DType::F32)?)?,
+                Some(t) => {
+                    return Err(bad(format!(
+                        "tensor `{name}` has shape {:?}, the model {:?}",
+                        t.dims(),
+                        var.dims()
+                    )))
+                }
+                None if name == "detail.marginal" => {}
+                None => return Err(bad(format!("missing tensor `{name}`"))),
+            }
+        }
         Ok(model)
     }
 
@@ -236,7 +253,11 @@ impl Swae {
         };
         let detail = if config.detail {
             let side = crate::detail::SIDE;
-            Some(vb.get_with_hints((side, side), "detail.kernel", candle_nn::Init::Const(0.0))?)
+            let zero = candle_nn::Init::Const(0.0);
+            Some((
+                vb.get_with_hints((side, side), "detail.kernel", zero)?,
+                vb.get_with_hints((2, crate::detail::KNOTS), "detail.marginal", zero)?,
+            ))
         } else {
             None
         };
@@ -410,21 +431,31 @@ impl Swae {
 
     /// The detail kernel, if the model has one.
     pub fn detail_kernel(&self) -> Option<&Tensor> {
-        self.detail.as_ref()
+        self.detail.as_ref().map(|d| &d.0)
     }
 
     /// Sets the detail kernel (`SIDE x SIDE`).
     pub fn set_detail(&self, detail: &crate::detail::Detail) -> Result<(), SwaeError> {
-        let Some(t) = &self.detail else {
+        let Some((kernel, marginal)) = &self.detail else {
             return Err(SwaeError::param(
                 "detail",
                 "this model has no detail kernel",
             ));
         };
-        let side = crate::detail::SIDE;
-        let v: Vec<f32> = detail.kernel.iter().map(|&k| k as f32).collect();
-        self.var_of(t)?
-            .set(&Tensor::from_vec(v, (side, side), &Device::Cpu)?)?;
+        let (side, knots) = (crate::detail::SIDE, crate::detail::KNOTS);
+        let f32s = |v: &[f64]| v.iter().map(|&k| k as f32).collect::<Vec<f32>>();
+        self.var_of(kernel)?.set(&Tensor::from_vec(
+            f32s(&detail.kernel),
+            (side, side),
+            &Device::Cpu,
+        )?)?;
+        let m = if detail.marginal.len() == 2 * knots {
+            f32s(&detail.marginal)
+        } else {
+            vec![0.0; 2 * knots]
+        };
+        self.var_of(marginal)?
+            .set(&Tensor::from_vec(m, (2, knots), &Device::Cpu)?)?;
         Ok(())
     }
 

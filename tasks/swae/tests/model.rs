@@ -141,6 +141,24 @@ fn decoders_agree(kind: DecoderKind, skip: bool) {
             "sample - mean rms {spread}, field std {}",
             d.std()
         );
+        assert_eq!(
+            d.marginal.len(),
+            2 * swae::detail::KNOTS,
+            "the marginal transform was fitted"
+        );
+        // A file written before the marginal transform (no `detail.marginal`) still loads, without a transform.
+        let mut tensors = candle_core::safetensors::load(&path, &Device::Cpu).unwrap();
+        assert!(tensors.remove("detail.marginal").is_some());
+        let old = tmp("before-marginal.safetensors");
+        candle_core::safetensors::save(&tensors, &old).unwrap();
+        assert!(Decoder::load(&old)
+            .unwrap()
+            .detail()
+            .unwrap()
+            .marginal
+            .is_empty());
+        assert_eq!(Swae::load(&old).unwrap().config, opts.config);
+        std::fs::remove_file(&old).unwrap();
     }
     assert_eq!(dec.encoder_channels(), vec![4, 6, 6, 12, 12]);
     let reloaded = Swae::load(&path).unwrap();
