@@ -6,10 +6,13 @@ Run: python3 -m venv /tmp/np && /tmp/np/bin/pip install numpy pillow &&
 Prints (1) the 32-px grid: mean |vertical| and |horizontal| difference per image row / column over all crops and
 the strongest periods of those profiles; (2) the radially averaged power by wavelength band; (3) the residual of
 a 64-component PCA (fitted on the first 900 crops, as `vb terrain eval` does on its 900 training crops) against
-the PCA mean's local slope, and the residual's |gradient| mean / rms ratio (0.886 for a Gaussian field); (4) the
+the PCA mean's local slope, the residual's |gradient| mean / rms ratio (0.886 for a Gaussian field) and its
+kurtosis (3 for a Gaussian); (4) the
 mean, p50 and p95 slope (degrees, 1 m pixels, 50.48 m for a normalised +1, as `vb terrain eval`) of crops and of
 PCA maps from training codes, Gaussian codes or codes with the training codes' marginals, with and without the
-true residual of another crop added: where the samples' excess mean slope comes from.
+true residual of another crop added, or a Gaussian texture with the residuals' mean periodogram, or that texture
+quantile-mapped onto the residuals' marginal law (as v3's observation model): where the samples' excess mean
+slope comes from.
 """
 import os
 
@@ -66,6 +69,8 @@ for i in range(10):
     print(f"  {q[i]:.4f}-{q[i + 1]:.4f}: {np.sqrt(r2[m].mean()):.4f}")
 gr = grad(res)[:, 2:-2, 2:-2].ravel()
 print("residual |grad| mean / rms:", round(gr.mean() / np.sqrt((gr**2).mean()), 3), "(Gaussian field: 0.886)")
+r = res.ravel()
+print("residual kurtosis:", round(((r - r.mean()) ** 4).mean() / r.var() ** 2, 2), "(Gaussian: 3)")
 
 # (4) where the excess slope comes from
 FS = 50.48
@@ -89,3 +94,9 @@ print("slope mean / p50 / p95, deg: crops", slopes(X[:n]))
 for name, z in [("training codes", z_train), ("Gaussian codes", z_gauss), ("codes with training marginals", z_marg)]:
     maps = (z @ B + mu).reshape(-1, 128, 128)
     print(f"  PCA map of {name}: {slopes(maps)}; plus another crop's true residual: {slopes(maps + texture)}")
+P_res = (np.abs(np.fft.fft2(res[:900])) ** 2).mean(0)
+gauss = np.real(np.fft.ifft2(np.fft.fft2(rng.standard_normal((n, 128, 128))) * np.sqrt(P_res))) / 128
+probs = np.linspace(0, 1, 1001)[1:-1]
+mapped = np.interp(gauss, np.quantile(gauss.ravel(), probs), np.quantile(res[:900].ravel(), probs))
+maps = (z_gauss @ B + mu).reshape(-1, 128, 128)
+print(f"  PCA map of Gaussian codes plus Gaussian texture: {slopes(maps + gauss)}; quantile-mapped: {slopes(maps + mapped)}")

@@ -68,7 +68,7 @@ pub struct Decoder {
     encoder_channels: Vec<usize>,
     /// `dec.lin` (`[CROP_PX^2, latent]` weight, bias), added to the conv path's output.
     linear: Option<(Vec<f64>, Vec<f64>)>,
-    /// `detail.kernel`: the observation model samples add.
+    /// `detail.kernel` and `detail.marginal`: the observation model samples add.
     detail: Option<Detail>,
     /// `ref.conv0..2`: the full-resolution refiner, `(cin, cout, weight [cout, cin, 3, 3], bias)` per conv.
     refiner: Vec<(usize, usize, Vec<f64>, Vec<f64>)>,
@@ -334,14 +334,18 @@ impl Decoder {
     /// A sample of the generative model for the code `z`: the decoded mean plus, where the file has an
     /// observation model, a residual field drawn from `rng`; clipped to the data's range [-1, 1].
     pub fn sample(&self, z: &[f64], rng: &mut impl rand::Rng) -> Result<Vec<f64>, SwaeError> {
-        let mut x = self.decode(z)?;
+        Ok(self.sample_around(self.decode(z)?, rng))
+    }
+
+    /// [`Self::sample`] from the decoded mean.
+    pub fn sample_around(&self, mut x: Vec<f64>, rng: &mut impl rand::Rng) -> Vec<f64> {
         if let Some(d) = &self.detail {
             for (v, e) in x.iter_mut().zip(d.synthesise(rng)) {
                 *v += e;
             }
         }
         x.iter_mut().for_each(|v| *v = v.clamp(-1.0, 1.0));
-        Ok(x)
+        x
     }
 
     /// Encoder channels found in the file (empty for a decoder-only file).
@@ -373,10 +377,7 @@ impl Decoder {
         apply_bn_leaky(&mut h, &self.bn0, side * side);
         for d in &self.stages {
             let out_side = side * 2;
-            let mut out = vec![0.0; d.cout * out_side * out_side];
-            for oc in 0..d.cout {
-                out[oc * out_side * out_side..(oc + 1) * out_side * out_side].fill(d.bias[oc]);
-            }
+            let mut out = biased(&d.bias, out_side);
             match self.kind {
                 DecoderKind::Deconv => transposed_conv(&h, side, d, &mut out),
                 DecoderKind::Upsample => upsample_conv(&h, side, d, &mut out),
@@ -401,10 +402,7 @@ impl Decoder {
         if !self.refiner.is_empty() {
             let mut r = h.clone();
             for (i, (cin, cout, w, b)) in self.refiner.iter().enumerate() {
-                let mut out = vec![0.0; cout * CROP_PX * CROP_PX];
-                for (oc, plane) in out.chunks_mut(CROP_PX * CROP_PX).enumerate() {
-                    plane.fill(b[oc]);
-                }
+                let mut out = biased(b, CROP_PX);
                 conv3x3(&r, CROP_PX, 1, *cin, *cout, w, &mut out);
                 if i + 1 < self.refiner.len() {
                     out.iter_mut().for_each(|v| {
@@ -486,6 +484,13 @@ fn conv3x3(h: &[f64], side: usize, up: usize, cin: usize, cout: usize, w: &[f64]
             }
         }
     }
+}
+
+/// One `side x side` plane per bias, filled with it: a layer's output before its weights add in.
+fn biased(bias: &[f64], side: usize) -> Vec<f64> {
+    bias.iter()
+        .flat_map(|&b| std::iter::repeat_n(b, side * side))
+        .collect()
 }
 
 fn apply_bn_leaky(h: &mut [f64], bn: &Affine, plane: usize) {

@@ -220,15 +220,19 @@ impl MapSet {
 }
 
 /// Decoded samples of the generator for seeds `0..n` (plain-Rust decoder), normalised units.
-pub fn samples(source: &SwaeSource, n: usize) -> Result<Vec<Vec<f64>>, SwaeError> {
-    (0..n as u64).map(|s| source.sample(s)).collect()
+pub fn samples(source: &SwaeSource, n: usize) -> Result<Maps, SwaeError> {
+    Ok(means_and_samples(source, n)?.1)
 }
 
-/// The decoder's means for the same codes (no observation model), normalised units.
-pub fn sample_means(source: &SwaeSource, n: usize) -> Result<Vec<Vec<f64>>, SwaeError> {
-    (0..n as u64)
-        .map(|s| source.decoder().decode(&source.latent(s)))
-        .collect()
+/// Maps in normalised units, each `CROP_PX * CROP_PX`.
+pub type Maps = Vec<Vec<f64>>;
+
+/// The decoder's means for the codes of seeds `0..n` and the samples drawn around them, normalised units.
+pub fn means_and_samples(source: &SwaeSource, n: usize) -> Result<(Maps, Maps), SwaeError> {
+    let pairs = (0..n as u64)
+        .map(|s| source.mean_and_sample(s))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(pairs.into_iter().unzip())
 }
 
 /// Everything `vb terrain eval` prints, as Markdown tables.
@@ -289,7 +293,7 @@ pub fn report(
         .collect();
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let pca_samples: Vec<Vec<f64>> = (0..n_samples).map(|_| pca.sample(&mut rng)).collect();
-    let gen = samples(source, n_samples)?;
+    let (means, gen) = means_and_samples(source, n_samples)?;
     let reference = MapSet::new("training crops", &train_maps, fs);
     let mut sets = vec![
         MapSet::new("held-out crops", &val_maps, fs),
@@ -302,7 +306,6 @@ pub fn report(
         ),
     ];
     if source.decoder().detail().is_some() {
-        let means = sample_means(source, n_samples)?;
         sets.insert(
             3,
             MapSet::new(

@@ -429,11 +429,6 @@ impl Swae {
         Ok(())
     }
 
-    /// The detail kernel, if the model has one.
-    pub fn detail_kernel(&self) -> Option<&Tensor> {
-        self.detail.as_ref().map(|d| &d.0)
-    }
-
     /// Sets the detail kernel (`SIDE x SIDE`).
     pub fn set_detail(&self, detail: &crate::detail::Detail) -> Result<(), SwaeError> {
         let Some((kernel, marginal)) = &self.detail else {

@@ -80,7 +80,11 @@ impl SwaeSource {
 
     /// The latent code of a seed.
     pub fn latent(&self, seed: u64) -> Vec<f64> {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        self.draw_latent(&mut ChaCha8Rng::seed_from_u64(seed))
+    }
+
+    /// z ~ N(0, I): the first draws of a seed's stream.
+    fn draw_latent(&self, rng: &mut ChaCha8Rng) -> Vec<f64> {
         (0..self.decoder.latent())
             .map(|_| rng.sample(StandardNormal))
             .collect()
@@ -90,11 +94,16 @@ impl SwaeSource {
     /// decoded, plus the observation model's residual field drawn from the same stream after the code, where the
     /// weights have one ([`Decoder::sample`]).
     pub fn sample(&self, seed: u64) -> Result<Vec<f64>, SwaeError> {
+        Ok(self.mean_and_sample(seed)?.1)
+    }
+
+    /// The decoder's mean for a seed's code and the sample [`Self::sample`] draws around it.
+    pub fn mean_and_sample(&self, seed: u64) -> Result<(Vec<f64>, Vec<f64>), SwaeError> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let z: Vec<f64> = (0..self.decoder.latent())
-            .map(|_| rng.sample(StandardNormal))
-            .collect();
-        self.decoder.sample(&z, &mut rng)
+        let z = self.draw_latent(&mut rng);
+        let mean = self.decoder.decode(&z)?;
+        let sample = self.decoder.sample_around(mean.clone(), &mut rng);
+        Ok((mean, sample))
     }
 
     /// Sampled 129 x 129 map in [0, 1] (`(x + 1) / 2`), row 0 = north, before height scaling.

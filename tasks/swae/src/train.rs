@@ -317,7 +317,7 @@ fn run(
             },
             seconds,
         };
-        if model.detail_kernel().is_some() {
+        if opts.config.detail {
             fit_detail(&model, train)?;
         }
         if let Some(out) = out {

@@ -2,7 +2,8 @@
 //! fixed version hash.
 
 use sim_core::world::ElevationLevel;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use swae::data::Crop;
 use swae::SwaeSource;
 use tasks::generate::HeightSource;
 use tasks::TaskSet;
@@ -99,17 +100,28 @@ fn committed_calibration_is_the_calibrated_value() {
     );
 }
 
+/// The release's crops split as training splits them, and a committed weights file with its model; `None` (and a
+/// line saying what was skipped) without `VB_RELEASE_DIR`.
+fn release_crops_and(weights: &str) -> Option<(Vec<Crop>, Vec<Crop>, PathBuf, swae::model::Swae)> {
+    let Some(dir) = std::env::var_os("VB_RELEASE_DIR") else {
+        eprintln!("SKIPPED: VB_RELEASE_DIR is not set, so {weights} was not checked on the release's crops");
+        return None;
+    };
+    let (train, val) =
+        swae::train::load_split(&Path::new(&dir).join("BenchMaps/elev_maps")).unwrap();
+    assert_eq!((train.len(), val.len()), (900, 100));
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("weights")
+        .join(weights);
+    let model = swae::model::Swae::load(&path).unwrap();
+    Some((train, val, path, model))
+}
+
 #[test]
 fn learned_from_the_release_crops() {
-    let Some(dir) = std::env::var_os("VB_RELEASE_DIR") else {
-        eprintln!("SKIPPED: VB_RELEASE_DIR is not set, so the SWAE was not checked on the release's crops");
+    let Some((train, val, _, model)) = release_crops_and("swae-v1.safetensors") else {
         return;
     };
-    let data = Path::new(&dir).join("BenchMaps/elev_maps");
-    let (train, val) = swae::train::load_split(&data).unwrap();
-    assert_eq!((train.len(), val.len()), (900, 100));
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("weights/swae-v1.safetensors");
-    let model = swae::model::Swae::load(&path).unwrap();
     let rmse = swae::train::reconstruction_rmse(&model, &val).unwrap();
     // The mean-crop predictor's held-out RMSE.
     let pca = swae::eval::Pca::fit(&train, 0).unwrap();
@@ -128,14 +140,9 @@ fn learned_from_the_release_crops() {
 /// training crops' (measured +17.8%, +0.8% and +8.7%; `vb terrain eval`, BENCHMARKS.md).
 #[test]
 fn the_v3_checkpoint_matches_the_pca_and_the_crops_roughness() {
-    let Some(dir) = std::env::var_os("VB_RELEASE_DIR") else {
-        eprintln!("SKIPPED: VB_RELEASE_DIR is not set, so the v3 SWAE was not checked on the release's crops");
+    let Some((train, val, path, model)) = release_crops_and("swae-v3.safetensors") else {
         return;
     };
-    let data = Path::new(&dir).join("BenchMaps/elev_maps");
-    let (train, val) = swae::train::load_split(&data).unwrap();
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("weights/swae-v3.safetensors");
-    let model = swae::model::Swae::load(&path).unwrap();
     let rmse = swae::train::reconstruction_rmse(&model, &val).unwrap();
     let pca = swae::eval::Pca::fit(&train, 64).unwrap();
     let pca_pred: Vec<Vec<f64>> = val.iter().map(|c| pca.reconstruct(&c.values)).collect();

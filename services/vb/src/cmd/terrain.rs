@@ -1,6 +1,6 @@
 //! `vb terrain ...`: train, evaluate, calibrate and render the SWAE terrain generator (library: crate `swae`).
 
-use clap::Subcommand;
+use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
 #[derive(Subcommand)]
@@ -24,24 +24,8 @@ pub enum TerrainCmd {
         batch: usize,
         #[arg(long, default_value_t = 2e-3)]
         lr: f64,
-        /// Encoder channels (five stride-2 convs); the decoder mirrors them.
-        #[arg(long, value_delimiter = ',', default_value = "8,16,32,64,64")]
-        channels: Vec<usize>,
-        #[arg(long, default_value_t = 64)]
-        latent: usize,
-        /// Decoder stages: `upsample` (nearest x2, then a 3 x 3 conv) or `deconv` (transposed conv, the v1 model).
-        #[arg(long, default_value = "upsample")]
-        decoder: swae::decoder::DecoderKind,
-        /// A linear path set to the training crops' whitened PCA and frozen, beside the conv paths (which start
-        /// at zero): the model starts at the PCA's reconstruction error.
-        #[arg(long)]
-        linear_skip: bool,
-        /// An observation model: the residual field samples add to the decoder's mean, refitted every epoch.
-        #[arg(long)]
-        detail: bool,
-        /// Channels of a full-resolution 3-conv refiner added to the decoded map (0: none).
-        #[arg(long, default_value_t = 0)]
-        refiner: usize,
+        #[command(flatten)]
+        model: ModelArgs,
         /// Weight of the sliced-Wasserstein term.
         #[arg(long, default_value_t = 1.0)]
         sw_weight: f64,
@@ -102,6 +86,43 @@ pub enum TerrainCmd {
     },
 }
 
+/// The architecture options of `vb terrain train` (swae's [`swae::model::Config`]).
+#[derive(Args)]
+pub struct ModelArgs {
+    /// Encoder channels (five stride-2 convs); the decoder mirrors them.
+    #[arg(long, value_delimiter = ',', default_value = "8,16,32,64,64")]
+    channels: Vec<usize>,
+    #[arg(long, default_value_t = 64)]
+    latent: usize,
+    /// Decoder stages: `upsample` (nearest x2, then a 3 x 3 conv) or `deconv` (transposed conv, the v1 model).
+    #[arg(long, default_value = "upsample")]
+    decoder: swae::decoder::DecoderKind,
+    /// A linear path set to the training crops' whitened PCA and frozen, beside the conv paths (which start
+    /// at zero): the model starts at the PCA's reconstruction error.
+    #[arg(long)]
+    linear_skip: bool,
+    /// An observation model: the residual field samples add to the decoder's mean, refitted every epoch.
+    #[arg(long)]
+    detail: bool,
+    /// Channels of a full-resolution 3-conv refiner added to the decoded map (0: none).
+    #[arg(long, default_value_t = 0)]
+    refiner: usize,
+}
+
+#[cfg(feature = "train")]
+impl From<ModelArgs> for swae::model::Config {
+    fn from(a: ModelArgs) -> Self {
+        swae::model::Config {
+            channels: a.channels,
+            latent: a.latent,
+            decoder: a.decoder,
+            linear_skip: a.linear_skip,
+            detail: a.detail,
+            refiner: a.refiner,
+        }
+    }
+}
+
 #[cfg(feature = "train")]
 fn weights_path(w: Option<PathBuf>) -> PathBuf {
     w.unwrap_or_else(|| {
@@ -137,12 +158,7 @@ pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
             epochs,
             batch,
             lr,
-            channels,
-            latent,
-            decoder,
-            linear_skip,
-            detail,
-            refiner,
+            model,
             sw_weight,
             gradient_weight,
             laplacian_weight,
@@ -166,14 +182,7 @@ pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
             } else {
                 let defaults = swae::train::TrainOptions::default();
                 let opts = swae::train::TrainOptions {
-                    config: swae::model::Config {
-                        channels,
-                        latent,
-                        decoder,
-                        linear_skip,
-                        detail,
-                        refiner,
-                    },
+                    config: model.into(),
                     loss: {
                         let d = swae::loss::LossWeights::DEFAULT;
                         swae::loss::LossWeights {
