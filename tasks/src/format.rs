@@ -312,7 +312,7 @@ impl TaskSet {
     pub fn default_dir() -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("data")
-            .join("v2")
+            .join("v3")
     }
 
     /// Opens a task set directory: reads and validates the manifest, and recomputes the version from the world

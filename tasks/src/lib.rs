@@ -8,9 +8,9 @@
 //! - [`format`]: the versioned on-disk format (`FORMAT.md`) and [`TaskSet`] loading and saving.
 //! - [`heightmap_io`]: external heightmaps (8/16-bit PNG/BMP, `.npy`).
 //! - [`import`]: the original Verti-Bench release's worlds.
-//! - [`interim`]: procedural height sources (the committed set v2's is calibrated to the original worlds), until the
-//!   SWAE generator, crate `swae`, passes.
-//! - [`stats`]: composition and geometry statistics.
+//! - [`interim`]: procedural height sources of the earlier sets v1 and v2 (the committed set v3's heights come from
+//!   the SWAE generator, crate `swae`, which depends on this crate).
+//! - [`stats`]: composition and geometry statistics, and the original worlds' per-level statistics sets match.
 //! - [`render`]: PNG pictures of worlds and a contact sheet.
 
 pub mod cli;

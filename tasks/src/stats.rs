@@ -30,6 +30,36 @@ pub struct TaskSetStats {
     pub geometry_by_level: BTreeMap<String, LevelStats>,
 }
 
+/// The five per-level geometry statistics the task set is matched on (issue 17 point 2), in the order of
+/// [`ORIGINAL_WORLDS`] and [`matched`].
+pub const MATCHED: [&str; 5] = [
+    "relief",
+    "height std",
+    "slope p50",
+    "slope p95",
+    "roughness",
+];
+
+/// All 100 original Verti-Bench worlds (not only the 10 this repository can read), per-world values averaged per
+/// level with `vb tasks stats`'s definitions ([`geometry_stats`]): relief m, height std m, slope p50 deg, slope
+/// p95 deg, roughness m. Source: the table of issue 17 ("Terrain that looks and drives like the original").
+pub const ORIGINAL_WORLDS: [(ElevationLevel, [f64; 5]); 3] = [
+    (ElevationLevel::Low, [1.82, 0.17, 4.6, 11.7, 0.066]),
+    (ElevationLevel::Medium, [3.50, 0.32, 9.0, 21.8, 0.128]),
+    (ElevationLevel::High, [5.90, 0.55, 14.8, 33.8, 0.214]),
+];
+
+/// The [`MATCHED`] statistics of `g`.
+pub fn matched(g: &GeometryStats) -> [f64; 5] {
+    [
+        g.relief,
+        g.height_std,
+        g.slope_p50_deg,
+        g.slope_p95_deg,
+        g.roughness,
+    ]
+}
+
 /// Means of geometry statistics over heightmaps.
 pub fn mean_geometry<'a>(maps: impl IntoIterator<Item = &'a Heightmap>) -> LevelStats {
     let all: Vec<GeometryStats> = maps.into_iter().map(geometry_stats).collect();

@@ -96,7 +96,7 @@ fn tasks_generate_takes_a_full_scale_height_only_for_the_swae() {
             .output()
             .unwrap()
     };
-    let out = run(&["--full-scale", "10"]);
+    let out = run(&["--generator", "interim", "--full-scale", "10"]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -111,8 +111,9 @@ fn tasks_generate_takes_a_full_scale_height_only_for_the_swae() {
         "{err}"
     );
     assert!(!dir.exists(), "nothing written for refused options");
-    // Accepted, and named in the set's generator (so its version differs from the calibrated set's).
-    let out = run(&["--generator", "swae", "--full-scale", "20"]);
+    // Accepted with the default generator (the SWAE), and named in the set's generator (so its version differs
+    // from the calibrated set's).
+    let out = run(&["--full-scale", "20"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),

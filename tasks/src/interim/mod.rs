@@ -1,7 +1,7 @@
-//! Interim, procedural height sources: the committed sets' heights until a trained SWAE generator (crate `swae`,
-//! `vb tasks generate --generator swae`) passes its acceptance (issue 17).
+//! Interim, procedural height sources: the committed sets' heights until the trained SWAE generator (crate `swae`,
+//! `vb tasks generate --generator swae`) replaced them in set v3 (issue 17); kept as options.
 //!
-//! - [`BandedSource`] (`--generator interim`, the committed set `tasks/data/v2`): a Gaussian field with the
+//! - [`BandedSource`] (`--generator interim`, the set `v2`): a Gaussian field with the
 //!   original worlds' power in each octave of wavelength, its short wavelengths modulated by a slowly varying
 //!   log-normal envelope (rough and smooth regions), under one height scale times the level's fraction (30 / 60 /
 //!   100 %, as the paper's `max_height`). Calibrated to the original worlds' relief, height std, slope p50 and p95

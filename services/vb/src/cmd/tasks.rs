@@ -8,12 +8,12 @@ use tasks::TaskSet;
 /// Where a generated set's heights come from (`vb tasks generate --generator`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Generator {
-    /// The calibrated band-spectrum generator of the committed set v2 (`tasks::interim::BandedSource`).
+    /// The calibrated band-spectrum generator of set v2 (`tasks::interim::BandedSource`).
     Interim,
     /// The 1/f spectral generator of set v1 (`tasks::interim::SpectralSource`).
     #[value(name = "interim-v1")]
     InterimV1,
-    /// The SWAE decoder (crate `swae`).
+    /// The SWAE decoder (crate `swae`) of the committed set v3.
     Swae,
 }
 
@@ -21,15 +21,15 @@ pub enum Generator {
 pub enum TasksCmd {
     /// Generate the 100-world task set from a seed (byte-identical for the same seed and generator).
     Generate {
-        /// Output directory (required: the benchmark's committed set is tasks/data/v2; name it to regenerate it).
+        /// Output directory (required: the benchmark's committed set is tasks/data/v3; name it to regenerate it).
         #[arg(long)]
         out: PathBuf,
         #[arg(long, default_value_t = tasks::generate::DEFAULT_SEED)]
         seed: u64,
-        /// Height source: `interim` (the calibrated band-spectrum generator of the committed set v2),
-        /// `interim-v1` (the 1/f generator of set v1) or `swae` (the SWAE decoder with the committed weights; not
-        /// yet the default, see BENCHMARKS.md).
-        #[arg(long, value_enum, default_value_t = Generator::Interim)]
+        /// Height source: `swae` (the SWAE decoder with the committed weights and calibration: the committed set
+        /// v3), `interim` (the calibrated band-spectrum generator of set v2) or `interim-v1` (the 1/f generator of
+        /// set v1).
+        #[arg(long, value_enum, default_value_t = Generator::Swae)]
         generator: Generator,
         /// SWAE weights file instead of the committed one (only with `--generator swae`).
         #[arg(long)]

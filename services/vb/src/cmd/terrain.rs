@@ -58,7 +58,7 @@ pub enum TerrainCmd {
     Eval {
         #[arg(long)]
         data: PathBuf,
-        /// Weights file (default: the committed tasks/swae/weights/swae-v1.safetensors).
+        /// Weights file (default: the committed tasks/swae/weights/swae-v3.safetensors).
         #[arg(long)]
         weights: Option<PathBuf>,
         /// Generated samples to compare.
@@ -127,7 +127,8 @@ impl From<ModelArgs> for swae::model::Config {
 fn weights_path(w: Option<PathBuf>) -> PathBuf {
     w.unwrap_or_else(|| {
         PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-            .join("../../tasks/swae/weights/swae-v1.safetensors")
+            .join("../..")
+            .join(swae::source::DEFAULT_WEIGHTS_PATH)
     })
 }
 
