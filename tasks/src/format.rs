@@ -315,6 +315,11 @@ impl TaskSet {
             .join("v3")
     }
 
+    /// Opens the committed task set ([`TaskSet::default_dir`]).
+    pub fn committed() -> Result<TaskSet, TasksError> {
+        Self::load(&Self::default_dir())
+    }
+
     /// Opens a task set directory: reads and validates the manifest, and recomputes the version from the world
     /// files, refusing a set whose files do not hash to the version its manifest claims (results carry the
     /// version, so it must say what they were computed on).

@@ -8,15 +8,12 @@ use tasks::path::DEFAULT_INFLATION;
 use tasks::TaskSet;
 
 fn records() -> Vec<WorldRecord> {
-    TaskSet::load(&TaskSet::default_dir())
-        .unwrap()
-        .records()
-        .unwrap()
+    TaskSet::committed().unwrap().records().unwrap()
 }
 
 #[test]
 fn the_set_has_100_balanced_worlds_and_1000_tasks() {
-    let set = TaskSet::load(&TaskSet::default_dir()).unwrap();
+    let set = TaskSet::committed().unwrap();
     assert_eq!(set.world_ids(), (1..=100).collect::<Vec<_>>());
     let s = tasks::cli::stats(&set).unwrap();
     assert_eq!(s.tasks, 1000);
@@ -30,7 +27,7 @@ fn the_set_has_100_balanced_worlds_and_1000_tasks() {
 
 #[test]
 fn worlds_of_a_terrain_group_share_terrain_and_have_nested_obstacles() {
-    let set = TaskSet::load(&TaskSet::default_dir()).unwrap();
+    let set = TaskSet::committed().unwrap();
     let records = records();
     let mut groups = std::collections::BTreeMap::<u32, Vec<&WorldRecord>>::new();
     for r in &records {
@@ -196,7 +193,7 @@ fn the_interim_generators_still_regenerate_sets_v1_and_v2() {
 
 #[test]
 fn scaled_worlds_scale_every_length() {
-    let set = TaskSet::load(&TaskSet::default_dir()).unwrap();
+    let set = TaskSet::committed().unwrap();
     let full = set.world(7, 1.0).unwrap();
     let tenth = set.world(7, 0.1).unwrap();
     assert_eq!(tenth.scale, 0.1);

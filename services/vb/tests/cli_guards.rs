@@ -48,41 +48,61 @@ fn admin_token_create_without_a_store_here_explains_instead_of_making_one() {
     assert!(!dir.join("out").exists(), "no empty store was made");
 }
 
+/// `vb serve` (with `--evaluate` running an evaluation, or idle) exits cleanly on SIGTERM, also when the signal comes
+/// the moment its leaderboard port opens (its handler is installed before anything binds).
 #[test]
 fn vb_serve_stops_cleanly_on_sigterm() {
-    let dir = std::env::temp_dir().join(format!("vb-sigterm-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let (grpc, http) = (common::free_port(), common::free_port());
-    let db = format!("sqlite://{}/vb.db", dir.display());
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_vb"))
-        .args(["serve", "--db", &db, "--slots", "1"])
-        .args([
-            "--grpc",
-            &format!("127.0.0.1:{grpc}"),
-            "--http",
-            &format!("127.0.0.1:{http}"),
-        ])
-        .current_dir(&dir)
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
-    common::wait_port(http, std::time::Duration::from_secs(60));
-    let pid = child.id().to_string();
-    assert!(std::process::Command::new("kill")
-        .args(["-TERM", &pid])
-        .status()
-        .unwrap()
-        .success());
-    let t0 = std::time::Instant::now();
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
+    for (k, evaluate) in [&[][..], &["--evaluate", "pid"][..]]
+        .into_iter()
+        .enumerate()
+    {
+        let dir = std::env::temp_dir().join(format!("vb-sigterm-{}-{k}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (grpc, http) = (common::free_port(), common::free_port());
+        let db = format!("sqlite://{}/vb.db", dir.display());
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_vb"))
+            .args(["serve", "--db", &db, "--slots", "1"])
+            .args([
+                "--grpc",
+                &format!("127.0.0.1:{grpc}"),
+                "--http",
+                &format!("127.0.0.1:{http}"),
+            ])
+            .args(evaluate)
+            .current_dir(&dir)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        common::wait_port(http, std::time::Duration::from_secs(60));
+        if !evaluate.is_empty() {
+            // Into the evaluation (1000 episodes: far from done).
+            std::thread::sleep(std::time::Duration::from_secs(2));
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "vb serve --evaluate exited early"
+            );
         }
-        assert!(t0.elapsed().as_secs() < 20, "vb serve ignored SIGTERM");
-        std::thread::sleep(std::time::Duration::from_millis(50));
-    };
-    assert!(status.success(), "{status}");
+        let pid = child.id().to_string();
+        assert!(std::process::Command::new("kill")
+            .args(["-TERM", &pid])
+            .status()
+            .unwrap()
+            .success());
+        let t0 = std::time::Instant::now();
+        let status = loop {
+            if let Some(s) = child.try_wait().unwrap() {
+                break s;
+            }
+            assert!(
+                t0.elapsed().as_secs() < 20,
+                "vb serve {evaluate:?} ignored SIGTERM"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        };
+        assert!(status.success(), "vb serve {evaluate:?}: {status}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }
 
 #[test]

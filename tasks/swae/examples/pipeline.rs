@@ -6,7 +6,10 @@ use std::path::{Path, PathBuf};
 
 fn main() -> anyhow::Result<()> {
     let a: Vec<String> = std::env::args().skip(1).collect();
-    let weights = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("weights/swae-v1.safetensors");
+    // The committed weights (DEFAULT_WEIGHTS_PATH is relative to the workspace root).
+    let weights = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .join(swae::source::DEFAULT_WEIGHTS_PATH);
     let src = || swae::SwaeSource::from_file(&weights, swae::source::FULL_SCALE_HEIGHT);
     match a.first().map(String::as_str) {
         Some("calibrate") => {

@@ -426,22 +426,26 @@ fn worst_error(pred: &[(ElevationLevel, [f64; 5])]) -> f64 {
 }
 
 /// The full-scale height (to 0.01 m) minimising the largest relative error of the fifteen targets (five
-/// statistics at three levels, issue 17 point 2, whose criterion is that every one is within 15 %), and a table
-/// of the result.
-pub fn calibrate(source: &SwaeSource, seed: u64) -> Result<(f64, String), SwaeError> {
-    let meas = unit_measurements(source, seed)?;
-    let mut best = (f64::INFINITY, 0.0);
+/// statistics at three levels, issue 17 point 2, whose criterion is that every one is within 15 %), and that error.
+pub fn fit_scale(meas: &[(ElevationLevel, [f64; 5])]) -> (f64, f64) {
+    let mut best = (0.0, f64::INFINITY);
     for i in 100..=10_000 {
         let h = i as f64 * 0.01;
-        let c = worst_error(&predicted(&meas, h));
-        if c < best.0 {
-            best = (c, h);
+        let c = worst_error(&predicted(meas, h));
+        if c < best.1 {
+            best = (h, c);
         }
     }
-    let h = best.1;
+    best
+}
+
+/// [`fit_scale`] on the 100 worlds of `seed`, and a table of the result.
+pub fn calibrate(source: &SwaeSource, seed: u64) -> Result<(f64, String), SwaeError> {
+    let meas = unit_measurements(source, seed)?;
+    let (h, worst) = fit_scale(&meas);
     let mut t = format!(
         "full-scale height {h:.2} m (largest error {:.1}%)\n\n| level |",
-        100.0 * best.0
+        100.0 * worst
     );
     for name in MATCHED {
         t += &format!(" {name} (original) | error |");

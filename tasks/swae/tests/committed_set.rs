@@ -11,15 +11,12 @@ use tasks::generate::HeightSource;
 use tasks::TaskSet;
 
 fn records() -> Vec<WorldRecord> {
-    TaskSet::load(&TaskSet::default_dir())
-        .unwrap()
-        .records()
-        .unwrap()
+    TaskSet::committed().unwrap().records().unwrap()
 }
 
 #[test]
 fn the_committed_set_is_the_swae_set() {
-    let set = TaskSet::load(&TaskSet::default_dir()).unwrap();
+    let set = TaskSet::committed().unwrap();
     assert_eq!(
         set.manifest.generator,
         SwaeSource::committed().unwrap().name()
@@ -69,7 +66,7 @@ fn sets_from_other_seeds_share_no_world_with_the_benchmark() {
 
 #[test]
 fn regeneration_is_byte_identical_to_the_committed_set() {
-    let committed = TaskSet::load(&TaskSet::default_dir()).unwrap();
+    let committed = TaskSet::committed().unwrap();
     let seed = committed.manifest.seed.expect("generated set has a seed");
     let out = std::env::temp_dir().join(format!("vb-regen-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
@@ -108,7 +105,7 @@ fn regeneration_is_byte_identical_to_the_committed_set() {
 
 #[test]
 fn a_surface_counterfactual_changes_only_the_ground() {
-    let committed = TaskSet::load(&TaskSet::default_dir()).unwrap();
+    let committed = TaskSet::committed().unwrap();
     let seed = committed.manifest.seed.expect("generated set has a seed");
     let base = records();
     let out = std::env::temp_dir().join(format!("vb-surface-{}", std::process::id()));

@@ -37,15 +37,30 @@ fn heights_are_a_pure_function_of_the_seed_on_any_thread() {
     assert!(src.name().starts_with("swae:") && src.name().len() == 5 + 16);
 }
 
+/// The committed full-scale height is what `vb terrain calibrate` derives, and the calibration's model (relief,
+/// std and roughness linear in the scale, a slope percentile's tangent linear in it) predicts the committed set's
+/// measured per-level statistics (`vb tasks stats`) to 0.5%.
 #[test]
-fn committed_calibration_is_the_calibrated_value() {
+fn committed_calibration_is_the_calibrated_value_and_predicts_the_set() {
     let src = SwaeSource::committed().unwrap();
-    let (h, table) = swae::eval::calibrate(&src, tasks::generate::DEFAULT_SEED).unwrap();
+    let meas = swae::eval::unit_measurements(&src, tasks::generate::DEFAULT_SEED).unwrap();
+    let (h, worst) = swae::eval::fit_scale(&meas);
     assert!(
         (h - swae::source::FULL_SCALE_HEIGHT).abs() < 0.005,
-        "calibration gives {h}, committed {}\n{table}",
+        "calibration gives {h}, committed {}",
         swae::source::FULL_SCALE_HEIGHT
     );
+    assert!(worst < 0.15, "largest error {worst}");
+    let stats = tasks::stats::compute(&tasks::TaskSet::committed().unwrap().records().unwrap());
+    for (level, predicted) in swae::eval::predicted(&meas, h) {
+        let got = tasks::stats::matched(&stats.geometry_by_level[level.as_str()].mean);
+        for ((p, g), name) in predicted.iter().zip(got).zip(tasks::stats::MATCHED) {
+            assert!(
+                (p / g - 1.0).abs() < 0.005,
+                "{level:?} {name}: predicted {p}, the set has {g}"
+            );
+        }
+    }
 }
 
 /// The release's crops split as training splits them, and a committed weights file with its model; `None` (and a

@@ -189,13 +189,28 @@ fn without_credentials(url: &str) -> String {
     }
 }
 
-async fn stop_signal() -> anyhow::Result<()> {
-    let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
-    tokio::select! {
-        r = tokio::signal::ctrl_c() => r?,
-        _ = term.recv() => {}
+/// Ctrl-C (SIGINT) and SIGTERM, caught from the moment this is made: made first thing, so a signal that arrives while
+/// a service starts stops it cleanly at its next wait instead of killing it half-started (the default action).
+struct StopSignal {
+    term: tokio::signal::unix::Signal,
+    int: tokio::signal::unix::Signal,
+}
+
+impl StopSignal {
+    fn new() -> anyhow::Result<StopSignal> {
+        use tokio::signal::unix::{signal, SignalKind};
+        Ok(StopSignal {
+            term: signal(SignalKind::terminate())?,
+            int: signal(SignalKind::interrupt())?,
+        })
     }
-    Ok(())
+
+    async fn recv(&mut self) {
+        tokio::select! {
+            _ = self.term.recv() => {}
+            _ = self.int.recv() => {}
+        }
+    }
 }
 
 fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
@@ -290,8 +305,56 @@ async fn start_coordinator(
     Ok(coord)
 }
 
+/// `vb serve --evaluate PLANNER`: submits a built-in planner through the gRPC API and watches it to the end.
+async fn evaluate_builtin(
+    grpc_addr: std::net::SocketAddr,
+    http_addr: std::net::SocketAddr,
+    token: &str,
+    planner: &str,
+    tasks: &str,
+) -> anyhow::Result<()> {
+    let mut client = vb_submit::connect(&format!("http://{grpc_addr}"), token, None).await?;
+    let task_ids = if tasks.trim() == "all" {
+        Vec::new()
+    } else {
+        tasks.split(',').map(|s| s.trim().to_string()).collect()
+    };
+    let t0 = std::time::Instant::now();
+    let r = vb_submit::submit(
+        &mut client,
+        vb_submit::SubmitRequest {
+            name: format!("{planner} (builtin)"),
+            planner: Some(vb_submit::PlannerRef {
+                kind: Some(vb_proto::v1::planner_ref::Kind::Builtin(
+                    planner.to_string(),
+                )),
+            }),
+            task_ids,
+            ..Default::default()
+        },
+    )
+    .await?;
+    eprintln!(
+        "submitted {} ({} episodes) through the gRPC API",
+        r.submission_id, r.episodes
+    );
+    let last = vb_submit::watch(&mut client, &r.submission_id, |s| {
+        eprint!("\r{}   ", vb_submit::status_line(s))
+    })
+    .await?;
+    eprintln!();
+    println!("{}", vb_submit::status_line(&last));
+    println!("wall time {:.1} s", t0.elapsed().as_secs_f64());
+    println!(
+        "leaderboard: http://{http_addr}/submissions/{}",
+        r.submission_id
+    );
+    Ok(())
+}
+
 pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
     runtime()?.block_on(async move {
+        let mut signal = StopSignal::new()?;
         let store = open_store(&a.db).await?;
         let grpc = bind(a.grpc, "coordinator gRPC API").await?;
         let http = bind(a.http, "leaderboard").await?;
@@ -336,38 +399,25 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
             .await?;
         eprintln!("coordinator and Sim gRPC APIs on {grpc_addr}, leaderboard on http://{http_addr}/, {} local worker slots", a.slots);
         eprintln!("submit your own planner with: VB_COORDINATOR=http://{grpc_addr} VB_TOKEN={token} vb-submit endpoint URL --name NAME");
-        if let Some(planner) = &a.evaluate {
-            let mut client = vb_submit::connect(&format!("http://{grpc_addr}"), &token, None).await?;
-            let task_ids = if a.tasks.trim() == "all" {
-                Vec::new()
-            } else {
-                a.tasks.split(',').map(|s| s.trim().to_string()).collect()
-            };
-            let t0 = std::time::Instant::now();
-            let r = vb_submit::submit(
-                &mut client,
-                vb_submit::SubmitRequest {
-                    name: format!("{planner} (builtin)"),
-                    planner: Some(vb_submit::PlannerRef {
-                        kind: Some(vb_proto::v1::planner_ref::Kind::Builtin(planner.clone())),
-                    }),
-                    task_ids,
-                    ..Default::default()
-                },
-            )
-            .await?;
-            eprintln!("submitted {} ({} episodes) through the gRPC API", r.submission_id, r.episodes);
-            let last = vb_submit::watch(&mut client, &r.submission_id, |s| eprint!("\r{}   ", vb_submit::status_line(s))).await?;
-            eprintln!();
-            println!("{}", vb_submit::status_line(&last));
-            println!("wall time {:.1} s", t0.elapsed().as_secs_f64());
-            println!("leaderboard: http://{http_addr}/submissions/{}", r.submission_id);
-            if a.exit_when_done {
-                return Ok(());
-            }
+        // A signal during the evaluation stops it: the workers hand its running episodes back below and the
+        // submission stays in the store.
+        let stopped = match &a.evaluate {
+            Some(planner) => tokio::select! {
+                r = evaluate_builtin(grpc_addr, http_addr, &token, planner, &a.tasks) => {
+                    r?;
+                    if a.exit_when_done {
+                        return Ok(());
+                    }
+                    false
+                }
+                _ = signal.recv() => true,
+            },
+            None => false,
+        };
+        if !stopped {
+            println!("leaderboard: http://{http_addr}/  (Ctrl-C or SIGTERM to stop)");
+            signal.recv().await;
         }
-        println!("leaderboard: http://{http_addr}/  (Ctrl-C or SIGTERM to stop)");
-        stop_signal().await?;
         // The workers hand their running episodes back while the coordinator still listens.
         let _ = stop.send(true);
         let _ = tokio::time::timeout(Duration::from_secs(5), workers).await;
@@ -384,6 +434,7 @@ pub fn coordinator(a: CoordinatorArgs) -> anyhow::Result<()> {
         );
     }
     runtime()?.block_on(async move {
+        let mut signal = StopSignal::new()?;
         let store = open_store(&a.db).await?;
         let listener = bind(a.listen, "coordinator gRPC API").await?;
         let mut cfg = CoordinatorConfig::new(a.task_dir.clone());
@@ -404,7 +455,7 @@ pub fn coordinator(a: CoordinatorArgs) -> anyhow::Result<()> {
             _ => None,
         };
         start_coordinator(store, cfg, listener, None, tls).await?;
-        stop_signal().await?;
+        signal.recv().await;
         Ok(())
     })
 }
@@ -418,11 +469,11 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
     }
     runtime()?.block_on(async move {
         let (stop, shutdown) = tokio::sync::watch::channel(false);
+        let mut signal = StopSignal::new()?;
         tokio::spawn(async move {
-            if stop_signal().await.is_ok() {
-                tracing::info!("stopping (its planners are stopped with it)");
-                let _ = stop.send(true);
-            }
+            signal.recv().await;
+            tracing::info!("stopping (its planners are stopped with it)");
+            let _ = stop.send(true);
         });
         let cfg = vb_worker::WorkerConfig {
             tls_ca: a.tls_ca.clone(),
@@ -456,6 +507,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
 
 pub fn leaderboard(a: LeaderboardArgs) -> anyhow::Result<()> {
     runtime()?.block_on(async move {
+        let mut signal = StopSignal::new()?;
         let reader = vb_store::Reader::open(&a.db)
             .await
             .with_context(|| format!("opening the store at {}", a.db))?;
@@ -464,7 +516,7 @@ pub fn leaderboard(a: LeaderboardArgs) -> anyhow::Result<()> {
         tracing::info!(url = %format!("http://{}/", listener.local_addr()?), "leaderboard listening");
         tokio::select! {
             r = vb_leaderboard::serve(Leaderboard::new(reader, set), listener) => r?,
-            r = stop_signal() => r?,
+            _ = signal.recv() => {}
         }
         Ok(())
     })
