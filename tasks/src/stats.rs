@@ -40,6 +40,9 @@ pub const MATCHED: [&str; 5] = [
     "roughness",
 ];
 
+/// Indices of the two slope percentiles (degrees) among the [`MATCHED`] statistics; the other three are lengths (m).
+pub const MATCHED_SLOPES: [usize; 2] = [2, 3];
+
 /// All 100 original Verti-Bench worlds (not only the 10 this repository can read), per-world values averaged per
 /// level with `vb tasks stats`'s definitions ([`geometry_stats`]): relief m, height std m, slope p50 deg, slope
 /// p95 deg, roughness m. Source: the table of issue 17 ("Terrain that looks and drives like the original").

@@ -22,7 +22,7 @@ fn main() -> anyhow::Result<()> {
         ..d
     };
     let nth = arg(3, 2.0) as u32;
-    let set = tasks::TaskSet::load(&tasks::TaskSet::default_dir())?;
+    let set = tasks::TaskSet::committed()?;
     let vehicle = sim_core::vehicle::vehicle_by_name("hmmwv")?;
     let todo: Vec<u32> = set
         .world_ids()

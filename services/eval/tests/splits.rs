@@ -5,7 +5,7 @@ use tasks::TaskSet;
 
 #[test]
 fn named_splits_select_every_task_of_the_worlds_with_that_factor() {
-    let set = TaskSet::load(&TaskSet::default_dir()).unwrap();
+    let set = TaskSet::committed().unwrap();
     let mut total = 0;
     for split in SPLITS {
         let sel = select(&set, split).unwrap();
@@ -41,7 +41,7 @@ fn named_splits_select_every_task_of_the_worlds_with_that_factor() {
 
 #[test]
 fn splits_joined_by_plus_intersect() {
-    let set = TaskSet::load(&TaskSet::default_dir()).unwrap();
+    let set = TaskSet::committed().unwrap();
     let (low, rigid) = (select(&set, "low").unwrap(), select(&set, "rigid").unwrap());
     let both = select(&set, "low+rigid").unwrap();
     let expected: Vec<_> = low.iter().filter(|t| rigid.contains(t)).copied().collect();

@@ -34,7 +34,7 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
     std::fs::create_dir_all(&dir)?;
     let url = format!("sqlite://{}", dir.join("vb.db").display());
     let store = Store::open(&url).await?;
-    let set = tasks::TaskSet::load(&tasks::TaskSet::default_dir())?;
+    let set = tasks::TaskSet::committed()?;
     let sub = NewSubmission {
         name: EVIL.into(),
         owner: EVIL.into(),

@@ -9,7 +9,7 @@ async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir)?;
     let store = Store::open(&format!("sqlite://{}", dir.join("vb.db").display())).await?;
-    let set = tasks::TaskSet::load(&tasks::TaskSet::default_dir())?;
+    let set = tasks::TaskSet::committed()?;
     let metrics = serde_json::to_string(&sim_core::episode::EpisodeMetrics::default())?;
     let w = store.register_worker("w", 64, "s", "tw", 0.0).await?;
     // A full run with some failures, a 2-task run that succeeded on both, and a full run on another simulator

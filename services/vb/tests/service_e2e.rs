@@ -599,9 +599,7 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
         metrics_json: serde_json::to_vec(&sim_core::episode::EpisodeMetrics::default()).unwrap(),
         ..Default::default()
     };
-    let set_version = tasks::TaskSet::load(&tasks::TaskSet::default_dir())?
-        .version()
-        .to_string();
+    let set_version = tasks::TaskSet::committed()?.version().to_string();
     let ack = w
         .report_result(authed(
             forged(vb_worker::SIM_VERSION, &set_version),

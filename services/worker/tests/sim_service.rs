@@ -7,7 +7,7 @@ use vb_proto::v1::sim_client::SimClient;
 use vb_worker::sim_service::SimService;
 
 async fn server() -> anyhow::Result<SimClient<tonic::transport::Channel>> {
-    let set = Arc::new(tasks::TaskSet::load(&tasks::TaskSet::default_dir())?);
+    let set = Arc::new(tasks::TaskSet::committed()?);
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let addr = listener.local_addr()?;
     tokio::spawn(

@@ -19,7 +19,7 @@ use rand_distr::StandardNormal;
 use sim_core::terrain_stats::{geometry_stats, slopes_deg};
 use sim_core::world::{ElevationLevel, Heightmap};
 use std::fmt::Write;
-use tasks::stats::{matched, MATCHED, ORIGINAL_WORLDS};
+use tasks::stats::{matched, MATCHED, MATCHED_SLOPES, ORIGINAL_WORLDS};
 
 /// A linear PCA model of crops.
 pub struct Pca {
@@ -383,8 +383,8 @@ pub fn unit_measurements(
         let mut m = matched(&geometry_stats(&h));
         // Relief, height std and roughness scale with the height scale k; a slope angle is monotonic in |grad|,
         // so a percentile's angle at scale k is atan(k * tan(its angle at unit scale)).
-        for k in [2, 3] {
-            m[k] = m[k].to_radians().tan();
+        for i in MATCHED_SLOPES {
+            m[i] = m[i].to_radians().tan();
         }
         out.push((f.level, m));
     }
@@ -404,9 +404,12 @@ pub fn predicted(meas: &[(ElevationLevel, [f64; 5])], h: f64) -> Vec<(ElevationL
             for (i, v) in mean.iter_mut().enumerate() {
                 *v = m
                     .iter()
-                    .map(|m| match i {
-                        2 | 3 => (k * m.1[i]).atan().to_degrees(),
-                        _ => k * m.1[i],
+                    .map(|m| {
+                        if MATCHED_SLOPES.contains(&i) {
+                            (k * m.1[i]).atan().to_degrees()
+                        } else {
+                            k * m.1[i]
+                        }
                     })
                     .sum::<f64>()
                     / n;
