@@ -37,7 +37,9 @@
 //! long, about one node).
 
 use rayon::prelude::*;
-use sim_core::soil::rig::{predicted_grade_deg, Drive, RigResult, WheelRig};
+use sim_core::soil::rig::{
+    bekker_static_sinkage, predicted_grade_deg, Drive, RigResult, WheelRig,
+};
 use sim_core::world::SoilParams;
 
 const R: f64 = 0.467;
@@ -200,6 +202,26 @@ fn predicted_grades_rise_from_snow_to_mud_to_sand() {
     // Below the friction angle (the Mohr-Coulomb bound on a shear-only contact): compaction costs pull.
     for ((_, s), g) in SOILS.iter().zip(&grades) {
         assert!(*g < s.friction_angle_deg, "{grades:?}");
+    }
+}
+
+/// The wheel pressed statically (no travel, no spin) sinks to the plate-sinkage equilibrium under its load:
+/// `p = (k_c / b + k_phi) z^n` integrated over the contact chord (Bekker; Wong, Theory of Ground Vehicles, the
+/// static rigid wheel), with no shear, since the soil column under a sinking rim moves with it. Benchmark grid
+/// (0.1 m) and step (4 ms), three positions along the track a quarter node apart (sand's chord, 0.2 m, spans two
+/// or three nodes, so where the wheel stands on the grid moves its sinkage by up to 8%); tolerance 10% (issue 13).
+#[test]
+fn a_wheel_pressed_statically_sinks_as_bekker_s_static_wheel() {
+    for (name, s) in SOILS {
+        let want = bekker_static_sinkage(s, R, B, W);
+        for offset in [0.0, 0.025, 0.05] {
+            let got = rig(s, 4e-3, 0.1).static_sinkage(offset);
+            eprintln!("{name} at {offset} m: {got:.4} m, Bekker {want:.4} m");
+            assert!(
+                within(got, want, 0.10, 0.0),
+                "{name} at {offset} m: {got} vs {want}"
+            );
+        }
     }
 }
 

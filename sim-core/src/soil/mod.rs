@@ -20,7 +20,13 @@
 //!    and reloading follow the elastic line until the previous yield): ruts persist;
 //! 3. damping `sigma += R |v . N|` while the surface moves into the soil (`v . N < 0`);
 //! 4. shear, elastic-plastic in the tangent plane of `N`: the node keeps its mobilised shear `rho = tau / tau_max`
-//!    (a vector) and a hardening displacement `h` (both reset when contact is lost). The slip `d = (v - N (v . N)) dt`
+//!    (a vector) and a hardening displacement `h` (both reset when contact is lost). The slip is the body's velocity
+//!    relative to the soil, `u = v - v_c`, where `v_c` is the body centre's motion along the undeformed ground's
+//!    normal: the soil column under the contact moves with the body there (Bekker's pressure-sinkage is that
+//!    compaction; a wheel pressed statically carries its load by pressure alone, as in Wong's static rigid wheel),
+//!    while rolling and sliding at constant sinkage keep Wong-Reece's slip kinematics exactly (`v_c = 0`). Chrono's
+//!    SCM takes `u = v`, so a sinking wheel's arc also mobilises shear that carries part of its load (11% less
+//!    static sinkage on snow). `d = (u - N (u . N)) dt`
 //!    moves `rho` elastically by `d / K` (Janosi's initial stiffness); beyond the yield circle
 //!    `|rho| <= 1 - exp(-h / K)` the excess hardens `h` and `rho` stays on the circle. Monotonic slip `j` thus gives
 //!    Janosi-Hanamoto exactly; unloading, reversal and reloading up to the previous yield are elastic, so a body at
@@ -71,7 +77,8 @@ pub struct SoilContact {
     pub force: Vector3<f64>,
     /// Torque about the wheel centre, N m (world frame).
     pub torque: Vector3<f64>,
-    /// Largest sinkage below the undeformed surface, m.
+    /// Sinkage below the undeformed surface, m: a wheel's rim depth under its centre, normal to the undeformed
+    /// surface (Wong's `z0`); a plate's deepest pressed node.
     pub sinkage: f64,
     /// Sum of the nodes' normal forces (pressure times body surface area, each along its own surface normal), N.
     pub normal: f64,

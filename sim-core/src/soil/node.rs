@@ -54,6 +54,10 @@ pub(super) struct Hit {
     pub(super) roll: Vector3<f64>,
     /// Fraction of the node's cell covered by the body (edge nodes of a wheel or plate), in (0, 1].
     pub(super) weight: f64,
+    /// The body's motion along the undeformed ground's normal (its centre's velocity projected on it, world): the
+    /// soil column under the contact moves with it (compaction while sinking, elastic rebound while rising), so it
+    /// is not slip and is taken out of the shear's slip velocity.
+    pub(super) compaction_velocity: Vector3<f64>,
     /// Height of the body's lowest point where it passed over the node during the step, if it did (a wheel's rim
     /// bottom): the node is first yielded as deep as that ([`SoilGrid::wheel_contact`]'s swept contact).
     pub(super) swept_bottom: Option<f64>,
@@ -122,7 +126,8 @@ impl SoilGrid {
         // `|rho| <= 1 - exp(-h / K)` the excess hardens `h` (Janosi loading), so monotonic slip of `j` gives exactly
         // `|rho| = 1 - exp(-j / K)`, and unloading, reversal and reloading up to the previous yield are elastic.
         let k = soil.janosi_k;
-        let trial = node.shear - n * node.shear.dot(&n) + (hit.v - n * vn) * (dt / k);
+        let slip = hit.v - hit.compaction_velocity;
+        let trial = node.shear - n * node.shear.dot(&n) + (slip - n * slip.dot(&n)) * (dt / k);
         let tn = trial.norm();
         let yield_ratio = 1.0 - (-node.hardening / k).exp();
         let plastic = tn > yield_ratio;

@@ -157,6 +157,55 @@ impl WheelRig {
     }
 }
 
+impl WheelRig {
+    /// The wheel pressed statically into fresh soil (no travel, no spin): its load ramped on over
+    /// [`STATIC_RAMP`] s, then held for as long again; returns the sinkage, m, averaged over the last
+    /// second. `offset` places the wheel's centre along the track relative to the grid's nodes, m.
+    pub fn static_sinkage(&self, offset: f64) -> f64 {
+        let world = World::uniform(
+            Heightmap::from_fn(1.0, |_, _| 0.0),
+            Semantic::Mud,
+            Surface::Deformable { soil: self.soil },
+        );
+        let mut grid = SoilGrid::with_spacing(&world, self.spacing);
+        let (r, dt) = (self.radius, self.dt);
+        let mass = self.load / G;
+        let (mut z, mut vz) = (r, 0.0);
+        let steps = (2.0 * STATIC_RAMP / dt).round() as usize;
+        let from = steps - (1.0 / dt).round() as usize;
+        let mut sum = 0.0;
+        for k in 0..steps {
+            let load = self.load * (k as f64 * dt / STATIC_RAMP).min(1.0);
+            grid.begin_step();
+            let w = WheelGeometry {
+                centre: Vector3::new(offset, self.lateral, z),
+                axle: Vector3::y(),
+                radius: r,
+                width: self.width,
+                velocity: Vector3::new(0.0, 0.0, vz),
+                angular_velocity: Vector3::zeros(),
+            };
+            let c = grid.wheel_contact(&w, dt);
+            // Linearly implicit as in `run`, on the unloading branch once the wheel no longer sinks.
+            let kz = if vz < 0.0 {
+                c.normal_stiffness
+            } else {
+                c.unloading_stiffness
+            };
+            let cz = c.normal_damping;
+            vz += dt * (c.force.z - load - dt * kz * vz) / (mass + dt * cz + dt * dt * kz);
+            z += dt * vz;
+            if k >= from {
+                sum += r - z;
+            }
+        }
+        sum / (steps - from) as f64
+    }
+}
+
+/// Time over which [`WheelRig::static_sinkage`] ramps the load on, s.
+pub const STATIC_RAMP: f64 = 2.0;
+
 /// Slips at which [`predicted_grade_deg`] runs the driven rig.
 pub const GRADE_SLIPS: [f64; 8] = [0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.75, 0.9];
 
