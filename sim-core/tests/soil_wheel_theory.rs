@@ -37,9 +37,7 @@
 //! long, about one node).
 
 use rayon::prelude::*;
-use sim_core::soil::rig::{
-    bekker_static_sinkage, predicted_grade_deg, Drive, RigResult, WheelRig,
-};
+use sim_core::soil::rig::{bekker_static_sinkage, predicted_grade_deg, Drive, RigResult, WheelRig};
 use sim_core::world::SoilParams;
 
 const R: f64 = 0.467;
