@@ -138,7 +138,7 @@ fn sinkage_distance_and_grade_converge_in_the_time_step() {
     // One exception, stated: on snow the HMMWV reaches 18-34 m/s in those 20 s, where the soil's damping pressure
     // (R v, five times the Bekker pressure) lifts the wheels to a few centimetres of sinkage and they start to hop
     // (rim contact lost in 10-30% of wheel-steps, earlier at 4 ms than at 1 ms); the distance there scatters by
-    // by a few per cent between steps of 0.5 to 4 ms and differs by about 5.5% between 4 and 1 ms (BENCHMARKS.md):
+    // by a few per cent between steps of 0.5 to 4 ms and differs by about 6% between 4 and 1 ms (BENCHMARKS.md):
     // tolerance 8% for that one value.
     let spec = vehicle_by_name("hmmwv").unwrap();
     let dt = default_dt(1.0);

@@ -67,7 +67,8 @@ impl SoilGrid {
         // (0 between its offsets `u` now and `u + advance` before) is yielded as deep as the rim bottom went, so the
         // ruts do not depend on which of the node's positions under the wheel the steps happen to catch.
         let advance = w.velocity.dot(&fwd) * dt;
-        let compaction_velocity = out.normal_dir * w.velocity.dot(&out.normal_dir);
+        // The centre's sinking velocity (not the rim's spin): the soil under the wheel moves down with it.
+        let compaction_velocity = out.normal_dir * w.velocity.dot(&out.normal_dir).min(0.0);
         for j in j0..=j1 {
             for i in i0..=i1 {
                 let x = i as f64 * self.delta - self.half_x;
@@ -121,7 +122,7 @@ impl SoilGrid {
         let (hl, hw) = (0.5 * plate.length, 0.5 * plate.width);
         let reach = hl.hypot(hw) + self.delta;
         let (i0, i1, j0, j1) = self.node_box(&plate.centre, reach, reach);
-        let compaction_velocity = out.normal_dir * plate.velocity.dot(&out.normal_dir);
+        let compaction_velocity = out.normal_dir * plate.velocity.dot(&out.normal_dir).min(0.0);
         for j in j0..=j1 {
             for i in i0..=i1 {
                 let x = i as f64 * self.delta - self.half_x;

@@ -22,11 +22,12 @@
 //! 4. shear, elastic-plastic in the tangent plane of `N`: the node keeps its mobilised shear `rho = tau / tau_max`
 //!    (a vector) and a hardening displacement `h` (both reset when contact is lost). The slip is the body's velocity
 //!    relative to the soil, `u = v - v_c`, where `v_c` is the body centre's motion along the undeformed ground's
-//!    normal: the soil column under the contact moves with the body there (Bekker's pressure-sinkage is that
-//!    compaction; a wheel pressed statically carries its load by pressure alone, as in Wong's static rigid wheel),
-//!    while rolling and sliding at constant sinkage keep Wong-Reece's slip kinematics exactly (`v_c = 0`). Chrono's
-//!    SCM takes `u = v`, so a sinking wheel's arc also mobilises shear that carries part of its load (11% less
-//!    static sinkage on snow). `d = (u - N (u . N)) dt`
+//!    normal while it sinks (zero while it rises): the soil column under the contact moves down with the body
+//!    (Bekker's pressure-sinkage is that compaction; a wheel pressed statically carries its load by pressure alone,
+//!    as in Wong's static rigid wheel), while rolling and sliding at constant sinkage keep Wong-Reece's slip
+//!    kinematics exactly (`v_c = 0`); a rising body leaves the soil behind and slides along it. Chrono's SCM takes
+//!    `u = v`, so a sinking wheel's arc also mobilises shear that carries part of its load (11% less static
+//!    sinkage on snow). `d = (u - N (u . N)) dt`
 //!    moves `rho` elastically by `d / K` (Janosi's initial stiffness); beyond the yield circle
 //!    `|rho| <= 1 - exp(-h / K)` the excess hardens `h` and `rho` stays on the circle. Monotonic slip `j` thus gives
 //!    Janosi-Hanamoto exactly; unloading, reversal and reloading up to the previous yield are elastic, so a body at

@@ -54,9 +54,10 @@ pub(super) struct Hit {
     pub(super) roll: Vector3<f64>,
     /// Fraction of the node's cell covered by the body (edge nodes of a wheel or plate), in (0, 1].
     pub(super) weight: f64,
-    /// The body's motion along the undeformed ground's normal (its centre's velocity projected on it, world): the
-    /// soil column under the contact moves with it (compaction while sinking, elastic rebound while rising), so it
-    /// is not slip and is taken out of the shear's slip velocity.
+    /// The body's sinking motion: its centre's velocity along the undeformed ground's normal while it moves into
+    /// the soil, else zero (world). The soil column under the contact moves down with a sinking body (plastic
+    /// compaction), so that motion is not slip and is taken out of the shear's slip velocity; a rising body leaves
+    /// the soil behind (it rebounds only elastically, millimetres) and slides along it.
     pub(super) compaction_velocity: Vector3<f64>,
     /// Height of the body's lowest point where it passed over the node during the step, if it did (a wheel's rim
     /// bottom): the node is first yielded as deep as that ([`SoilGrid::wheel_contact`]'s swept contact).
