@@ -27,7 +27,7 @@ echo "nobody:x:65534:65534:nobody:/:/bin/vb" >> "$ROOT/etc/passwd"
 printf "root:x:0:\nnogroup:x:65534:\n" > "$ROOT/etc/group"
 tar -C "$ROOT" -c . | docker import \
     -c 'ENV PATH=/bin' \
-    -c 'ENV VB_TASK_DIR=/opt/vertibench/tasks/data/v3' \
+    -c 'ENV VB_TASK_DIR=/opt/vertibench/tasks/data/v4' \
     -c 'WORKDIR /data' \
     -c 'ENTRYPOINT ["/bin/vb"]' \
     - vertibench:local

@@ -12,7 +12,8 @@ mean, p50 and p95 slope (degrees, 1 m pixels, 50.48 m for a normalised +1, as `v
 PCA maps from training codes, Gaussian codes or codes with the training codes' marginals, with and without the
 true residual of another crop added, or a Gaussian texture with the residuals' mean periodogram, or that texture
 quantile-mapped onto the residuals' marginal law (as v3's observation model): where the samples' excess mean
-slope comes from.
+slope comes from; (5) the same texture as a Gaussian scale mixture (v4's observation model): its kurtosis, slope
+ratio and the samples' slopes. FULL_SCALE=11.32 measures at v3's committed scale (default 50.48 m, v1's).
 """
 import os
 
@@ -73,7 +74,7 @@ r = res.ravel()
 print("residual kurtosis:", round(((r - r.mean()) ** 4).mean() / r.var() ** 2, 2), "(Gaussian: 3)")
 
 # (4) where the excess slope comes from
-FS = 50.48
+FS = float(os.environ.get("FULL_SCALE", "50.48"))
 
 
 def slopes(maps):
@@ -100,3 +101,20 @@ probs = np.linspace(0, 1, 1001)[1:-1]
 mapped = np.interp(gauss, np.quantile(gauss.ravel(), probs), np.quantile(res[:900].ravel(), probs))
 maps = (z_gauss @ B + mu).reshape(-1, 128, 128)
 print(f"  PCA map of Gaussian codes plus Gaussian texture: {slopes(maps + gauss)}; quantile-mapped: {slopes(maps + mapped)}")
+
+# (5) the texture as a Gaussian scale mixture (v4's observation model): e = s g with s = exp(sigma a - sigma^2),
+# a a smooth unit Gaussian field (Gaussian kernel of std 6 px), sigma from the residuals' kurtosis (3 exp(4 sigma^2)).
+sigma = np.sqrt(np.log(((res[:900] - res[:900].mean()) ** 4).mean() / res[:900].var() ** 2 / 3) / 4)
+freq2 = np.fft.fftfreq(128)[:, None] ** 2 + np.fft.fftfreq(128)[None, :] ** 2
+print(f"log-amplitude sigma from the kurtosis: {sigma:.3f}")
+for std_px in [2, 6, 16]:
+    a = np.real(np.fft.ifft2(np.fft.fft2(rng.standard_normal((n, 128, 128))) * np.exp(-2 * np.pi**2 * std_px**2 * freq2)))
+    a /= a.std()
+    mixture = np.exp(sigma * a - sigma**2) * gauss
+    g = np.hypot(*np.gradient(mixture, axis=(1, 2)))[:, 2:-2, 2:-2]
+    m = mixture.ravel()
+    print(
+        f"  amplitude smoothed over {std_px} px: kurtosis {((m - m.mean()) ** 4).mean() / m.var() ** 2:.2f}, "
+        f"|grad| mean / rms {g.mean() / np.sqrt((g**2).mean()):.3f}; PCA map of Gaussian codes plus it: "
+        f"{slopes(maps + mixture)}, quantile-mapped: {slopes(maps + np.interp(mixture, np.quantile(mixture.ravel(), probs), np.quantile(res[:900].ravel(), probs)))}"
+    )

@@ -312,7 +312,7 @@ impl TaskSet {
     pub fn default_dir() -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("data")
-            .join("v3")
+            .join("v4")
     }
 
     /// Opens the committed task set ([`TaskSet::default_dir`]).

@@ -1,4 +1,4 @@
-//! Properties of the committed task set (tasks/data/v3) and of its regeneration.
+//! Properties of the committed task set (tasks/data/v4) and of its regeneration.
 
 use sim_core::world::{ObstacleKind, SemanticsKind};
 use tasks::format::WorldRecord;
@@ -164,9 +164,9 @@ fn every_level_matches_the_original_worlds_geometry_within_15_percent() {
 #[test]
 fn the_interim_generators_still_regenerate_sets_v1_and_v2() {
     // Sets v1 (the 1/f interim heights) and v2 (the banded interim heights, results up to 2026-11-24) left the
-    // repository when the SWAE set v3 replaced them; a version hash covers every world file, so `vb tasks generate
-    // --generator interim-v1` and `--generator interim` still rebuild them byte for byte. (Set v3's regeneration
-    // is tested in crate swae, which owns its generator.)
+    // repository when the SWAE sets replaced them; a version hash covers every world file, so `vb tasks generate
+    // --generator interim-v1` and `--generator interim` still rebuild them byte for byte. (The SWAE sets'
+    // regeneration, v3 and the committed v4, is tested in crate swae, which owns its generator.)
     let sets: [(&dyn HeightSource, &str, &str); 2] = [
         (
             &tasks::interim::SpectralSource::default(),

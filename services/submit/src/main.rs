@@ -142,7 +142,7 @@ struct ValidateOpts {
     /// Per-control-step deadline of the planner, s.
     #[arg(long, default_value_t = 1.0)]
     step_deadline: f64,
-    /// Task-set directory (default: the benchmark's committed set, tasks/data/v3).
+    /// Task-set directory (default: the benchmark's committed set, tasks/data/v4).
     #[arg(long)]
     task_dir: Option<PathBuf>,
     /// Run an exec planner as this user, as a worker with `--planner-user` does (needs root).

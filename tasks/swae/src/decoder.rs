@@ -68,7 +68,7 @@ pub struct Decoder {
     encoder_channels: Vec<usize>,
     /// `dec.lin` (`[CROP_PX^2, latent]` weight, bias), added to the conv path's output.
     linear: Option<(Vec<f64>, Vec<f64>)>,
-    /// `detail.kernel` and `detail.marginal`: the observation model samples add.
+    /// `detail.kernel`, `detail.marginal` and `detail.amplitude`: the observation model samples add.
     detail: Option<Detail>,
     /// `ref.conv0..2`: the full-resolution refiner, `(cin, cout, weight [cout, cin, 3, 3], bias)` per conv.
     refiner: Vec<(usize, usize, Vec<f64>, Vec<f64>)>,
@@ -260,9 +260,27 @@ impl Decoder {
                     }
                     _ => Vec::new(),
                 };
+                // The log-amplitude: absent (v3 and earlier) means a stationary field.
+                let amplitude = match t.get("detail.amplitude") {
+                    Some(a) if a.shape != [1] => {
+                        return Err(bad(format!(
+                            "tensor `detail.amplitude` has shape {:?}, expected [1]",
+                            a.shape
+                        )))
+                    }
+                    Some(a) if !(a.data[0].is_finite() && a.data[0] >= 0.0) => {
+                        return Err(bad(format!(
+                            "`detail.amplitude` must be a non-negative number, not {}",
+                            a.data[0]
+                        )))
+                    }
+                    Some(a) => a.data[0],
+                    None => 0.0,
+                };
                 Some(Detail {
                     kernel: k.data.clone(),
                     marginal,
+                    amplitude,
                 })
             }
             None => None,

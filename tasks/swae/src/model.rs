@@ -108,7 +108,7 @@ pub struct Swae {
     /// `(enc.lin, dec.lin)` when [`Config::linear_skip`].
     skip: Option<(Linear, Linear)>,
     /// `detail.kernel` and `detail.marginal` when [`Config::detail`].
-    detail: Option<(Tensor, Tensor)>,
+    detail: Option<(Tensor, Tensor, Tensor)>,
     /// `ref.conv0..2` when [`Config::refiner`] > 0.
     refiner: Vec<Conv2d>,
 }
@@ -166,7 +166,8 @@ impl Swae {
         let varmap = VarMap::new();
         let vb = VarBuilder::from_varmap(&varmap, DType::F32, &Device::Cpu);
         let model = Self::build(config, varmap.clone(), vb)?;
-        // As `VarMap::load`, except that `detail.marginal` may be missing (files written before it: no transform).
+        // As `VarMap::load`, except that `detail.marginal` and `detail.amplitude` may be missing (files written
+        // before them: no transform, a stationary field).
         let bad = |message: String| SwaeError::Weights {
             path: path.into(),
             message,
@@ -183,7 +184,7 @@ impl Swae {
                         var.dims()
                     )))
                 }
-                None if name == "detail.marginal" => {}
+                None if name == "detail.marginal" || name == "detail.amplitude" => {}
                 None => return Err(bad(format!("missing tensor `{name}`"))),
             }
         }
@@ -257,6 +258,7 @@ impl Swae {
             Some((
                 vb.get_with_hints((side, side), "detail.kernel", zero)?,
                 vb.get_with_hints((2, crate::detail::KNOTS), "detail.marginal", zero)?,
+                vb.get_with_hints(1, "detail.amplitude", zero)?,
             ))
         } else {
             None
@@ -431,7 +433,7 @@ impl Swae {
 
     /// Sets the detail kernel (`SIDE x SIDE`).
     pub fn set_detail(&self, detail: &crate::detail::Detail) -> Result<(), SwaeError> {
-        let Some((kernel, marginal)) = &self.detail else {
+        let Some((kernel, marginal, amplitude)) = &self.detail else {
             return Err(SwaeError::param(
                 "detail",
                 "this model has no detail kernel",
@@ -451,6 +453,11 @@ impl Swae {
         };
         self.var_of(marginal)?
             .set(&Tensor::from_vec(m, (2, knots), &Device::Cpu)?)?;
+        self.var_of(amplitude)?.set(&Tensor::from_vec(
+            vec![detail.amplitude as f32],
+            1,
+            &Device::Cpu,
+        )?)?;
         Ok(())
     }
 

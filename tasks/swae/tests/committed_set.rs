@@ -1,6 +1,6 @@
-//! The committed task set v3 (tasks/data/v3) is the SWAE set of the committed weights and calibration: it
+//! The committed task set v4 (tasks/data/v4) is the SWAE set of the committed weights and calibration: it
 //! regenerates byte for byte (on any thread), its surface counterfactuals change only the ground, and sets made with
-//! other seeds share no world with it. (Properties that do not depend on the height source are tested in crate
+//! other seeds share no world with it; set v3 still regenerates from the v3 weights and calibration. (Properties that do not depend on the height source are tested in crate
 //! `tasks`, tests/task_set.rs.)
 
 use sim_core::world::SemanticsKind;
@@ -151,5 +151,20 @@ fn a_surface_counterfactual_changes_only_the_ground() {
     // Rigid and mixed worlds all change; a deformable world keeps its patches only by chance (both draws one and
     // the same soil class, whose patches carry no per-patch friction): 3 of the 33 here, one terrain group.
     assert!(changed >= 67 + 30, "{changed} worlds changed");
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn the_v3_weights_still_regenerate_set_v3() {
+    // Set v3 (SWAE v3's stationary texture at 11.32 m; results of 2026-11-24) left the repository when v4 replaced
+    // it; its version hash covers every world file, so `vb tasks generate --weights
+    // tasks/swae/weights/swae-v3.safetensors --full-scale 11.32` rebuilds it byte for byte: the v3 weights have no
+    // `detail.amplitude`, so their texture is drawn exactly as before.
+    let weights = Path::new(env!("CARGO_MANIFEST_DIR")).join("weights/swae-v3.safetensors");
+    let src = SwaeSource::from_file(&weights, swae::source::V3_FULL_SCALE_HEIGHT).unwrap();
+    let out = std::env::temp_dir().join(format!("vb-regen-v3-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let m = tasks::cli::generate_set(&out, tasks::generate::DEFAULT_SEED, &src).unwrap();
+    assert_eq!(m.version, "bf02f5d2a56c624c");
     std::fs::remove_dir_all(&out).unwrap();
 }

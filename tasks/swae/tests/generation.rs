@@ -103,16 +103,15 @@ fn learned_from_the_release_crops() {
     );
 }
 
-/// The v3 checkpoint (linear skip set from the PCA, refiner, observation model) on the release's crops: its
-/// held-out reconstruction RMSE is no worse than the 64-component PCA's (measured 0.0840 vs 0.0841; the refiner's
-/// gain is that small), and its samples' per-map slope p95 and roughness are within 20% of the training crops' at
-/// the committed full-scale height (measured +0.5% and +8.7%; `vb terrain eval`, BENCHMARKS.md). Their mean slope
-/// is +24% there, outside issue 17 point 1's 20% (the texture is independent of the relief under it; BENCHMARKS.md
-/// "SWAE v3"): pinned at 25% so it cannot get worse unnoticed. (At v1's 50.48 m, where atan compresses steep
-/// slopes, the same samples measured +17.8%.)
+/// The committed v4 weights (v3's linear skip from the PCA and refiner, with the scale-mixture observation model)
+/// on the release's crops: held-out reconstruction RMSE no worse than the 64-component PCA's (measured 0.0840 vs
+/// 0.0841; the refiner's gain is that small), and the samples' mean slope, per-map slope p95 and roughness within
+/// 20% of the training crops' at the committed full-scale height (issue 17 point 1; `vb terrain eval`,
+/// BENCHMARKS.md "SWAE v4"). With v3's stationary texture the mean slope was +24%; the scale mixture brings it
+/// under 20%, with little margin (the texture still does not depend on the relief under it).
 #[test]
-fn the_v3_checkpoint_matches_the_pca_and_the_crops_roughness() {
-    let Some((train, val, path, model)) = release_crops_and("swae-v3.safetensors") else {
+fn the_committed_weights_match_the_pca_and_the_crops_slopes_and_roughness() {
+    let Some((train, val, path, model)) = release_crops_and("swae-v4.safetensors") else {
         return;
     };
     let (rmse, pca_rmse) = held_out_rmse(&model, &train, &val, 64);
@@ -130,11 +129,17 @@ fn the_v3_checkpoint_matches_the_pca_and_the_crops_roughness() {
     );
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
     for (name, a, b, tolerance) in [
-        ("mean slope", &s.slopes, &t.slopes, 0.25),
+        ("mean slope", &s.slopes, &t.slopes, 0.2),
         ("slope p95 per map", &s.slope_p95, &t.slope_p95, 0.2),
         ("roughness", &s.roughness, &t.roughness, 0.2),
     ] {
         let r = mean(a) / mean(b) - 1.0;
+        eprintln!(
+            "{name}: samples {:.3}, crops {:.3} ({:+.1}%)",
+            mean(a),
+            mean(b),
+            r * 100.0
+        );
         assert!(
             r.abs() < tolerance,
             "{name}: samples {:.3} vs crops {:.3}",

@@ -29,7 +29,7 @@ pub struct ServeArgs {
     /// Episodes run at once by the in-process worker pool.
     #[arg(long, default_value_t = default_slots())]
     slots: usize,
-    /// Task-set directory (default: the benchmark's committed set, tasks/data/v3).
+    /// Task-set directory (default: the benchmark's committed set, tasks/data/v4).
     #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
     task_dir: PathBuf,
     /// Submit this built-in planner through the gRPC API and follow it to the end.
@@ -58,7 +58,7 @@ pub struct CoordinatorArgs {
     /// gRPC address of the submission and worker APIs.
     #[arg(long, default_value = "127.0.0.1:50051")]
     listen: SocketAddr,
-    /// Task-set directory (default: the benchmark's committed set, tasks/data/v3).
+    /// Task-set directory (default: the benchmark's committed set, tasks/data/v4).
     #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
     task_dir: PathBuf,
     /// Lease length without a heartbeat, s: a dead worker's episodes are re-queued after this.
@@ -99,7 +99,7 @@ pub struct WorkerArgs {
     /// Name shown in the coordinator's logs.
     #[arg(long)]
     name: Option<String>,
-    /// Task-set directory (default: the benchmark's committed set, tasks/data/v3).
+    /// Task-set directory (default: the benchmark's committed set, tasks/data/v4).
     #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
     task_dir: PathBuf,
     /// How long a planner process may take to start serving, s.
@@ -131,7 +131,7 @@ pub struct LeaderboardArgs {
     /// HTTP address of the pages and the JSON API.
     #[arg(long, default_value = "127.0.0.1:8080")]
     listen: SocketAddr,
-    /// Task-set directory (default: the benchmark's committed set, tasks/data/v3).
+    /// Task-set directory (default: the benchmark's committed set, tasks/data/v4).
     #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
     task_dir: PathBuf,
 }

@@ -21,7 +21,7 @@ pub enum Generator {
 pub enum TasksCmd {
     /// Generate the 100-world task set from a seed (byte-identical for the same seed and generator).
     Generate {
-        /// Output directory (required: the benchmark's committed set is tasks/data/v3; name it to regenerate it).
+        /// Output directory (required: the benchmark's committed set is tasks/data/v4; name it to regenerate it).
         #[arg(long)]
         out: PathBuf,
         #[arg(long, default_value_t = tasks::generate::DEFAULT_SEED)]

@@ -58,12 +58,24 @@ pub enum TerrainCmd {
     Eval {
         #[arg(long)]
         data: PathBuf,
-        /// Weights file (default: the committed tasks/swae/weights/swae-v3.safetensors).
+        /// Weights file (default: the committed tasks/swae/weights/swae-v4.safetensors).
         #[arg(long)]
         weights: Option<PathBuf>,
         /// Generated samples to compare.
         #[arg(long, default_value_t = 900)]
         samples: usize,
+    },
+    /// Refit a model's observation model (the texture samples add: kernel, log-amplitude and marginal law) to the
+    /// residuals of its reconstructions of the training crops, and write the weights with it to OUT (the network
+    /// is unchanged).
+    FitDetail {
+        #[arg(long)]
+        data: PathBuf,
+        /// Weights file to start from (default: the committed one).
+        #[arg(long)]
+        weights: Option<PathBuf>,
+        #[arg(long)]
+        out: PathBuf,
     },
     /// Derive the full-scale height from the 100 worlds of a seed (prints the constant and the per-level fit).
     Calibrate {
@@ -222,6 +234,21 @@ pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
             print!(
                 "{}",
                 swae::eval::report(&model, &source(&w)?, &train, &val, samples)?
+            );
+        }
+        TerrainCmd::FitDetail { data, weights, out } => {
+            let w = weights_path(weights);
+            let (train, _) = swae::train::load_split(&data)?;
+            let model = swae::model::Swae::load(&w)?;
+            let detail = swae::train::fit_detail(&model, &train)?;
+            model.save(&out)?;
+            println!(
+                "observation model of {} refitted on {} training crops: log-amplitude sigma {:.4}, texture std {:.4}; wrote {}",
+                w.display(),
+                train.len().min(swae::train::DETAIL_CROPS),
+                detail.amplitude,
+                detail.std(),
+                out.display()
             );
         }
         TerrainCmd::Calibrate { weights, seed } => {
