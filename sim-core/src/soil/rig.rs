@@ -96,14 +96,19 @@ impl WheelRig {
         }
     }
 
-    /// Runs the rig on fresh soil, [`WheelRig::passes`] times over the same track.
-    pub fn run(&self, drive: Drive) -> RigResult {
+    /// Flat, fresh soil of the rig's parameters at its node spacing (allocates).
+    fn fresh_soil(&self) -> SoilGrid {
         let world = World::uniform(
             Heightmap::from_fn(1.0, |_, _| 0.0),
             Semantic::Mud,
             Surface::Deformable { soil: self.soil },
         );
-        let mut grid = SoilGrid::with_spacing(&world, self.spacing);
+        SoilGrid::with_spacing(&world, self.spacing)
+    }
+
+    /// Runs the rig on fresh soil, [`WheelRig::passes`] times over the same track.
+    pub fn run(&self, drive: Drive) -> RigResult {
+        let mut grid = self.fresh_soil();
         let (r, v, dt) = (self.radius, self.speed, self.dt);
         let mass = self.load / G;
         let (mut z, mut vz, mut omega) = (r, 0.0, 0.0);
@@ -155,19 +160,12 @@ impl WheelRig {
             slip: 1.0 - v / (sum.slip / n * r),
         }
     }
-}
 
-impl WheelRig {
     /// The wheel pressed statically into fresh soil (no travel, no spin): its load ramped on over
     /// [`STATIC_RAMP`] s, then held for as long again; returns the sinkage, m, averaged over the last
     /// second. `offset` places the wheel's centre along the track relative to the grid's nodes, m.
     pub fn static_sinkage(&self, offset: f64) -> f64 {
-        let world = World::uniform(
-            Heightmap::from_fn(1.0, |_, _| 0.0),
-            Semantic::Mud,
-            Surface::Deformable { soil: self.soil },
-        );
-        let mut grid = SoilGrid::with_spacing(&world, self.spacing);
+        let mut grid = self.fresh_soil();
         let (r, dt) = (self.radius, self.dt);
         let mass = self.load / G;
         let (mut z, mut vz) = (r, 0.0);

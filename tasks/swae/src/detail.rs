@@ -335,6 +335,21 @@ mod tests {
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 
+    /// A 3 x 3 box kernel of unit variance (nine taps of 1/3), no marginal transform, the given amplitude.
+    fn box3(amplitude: f64) -> Detail {
+        let mut kernel = vec![0.0; SIDE * SIDE];
+        for dy in 0..3 {
+            for dx in 0..3 {
+                kernel[(RADIUS - 1 + dy) * SIDE + RADIUS - 1 + dx] = 1.0 / 3.0;
+            }
+        }
+        Detail {
+            kernel,
+            marginal: Vec::new(),
+            amplitude,
+        }
+    }
+
     /// A field synthesised from a fitted kernel has the autocorrelation it was fitted to (Wiener-Khinchin:
     /// the autocorrelation of white noise convolved with K is K * K). Reference: fields made by smoothing white
     /// noise with a 5 x 5 box, whose autocorrelation is the box's self-convolution (a pyramid); 5% tolerance on
@@ -386,17 +401,7 @@ mod tests {
     #[test]
     fn the_texture_takes_the_residuals_marginal_law() {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
-        let mut k = vec![0.0; SIDE * SIDE];
-        for dy in 0..3 {
-            for dx in 0..3 {
-                k[(RADIUS - 1 + dy) * SIDE + RADIUS - 1 + dx] = 1.0 / 3.0;
-            }
-        }
-        let smooth = Detail {
-            kernel: k,
-            marginal: Vec::new(),
-            amplitude: 0.0,
-        };
+        let smooth = box3(0.0);
         let residuals: Vec<Vec<f64>> = (0..30)
             .map(|_| {
                 smooth
@@ -451,17 +456,7 @@ mod tests {
     #[test]
     fn the_amplitude_makes_a_gaussian_scale_mixture() {
         let sigma: f64 = 0.45;
-        let mut k = vec![0.0; SIDE * SIDE];
-        for dy in 0..3 {
-            for dx in 0..3 {
-                k[(RADIUS - 1 + dy) * SIDE + RADIUS - 1 + dx] = 1.0 / 3.0;
-            }
-        }
-        let mixture = Detail {
-            kernel: k,
-            marginal: Vec::new(),
-            amplitude: sigma,
-        };
+        let mixture = box3(sigma);
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         let fields: Vec<Vec<f64>> = (0..40).map(|_| mixture.synthesise(&mut rng)).collect();
         let kurt = kurtosis(&fields);
