@@ -123,9 +123,12 @@ def test_next_step_autoreset_ignores_the_action_after_an_end_and_reports_it():
 
 def test_reward_is_the_sum_of_its_documented_terms():
     env = vb.make(tasks=LOW, reward={"roll": 2.0, "pitch": 3.0})
-    env.reset(seed=4)
+    obs, _ = env.reset(seed=4)
     for _ in range(60):
-        obs, reward, term, trunc, info = env.step(np.array([0.3, 1.0, 0.0]))
+        # Steer at the goal (its bearing in the heading frame, P control) at full throttle.
+        ahead, left = obs["goal"][0], obs["goal"][1]
+        steering = float(np.clip(2.0 * np.arctan2(left, ahead), -1.0, 1.0))
+        obs, reward, term, trunc, info = env.step(np.array([steering, 1.0, 0.0]))
         terms = info["reward_terms"]
         assert set(terms) == set(vb.REWARD_TERMS)
         assert reward == pytest.approx(sum(terms.values()))
