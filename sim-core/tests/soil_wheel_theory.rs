@@ -214,7 +214,10 @@ fn a_wheel_pressed_statically_sinks_as_bekker_s_static_wheel() {
         let want = bekker_static_sinkage(s, R, B, W);
         for offset in [0.0, 0.025, 0.05] {
             let got = rig(s, 4e-3, 0.1).static_sinkage(offset);
-            eprintln!("{name} at {offset} m: {got:.4} m, Bekker {want:.4} m");
+            eprintln!(
+                "{name} at {offset} m: {got:.4} m, Bekker {want:.4} m ({:+.1}%)",
+                (got / want - 1.0) * 100.0
+            );
             assert!(
                 within(got, want, 0.10, 0.0),
                 "{name} at {offset} m: {got} vs {want}"

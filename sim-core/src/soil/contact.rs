@@ -19,6 +19,13 @@ fn coverage(a: f64, half: f64, delta: f64) -> f64 {
     }
 }
 
+/// A body's sinking motion ([`Hit::compaction_velocity`]): the part of its velocity `v` along the ground's unit
+/// normal `n` while it moves into the soil, else zero.
+#[inline]
+fn sinking(v: &Vector3<f64>, n: &Vector3<f64>) -> Vector3<f64> {
+    n * v.dot(n).min(0.0)
+}
+
 impl SoilGrid {
     /// Node index range covering `[c.x - rx, c.x + rx] x [c.y - ry, c.y + ry]` (inclusive).
     fn node_box(&self, c: &Vector3<f64>, rx: f64, ry: f64) -> (usize, usize, usize, usize) {
@@ -68,7 +75,7 @@ impl SoilGrid {
         // ruts do not depend on which of the node's positions under the wheel the steps happen to catch.
         let advance = w.velocity.dot(&fwd) * dt;
         // The centre's sinking velocity (not the rim's spin): the soil under the wheel moves down with it.
-        let compaction_velocity = out.normal_dir * w.velocity.dot(&out.normal_dir).min(0.0);
+        let compaction_velocity = sinking(&w.velocity, &out.normal_dir);
         for j in j0..=j1 {
             for i in i0..=i1 {
                 let x = i as f64 * self.delta - self.half_x;
@@ -122,7 +129,7 @@ impl SoilGrid {
         let (hl, hw) = (0.5 * plate.length, 0.5 * plate.width);
         let reach = hl.hypot(hw) + self.delta;
         let (i0, i1, j0, j1) = self.node_box(&plate.centre, reach, reach);
-        let compaction_velocity = out.normal_dir * plate.velocity.dot(&out.normal_dir).min(0.0);
+        let compaction_velocity = sinking(&plate.velocity, &out.normal_dir);
         for j in j0..=j1 {
             for i in i0..=i1 {
                 let x = i as f64 * self.delta - self.half_x;

@@ -136,9 +136,7 @@ impl WheelRig {
                 angular_velocity: Vector3::new(0.0, omega, 0.0),
             };
             let c: SoilContact = grid.wheel_contact(&w, dt);
-            let (kz, cz) = (c.normal_stiffness, c.normal_damping);
-            let dv = dt * (c.force.z - self.load - dt * kz * vz) / (mass + dt * cz + dt * dt * kz);
-            vz += dv;
+            vz += implicit_dv(&c, c.normal_stiffness, self.load, mass, vz, dt);
             z += dt * vz;
             if drive == Drive::Towed {
                 omega += dt * c.torque.y / (self.inertia + dt * r * r * c.traction_stiffness);
@@ -184,14 +182,13 @@ impl WheelRig {
                 angular_velocity: Vector3::zeros(),
             };
             let c = grid.wheel_contact(&w, dt);
-            // Linearly implicit as in `run`, on the unloading branch once the wheel no longer sinks.
+            // On the unloading branch once the wheel no longer sinks.
             let kz = if vz < 0.0 {
                 c.normal_stiffness
             } else {
                 c.unloading_stiffness
             };
-            let cz = c.normal_damping;
-            vz += dt * (c.force.z - load - dt * kz * vz) / (mass + dt * cz + dt * dt * kz);
+            vz += implicit_dv(&c, kz, load, mass, vz, dt);
             z += dt * vz;
             if k >= from {
                 sum += r - z;
@@ -199,6 +196,12 @@ impl WheelRig {
         }
         sum / (steps - from) as f64
     }
+}
+
+/// The linearly implicit change of the wheel's vertical velocity over a step, with the soil's vertical stiffness
+/// `kz` (the branch the caller picks) and damping: `(m + dt C + dt^2 K) dv = dt (F_z - W - dt K v)`.
+fn implicit_dv(c: &SoilContact, kz: f64, load: f64, mass: f64, vz: f64, dt: f64) -> f64 {
+    dt * (c.force.z - load - dt * kz * vz) / (mass + dt * c.normal_damping + dt * dt * kz)
 }
 
 /// Time over which [`WheelRig::static_sinkage`] ramps the load on, s.

@@ -93,7 +93,7 @@ fn irwin_hall(rng: &mut impl Rng) -> f64 {
 }
 
 /// Kurtosis `E[(x - m)^4] / var^2` of the pooled values.
-pub fn kurtosis(values: &[Vec<f64>]) -> f64 {
+fn kurtosis(values: &[Vec<f64>]) -> f64 {
     let n = values.iter().map(Vec::len).sum::<usize>().max(1) as f64;
     let m = values.iter().flatten().sum::<f64>() / n;
     let (mut m2, mut m4) = (0.0, 0.0);
@@ -114,18 +114,9 @@ impl Detail {
     /// Measures the autocorrelation of `residuals` (each `CROP_PX * CROP_PX`, row-major) at lags up to
     /// [`RADIUS`] and factorises it into a synthesis kernel whose output has the residuals' variance.
     pub fn fit(residuals: &[Vec<f64>]) -> Detail {
-        Self::fit_with(residuals, true)
-    }
-
-    /// As [`Detail::fit`]; `mixture: false` fits the stationary field (`amplitude` 0), as the v3 weights have it.
-    pub fn fit_with(residuals: &[Vec<f64>], mixture: bool) -> Detail {
         // The amplitude by the method of moments: kurtosis 3 exp(4 sigma^2); none where the tails are Gaussian or
         // lighter.
-        let amplitude = if mixture {
-            (kurtosis(residuals) / 3.0).ln().max(0.0).sqrt() / 2.0
-        } else {
-            0.0
-        };
+        let amplitude = (kurtosis(residuals) / 3.0).ln().max(0.0).sqrt() / 2.0;
         let mut c = autocorrelation(residuals);
         if amplitude > 0.0 {
             // The autocorrelation of s g is E[s s'] C_g: divide the amplitude's out.
@@ -236,7 +227,7 @@ impl Detail {
             }
         }
         if self.amplitude > 0.0 {
-            let a = self.amplitude_field(rng);
+            let a = amplitude_field(rng);
             let s2 = self.amplitude * self.amplitude;
             for (o, a) in out.iter_mut().zip(&a) {
                 *o *= crate::num::exp(self.amplitude * a - s2);
@@ -246,39 +237,39 @@ impl Detail {
         out
     }
 
-    /// The unit log-amplitude field `a`: white noise smoothed along rows, then along columns.
-    fn amplitude_field(&self, rng: &mut impl Rng) -> Vec<f64> {
-        let k = amplitude_kernel();
-        let wide = CROP_PX + 2 * AMPLITUDE_RADIUS;
-        let noise: Vec<f64> = (0..wide * wide).map(|_| irwin_hall(rng)).collect();
-        // Rows: wide x CROP_PX.
-        let mut rows = vec![0.0; wide * CROP_PX];
-        for y in 0..wide {
-            for x in 0..CROP_PX {
-                rows[y * CROP_PX + x] = k
-                    .iter()
-                    .zip(&noise[y * wide + x..y * wide + x + k.len()])
-                    .map(|(a, b)| a * b)
-                    .sum();
-            }
-        }
-        let mut out = vec![0.0; CROP_PX * CROP_PX];
-        for y in 0..CROP_PX {
-            for x in 0..CROP_PX {
-                out[y * CROP_PX + x] = k
-                    .iter()
-                    .enumerate()
-                    .map(|(i, a)| a * rows[(y + i) * CROP_PX + x])
-                    .sum();
-            }
-        }
-        out
-    }
-
     /// Standard deviation of the synthesised field (`sqrt(sum K^2)`).
     pub fn std(&self) -> f64 {
         self.kernel.iter().map(|k| k * k).sum::<f64>().sqrt()
     }
+}
+
+/// The unit log-amplitude field `a`: white noise smoothed along rows, then along columns.
+fn amplitude_field(rng: &mut impl Rng) -> Vec<f64> {
+    let k = amplitude_kernel();
+    let wide = CROP_PX + 2 * AMPLITUDE_RADIUS;
+    let noise: Vec<f64> = (0..wide * wide).map(|_| irwin_hall(rng)).collect();
+    // Rows: wide x CROP_PX.
+    let mut rows = vec![0.0; wide * CROP_PX];
+    for y in 0..wide {
+        for x in 0..CROP_PX {
+            rows[y * CROP_PX + x] = k
+                .iter()
+                .zip(&noise[y * wide + x..y * wide + x + k.len()])
+                .map(|(a, b)| a * b)
+                .sum();
+        }
+    }
+    let mut out = vec![0.0; CROP_PX * CROP_PX];
+    for y in 0..CROP_PX {
+        for x in 0..CROP_PX {
+            out[y * CROP_PX + x] = k
+                .iter()
+                .enumerate()
+                .map(|(i, a)| a * rows[(y + i) * CROP_PX + x])
+                .sum();
+        }
+    }
+    out
 }
 
 /// The values' quantiles at probabilities `(i + 1/2) / KNOTS` (sorts `v`).
