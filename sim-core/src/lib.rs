@@ -37,6 +37,6 @@ pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
 /// soil pressure along the wheel's surface normal. Revision 4: the handling tyre's Magic Formula has Pacejka's
 /// curvature factor E (changes the vehicles on handling tyres only; the rigid-tyre HMMWV's trajectories, and so
 /// every quoted benchmark result, are bit-identical to r3).
-pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r5");
+pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r6");
 pub use vehicle::{Simulation, VehicleSpec};
 pub mod world;

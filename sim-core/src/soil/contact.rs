@@ -1,7 +1,7 @@
 //! Contact geometry: which nodes a rigid wheel or a flat plate presses, the body's surface normal and velocity there,
 //! and the fraction of each node's cell the body covers (step 1 of the module's algorithm).
 
-use super::node::Hit;
+use super::node::{Hit, RimPoint};
 use super::{PlateGeometry, SoilContact, SoilGrid, WheelGeometry};
 use nalgebra::Vector3;
 
@@ -99,6 +99,13 @@ impl SoilGrid {
                     compaction_velocity,
                     swept_bottom: ((u < 0.0) != (u + advance < 0.0))
                         .then_some(w.centre.z - w.radius),
+                    rim: Some(RimPoint {
+                        offset: u,
+                        height: h,
+                        radius: w.radius,
+                        forward: fwd,
+                        centre_velocity: w.velocity,
+                    }),
                 };
                 self.press_node((i, j), &hit, w.width, &w.centre, dt, &mut out);
             }
@@ -151,6 +158,7 @@ impl SoilGrid {
                     weight,
                     compaction_velocity,
                     swept_bottom: None,
+                    rim: None,
                 };
                 self.press_node((i, j), &hit, b, &plate.centre, dt, &mut out);
             }

@@ -18,7 +18,11 @@
 //!    `s - s_p`; elastic trial `sigma = K_e (s - s_p)`; if it exceeds the node's yield pressure, Bekker
 //!    `sigma = (k_c / b + k_phi) s^n` holds, the yield pressure rises to it and `s_p = s - sigma / K_e` (so unloading
 //!    and reloading follow the elastic line until the previous yield): ruts persist;
-//! 3. damping `sigma += R |v . N|` while the surface moves into the soil (`v . N < 0`);
+//! 3. damping `sigma += R |v . N|` while the surface moves into the soil (`v . N < 0`); on a wheel, over the part
+//!    of the node's cell (along the track) inside the rim's contact with the surface it found there and on the side
+//!    where the rim moves into the soil, evaluated at that part's midpoint, so the damped area grows continuously as
+//!    the rim's edge advances over a cell (the cell just ahead of the edge gets its share too, with no sinkage or
+//!    shear); [`node::RimPoint::damping`];
 //! 4. shear, elastic-plastic in the tangent plane of `N`: the node keeps its mobilised shear `rho = tau / tau_max`
 //!    (a vector) and a hardening displacement `h` (both reset when contact is lost). The slip is the body's velocity
 //!    relative to the soil, `u = v - v_c`, where `v_c` is the body centre's motion along the undeformed ground's
@@ -27,8 +31,9 @@
 //!    as in Wong's static rigid wheel), while rolling and sliding at constant sinkage keep Wong-Reece's slip
 //!    kinematics exactly (`v_c = 0`); a rising body leaves the soil behind and slides along it. Chrono's SCM takes
 //!    `u = v`, so a sinking wheel's arc also mobilises shear that carries part of its load (11% less static
-//!    sinkage on snow). `d = (u - N (u . N)) dt`
-//!    moves `rho` elastically by `d / K` (Janosi's initial stiffness); beyond the yield circle
+//!    sinkage on snow). `d = (u - N (u . N)) t` (`t = dt`, except in the step a contact begins: the part of the
+//!    step since the body's surface passed the surface it found there, so the slip accrues from when the body
+//!    reached the node whatever the step) moves `rho` elastically by `d / K` (Janosi's initial stiffness); beyond the yield circle
 //!    `|rho| <= 1 - exp(-h / K)` the excess hardens `h` and `rho` stays on the circle. Monotonic slip `j` thus gives
 //!    Janosi-Hanamoto exactly; unloading, reversal and reloading up to the previous yield are elastic, so a body at
 //!    rest under a load below its shear capacity is held like an elastic-plastic bristle instead of creeping;
@@ -46,7 +51,7 @@
 //! Compaction (motion) resistance, sinkage and traction loss are not added by hand: they emerge from this law. The
 //! contact also returns the Jacobians a vehicle needs to integrate a wheel's spin and vertical motion linearly
 //! implicitly ([`SoilContact::traction_stiffness`], [`SoilContact::normal_stiffness`],
-//! [`SoilContact::normal_damping`], [`SoilContact::unloading_stiffness`]) and the shear capacity the vehicle's shear
+//! [`SoilContact::normal_damping`]) and the shear capacity the vehicle's shear
 //! damping respects ([`SoilContact::shear_capacity`]). [`rig`] is a single-wheel test rig on this model.
 //!
 //! API (called by the vehicle model once per wheel / track shoe and step, after [`SoilGrid::begin_step`]):
@@ -97,14 +102,14 @@ pub struct SoilContact {
     pub shear_capacity: f64,
     /// For implicit vertical integration: `-d(F_z)/d(z_c)`, the derivative of the vertical soil force with respect to
     /// a vertical displacement `z_c` of the body (all nodes keep their hit, their sinkage changes by `-dz_c`),
-    /// towards the soil, N/m: per node `w delta^2 d(sigma)/d(s)` on the branch the node is on, `K_e` elastic,
-    /// `n sigma / s` (Bekker's tangent) plastic. Moving up, plastic nodes unload along `K_e` instead, a stiffer
-    /// one-sided tangent. Neglects the change of the shear's vertical part.
+    /// towards the soil, N/m: per node `w delta^2 d(sigma)/d(s)` on the branch the node moves along: where the
+    /// body's surface moves into the node (`-(v . N) / N_z > 0`, by sinking or by rolling forward over it), the
+    /// branch it is on (`K_e` elastic, Bekker's tangent `n sigma / s` plastic); where it moves away or rests, the
+    /// elastic line `K_e` (a plastic node unloads elastically), so a node at its yield point under a body at rest
+    /// does not chatter between the soft plastic and the stiff elastic branch, and a wheel rolling forward while it
+    /// rises a little keeps the soft tangent of the front arc it still yields. Neglects the change of the shear's
+    /// vertical part.
     pub normal_stiffness: f64,
-    /// The same derivative for a body moving out of the soil: every pressed node on its elastic line,
-    /// `w delta^2 K_e` (plastic nodes unload elastically). A body at rest or rising is integrated with this one,
-    /// so a node at its yield point does not chatter between the soft plastic and the stiff elastic branch.
-    pub unloading_stiffness: f64,
     /// For implicit vertical integration: `-d(F_z)/d(v_z)`, N s/m: `w delta^2 R N_z` over the nodes moving into the
     /// soil (the damping pressure `R |v . N|`).
     pub normal_damping: f64,

@@ -18,6 +18,8 @@ pub(super) struct Node {
     pub(super) hardening: f64,
     /// Step of the last contact.
     pub(super) last_step: u64,
+    /// Plastic sinkage when the current contact began: the surface the body found there, m.
+    pub(super) found: f64,
 }
 
 impl Node {
@@ -62,6 +64,86 @@ pub(super) struct Hit {
     /// Height of the body's lowest point where it passed over the node during the step, if it did (a wheel's rim
     /// bottom): the node is first yielded as deep as that ([`SoilGrid::wheel_contact`]'s swept contact).
     pub(super) swept_bottom: Option<f64>,
+    /// A wheel's rim over the node (`None` for a plate): where the contact's edge lies in the node's cell.
+    pub(super) rim: Option<RimPoint>,
+}
+
+/// Where a node lies under a wheel's rim, along the wheel's track (a wheel with a horizontal axle).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct RimPoint {
+    /// Signed distance of the node from the wheel's centre along `forward`, `u`, m.
+    pub(super) offset: f64,
+    /// Height of the wheel's centre above the rim point over the node, `sqrt(r^2 - u^2)`, m.
+    pub(super) height: f64,
+    pub(super) radius: f64,
+    /// Unit horizontal heading of the wheel.
+    pub(super) forward: Vector3<f64>,
+    /// Velocity of the wheel's centre (the rim's spin is tangent to the rim, so `v . N` of a rim point is the
+    /// centre's).
+    pub(super) centre_velocity: Vector3<f64>,
+}
+
+/// The damping pressure's share of a node's cell (step 3).
+pub(super) struct Damping {
+    /// Force per unit of the cell's horizontal area, N/m^2.
+    pub(super) force: Vector3<f64>,
+    /// Mean damping pressure over the cell (covered fraction times the pressure), Pa.
+    pub(super) pressure: f64,
+    /// `-d(F_z)/d(v_z)` per unit of the cell's horizontal area, N s/m^3.
+    pub(super) jacobian: f64,
+}
+
+impl RimPoint {
+    /// The damping pressure `R |v . N|` of the rim moving into the soil over the part of the node's cell, along the
+    /// track, that lies inside the rim's contact with the surface the rim found there (`found_pen`: the rim's depth
+    /// below that surface at the node, negative above it; the surface is taken as level across the cell). The
+    /// contact reaches `u_e = sqrt(r^2 - d^2)` from the centre, `d = height - found_pen` the centre's height above
+    /// that surface; the covered part is `[u - delta / 2, u + delta / 2]` within `[-u_e, u_e]` and on the side
+    /// where the rim moves into the soil, and the pressure, normal and surface area are taken at its midpoint. So as the rim's edge advances over a cell the damped area
+    /// grows continuously, instead of a node's whole cell switching on when its ray is first pressed.
+    pub(super) fn damping(&self, found_pen: f64, delta: f64, r_damping: f64) -> Option<Damping> {
+        let r = self.radius;
+        let d = self.height - found_pen;
+        if d >= r {
+            return None;
+        }
+        let reach = if d <= 0.0 { r } else { (r * r - d * d).sqrt() };
+        let (mut lo, mut hi) = (
+            (self.offset - 0.5 * delta).max(-reach),
+            (self.offset + 0.5 * delta).min(reach),
+        );
+        // The rim moves into the soil (`v . N < 0`) on one side of `u* = r v_z / |v|` (for `v_f > 0`, ahead of it;
+        // `N = (-u f + h z) / r`, so `-v . N = |v| sin(theta - alpha)`, `alpha` the velocity's angle): only that
+        // part of the cell is damped (else a cell straddling the bottom of a rolling wheel is damped whole or not
+        // at all).
+        let vf = self.centre_velocity.dot(&self.forward);
+        let vz = self.centre_velocity.z;
+        let speed = vf.hypot(vz);
+        if vf > 0.0 {
+            lo = lo.max(r * vz / speed);
+        } else if vf < 0.0 {
+            hi = hi.min(-r * vz / speed);
+        } else if vz >= 0.0 {
+            return None;
+        }
+        if hi <= lo {
+            return None;
+        }
+        let covered = (hi - lo) / delta;
+        let u = 0.5 * (lo + hi);
+        let normal = (Vector3::z() * (r * r - u * u).sqrt() - self.forward * u) / r;
+        let vn = self.centre_velocity.dot(&normal);
+        if vn >= 0.0 {
+            return None;
+        }
+        let nz = normal.z.max(MIN_NZ);
+        let pressure = -r_damping * vn * covered;
+        Some(Damping {
+            force: normal * (pressure / nz),
+            pressure,
+            jacobian: r_damping * nz * covered,
+        })
+    }
 }
 
 /// The normal's vertical component below which the surface area of a cell is no longer taken as `delta^2 / n_z`
@@ -85,6 +167,8 @@ impl SoilGrid {
         let s = h0 - p.z;
         let swept = hit.swept_bottom.map(|z| h0 - z).filter(|s| *s > 0.0);
         if s <= 0.0 && swept.is_none() {
+            let pen = s - self.plastic_at(i, j);
+            self.edge_damping(hit, pen, centre, out);
             return;
         }
         let Some(soil) = self.soil_at(p.x, p.y) else {
@@ -92,10 +176,14 @@ impl SoilGrid {
         };
         let k_e = soil.elastic_k.max(soil.k_phi);
         let step = self.step;
+        let delta = self.delta;
         let cell = hit.weight * self.delta * self.delta;
         let Some(node) = self.node_mut(i, j) else {
             return;
         };
+        // The surface the body found at this node: where it stood before the node's current contact began.
+        let entering = node.last_step + 1 < step;
+        let found = if entering { node.plastic } else { node.found };
         if let Some(s_swept) = swept {
             node.load(&soil, k_e, s_swept, b);
         }
@@ -106,29 +194,58 @@ impl SoilGrid {
             node.shear = Vector3::zeros();
             node.hardening = 0.0;
         }
-        if s - node.plastic <= 0.0 {
+        let pen = s - node.plastic;
+        if pen <= 0.0 {
+            self.edge_damping(hit, pen, centre, out);
             return;
         }
         node.last_step = step;
+        node.found = found;
         // 2. Pressure: elastic trial, Bekker on yield.
         let (mut sigma, tangent) = node.load(&soil, k_e, s, b);
-        // 3. Damping while the surface moves into the soil.
+        // 3. Damping while the surface moves into the soil: a wheel's over the part of the cell its rim covers
+        // ([`RimPoint::damping`], its edge found from the surface the rim found here, which the soil ahead still
+        // has); a plate's over the whole cell.
         let n = hit.normal;
-        let vn = hit.v.dot(&n);
         let nz = n.z.max(MIN_NZ);
-        if vn < 0.0 {
-            sigma -= soil.damping * vn;
-            out.normal_damping += cell * soil.damping * nz;
+        let (mut damping_force, mut damping_pressure) = (Vector3::zeros(), 0.0);
+        match hit.rim {
+            Some(rim) => {
+                if let Some(d) = rim.damping(s - found, delta, soil.damping) {
+                    sigma += d.pressure;
+                    damping_pressure = d.pressure;
+                    damping_force = d.force * cell;
+                    out.normal_damping += cell * d.jacobian;
+                }
+            }
+            None => {
+                let vn = hit.v.dot(&n);
+                if vn < 0.0 {
+                    sigma -= soil.damping * vn;
+                    out.normal_damping += cell * soil.damping * nz;
+                }
+            }
         }
-        out.normal_stiffness += cell * tangent;
-        out.unloading_stiffness += cell * k_e;
+        // The branch the node moves along: a node the body's surface moves into stays on the branch it is on; one
+        // it moves away from (or rests on) unloads along the elastic line.
+        let approach = -hit.v.dot(&n) / nz;
+        out.normal_stiffness += cell * if approach > 0.0 { tangent } else { k_e };
         // 4. Shear: elastic-plastic in the tangent plane. The slip `d` of the body over the soil moves the mobilised
         // shear `rho` elastically at Janosi's initial stiffness `1 / K`; where that would leave the yield circle
         // `|rho| <= 1 - exp(-h / K)` the excess hardens `h` (Janosi loading), so monotonic slip of `j` gives exactly
         // `|rho| = 1 - exp(-j / K)`, and unloading, reversal and reloading up to the previous yield are elastic.
+        // The slip displacement accrues from when the body reached the node: in the step the contact begins, for
+        // the part of the step since the body's surface passed the surface it found, `(s - found) / approach` with
+        // `approach = -(v . N) / N_z` the speed at which the body's surface above the node moves down; so the first
+        // step does not add a whole step's slip (at 4 ms and 5 m/s of slip that is 2 Janosi lengths of snow).
         let k = soil.janosi_k;
         let slip = hit.v - hit.compaction_velocity;
-        let trial = node.shear - n * node.shear.dot(&n) + (slip - n * slip.dot(&n)) * (dt / k);
+        let t_slip = if entering && approach * dt > s - found {
+            (s - found) / approach
+        } else {
+            dt
+        };
+        let trial = node.shear - n * node.shear.dot(&n) + (slip - n * slip.dot(&n)) * (t_slip / k);
         let tn = trial.norm();
         let yield_ratio = 1.0 - (-node.hardening / k).exp();
         let plastic = tn > yield_ratio;
@@ -143,9 +260,12 @@ impl SoilGrid {
         // 5. Janosi-Hanamoto shear opposing the body's slip: `tau = tau_max rho`.
         let tau_max = soil.cohesion + sigma * soil.friction_angle_deg.to_radians().tan();
         let rn = rho.norm();
-        // 6. Force over the cell's area of body surface.
+        // 6. Force over the cell's area of body surface (a wheel's damping along the rim's normal where it acts).
         let area = cell / nz;
-        let f = (n * sigma - rho * tau_max) * area;
+        let f = match hit.rim {
+            Some(_) => (n * (sigma - damping_pressure) - rho * tau_max) * area + damping_force,
+            None => (n * sigma - rho * tau_max) * area,
+        };
         out.force += f;
         out.torque += (p - centre).cross(&f);
         out.normal += sigma * area;
@@ -161,6 +281,29 @@ impl SoilGrid {
         } else {
             1.0
         };
-        out.traction_stiffness += area * dt * (k_par * c2 + k_perp * (1.0 - c2));
+        out.traction_stiffness += area * t_slip * (k_par * c2 + k_perp * (1.0 - c2));
+    }
+
+    /// A node the rim does not press yet (`pen <= 0`, the rim above its surface) whose cell the rim's advancing
+    /// edge already reaches into: the damping pressure over the covered part of the cell ([`RimPoint::damping`]),
+    /// and nothing else (no sinkage, no shear, no memory). At speed the damping pressure dominates on soft soil (on
+    /// snow above about 15 m/s), and whole cells switching on one per `delta` of travel made the wheels hop at a
+    /// rate set by the grid and the step.
+    fn edge_damping(&self, hit: &Hit, pen: f64, centre: &Vector3<f64>, out: &mut SoilContact) {
+        let Some(rim) = hit.rim else {
+            return;
+        };
+        let Some(soil) = self.soil_at(hit.p.x, hit.p.y) else {
+            return;
+        };
+        let Some(d) = rim.damping(pen, self.delta, soil.damping) else {
+            return;
+        };
+        let cell = hit.weight * self.delta * self.delta;
+        let f = d.force * cell;
+        out.force += f;
+        out.torque += (hit.p - centre).cross(&f);
+        out.normal += f.norm();
+        out.normal_damping += cell * d.jacobian;
     }
 }

@@ -182,13 +182,7 @@ impl WheelRig {
                 angular_velocity: Vector3::zeros(),
             };
             let c = grid.wheel_contact(&w, dt);
-            // On the unloading branch once the wheel no longer sinks.
-            let kz = if vz < 0.0 {
-                c.normal_stiffness
-            } else {
-                c.unloading_stiffness
-            };
-            vz += implicit_dv(&c, kz, load, mass, vz, dt);
+            vz += implicit_dv(&c, c.normal_stiffness, load, mass, vz, dt);
             z += dt * vz;
             if k >= from {
                 sum += r - z;

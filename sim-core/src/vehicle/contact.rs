@@ -79,11 +79,11 @@ impl Simulation {
                 normal: n,
                 load: sc.normal,
                 sinkage: sc.sinkage,
-                // The soil's vertical Jacobians (elastic or Bekker tangent, damping R): the wheel's vertical DOF is
-                // implicit in them, so the soil's elastic stiffness is stable at the vehicle's step.
+                // The soil's vertical Jacobians (elastic or Bekker tangent per node, on the branch it moves along;
+                // damping R): the wheel's vertical DOF is implicit in them, so the soil's elastic stiffness is stable
+                // at the vehicle's step.
                 k_normal: sc.normal_stiffness,
                 c_normal: sc.normal_damping,
-                k_unload: sc.unloading_stiffness,
                 mu: 0.0,
                 tx,
                 ty,
@@ -159,7 +159,6 @@ impl Simulation {
             sinkage: depth,
             k_normal: self.tyre_k,
             c_normal: self.tyre_c,
-            k_unload: self.tyre_k,
             mu,
             tx,
             ty,

@@ -253,8 +253,6 @@ pub(super) struct WheelContact {
     /// it (tyre deflection or soil), N/m and N s/m: the Jacobian of the wheel's implicit vertical update.
     pub(super) k_normal: f64,
     pub(super) c_normal: f64,
-    /// Stiffness for a wheel moving out of the ground (soil: elastic unloading; tyre: `k_normal`), N/m.
-    pub(super) k_unload: f64,
     /// Sinkage below the undeformed soil surface (soil) or tyre deflection (rigid ground), m.
     pub(super) sinkage: f64,
     pub(super) mu: f64,

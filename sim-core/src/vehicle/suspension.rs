@@ -54,22 +54,10 @@ impl Simulation {
             let n_up = c.normal.dot(&frame.up);
             let wm = &mut self.wheels[k];
             let (k_ground, c_ground) = if c.active {
-                // Sinking into soil, the soil yields along its soft plastic tangent; at rest or rising its pressed
-                // nodes unload along the stiff elastic line: the Jacobian of the branch the wheel moves along. (A
-                // tyre has one stiffness: `k_unload == k_normal`.)
-                let k_contact = if c.soil {
-                    let hard_velocity = self.vel + frame.omega_w.cross(&(hard_world - self.pos));
-                    let sinking =
-                        (hard_velocity + frame.up * wm.compression_rate).dot(&c.normal) < 0.0;
-                    if sinking {
-                        c.k_normal
-                    } else {
-                        c.k_unload
-                    }
-                } else {
-                    c.k_normal
-                };
-                (k_contact * n_up * n_up, c.c_normal * n_up * n_up)
+                // The soil's stiffness takes each pressed node on the branch the wheel moves it along (its soft
+                // plastic tangent where the rim moves into it, its stiff elastic line where the rim rests or moves
+                // away: `SoilContact::normal_stiffness`); the tyre has one stiffness.
+                (c.k_normal * n_up * n_up, c.c_normal * n_up * n_up)
             } else {
                 (0.0, 0.0)
             };
