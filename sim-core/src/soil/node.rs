@@ -102,6 +102,13 @@ impl RimPoint {
     /// where the rim moves into the soil, and the pressure, normal and surface area are taken at its midpoint. So as the rim's edge advances over a cell the damped area
     /// grows continuously, instead of a node's whole cell switching on when its ray is first pressed.
     pub(super) fn damping(&self, found_pen: f64, delta: f64, r_damping: f64) -> Option<Damping> {
+        self.damped_part(found_pen, delta)
+            .map(|part| part.damping(r_damping))
+    }
+
+    /// The geometry of [`RimPoint::damping`]: the damped part of the cell, or `None` (cheap for the nodes the
+    /// rim's contact does not reach, which are most of those under a wheel's footprint).
+    pub(super) fn damped_part(&self, found_pen: f64, delta: f64) -> Option<DampedPart> {
         let r = self.radius;
         let d = self.height - found_pen;
         if d >= r {
@@ -112,6 +119,9 @@ impl RimPoint {
             (self.offset - 0.5 * delta).max(-reach),
             (self.offset + 0.5 * delta).min(reach),
         );
+        if hi <= lo {
+            return None;
+        }
         // The rim moves into the soil (`v . N < 0`) on one side of `u* = r v_z / |v|` (for `v_f > 0`, ahead of it;
         // `N = (-u f + h z) / r`, so `-v . N = |v| sin(theta - alpha)`, `alpha` the velocity's angle): only that
         // part of the cell is damped (else a cell straddling the bottom of a rolling wheel is damped whole or not
@@ -136,13 +146,33 @@ impl RimPoint {
         if vn >= 0.0 {
             return None;
         }
-        let nz = normal.z.max(MIN_NZ);
-        let pressure = -r_damping * vn * covered;
-        Some(Damping {
-            force: normal * (pressure / nz),
-            pressure,
-            jacobian: r_damping * nz * covered,
+        Some(DampedPart {
+            covered,
+            normal,
+            vn,
         })
+    }
+}
+
+/// The part of a node's cell a rim damps ([`RimPoint::damped_part`]).
+pub(super) struct DampedPart {
+    /// Its length along the track over the cell's, in (0, 1].
+    covered: f64,
+    /// The rim's unit normal at its midpoint and the centre's velocity along it (negative: into the soil).
+    normal: Vector3<f64>,
+    vn: f64,
+}
+
+impl DampedPart {
+    /// The damping pressure `R |v . N|` over the part, for the soil's damping coefficient `r_damping`.
+    pub(super) fn damping(&self, r_damping: f64) -> Damping {
+        let nz = self.normal.z.max(MIN_NZ);
+        let pressure = -r_damping * self.vn * self.covered;
+        Damping {
+            force: self.normal * (pressure / nz),
+            pressure,
+            jacobian: r_damping * nz * self.covered,
+        }
     }
 }
 
@@ -167,8 +197,10 @@ impl SoilGrid {
         let s = h0 - p.z;
         let swept = hit.swept_bottom.map(|z| h0 - z).filter(|s| *s > 0.0);
         if s <= 0.0 && swept.is_none() {
-            let pen = s - self.plastic_at(i, j);
-            self.edge_damping(hit, pen, centre, out);
+            if hit.rim.is_some() {
+                let pen = s - self.plastic_at(i, j);
+                self.edge_damping(hit, pen, centre, out);
+            }
             return;
         }
         let Some(soil) = self.soil_at(p.x, p.y) else {
@@ -290,15 +322,13 @@ impl SoilGrid {
     /// snow above about 15 m/s), and whole cells switching on one per `delta` of travel made the wheels hop at a
     /// rate set by the grid and the step.
     fn edge_damping(&self, hit: &Hit, pen: f64, centre: &Vector3<f64>, out: &mut SoilContact) {
-        let Some(rim) = hit.rim else {
+        let Some(part) = hit.rim.and_then(|rim| rim.damped_part(pen, self.delta)) else {
             return;
         };
         let Some(soil) = self.soil_at(hit.p.x, hit.p.y) else {
             return;
         };
-        let Some(d) = rim.damping(pen, self.delta, soil.damping) else {
-            return;
-        };
+        let d = part.damping(soil.damping);
         let cell = hit.weight * self.delta * self.delta;
         let f = d.force * cell;
         out.force += f;
