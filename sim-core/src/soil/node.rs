@@ -272,8 +272,8 @@ impl SoilGrid {
         // step does not add a whole step's slip (at 4 ms and 5 m/s of slip that is 2 Janosi lengths of snow).
         let k = soil.janosi_k;
         let slip = hit.v - hit.compaction_velocity;
-        let t_slip = if entering && approach * dt > s - found {
-            (s - found) / approach
+        let t_slip = if entering && approach > 0.0 && approach * dt > s - found {
+            ((s - found) / approach).max(0.0)
         } else {
             dt
         };
