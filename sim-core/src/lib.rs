@@ -36,7 +36,10 @@ pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
 /// contact, the release's HMMWV (mass, CoG, steering), start poses fitted over the footprint and settled at rest,
 /// soil pressure along the wheel's surface normal. Revision 4: the handling tyre's Magic Formula has Pacejka's
 /// curvature factor E (changes the vehicles on handling tyres only; the rigid-tyre HMMWV's trajectories, and so
-/// every quoted benchmark result, are bit-identical to r3).
+/// every quoted benchmark result, are bit-identical to r3). Revision 5: a sinking body's motion is compaction, not
+/// shear slip (static sinkage is Bekker's). Revision 6: a rolling rim's damping pressure covers the part of each cell
+/// inside its contact, a node's shear accrues from when the rim reached it, and the soil's vertical stiffness takes
+/// each node on the branch the rim moves it along (converged in the step at speed).
 pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r6");
 pub use vehicle::{Simulation, VehicleSpec};
 pub mod world;

@@ -135,8 +135,9 @@ fn a_braked_vehicle_settles_on_soil_and_then_stays_put() {
 fn sinkage_distance_and_grade_converge_in_the_time_step() {
     // Convergence (issue 13): settled sinkage, the distance covered in 20 s of full throttle and the steepest
     // climbable grade agree within 5% between the default step (4 ms) and a quarter of it (1 ms), on every soil.
-    // (At the 20 s speeds, 25-40 m/s, the soil's damping pressure R |v . N| carries most of the load; sim-core r5's
-    // whole-cell damping and whole-step first shear made the snow distance 5.9% apart, r6's are within 1%.)
+    // (At the 20 s speeds, 28-41 m/s, the soil's damping pressure R |v . N| lifts the wheels to a few centimetres of
+    // sinkage; sim-core r5's whole-cell damping and whole-step first shear made the snow distance 5.9% apart, r6's
+    // 1.1%.)
     let spec = vehicle_by_name("hmmwv").unwrap();
     let dt = default_dt(1.0);
     for (ground, _) in SOILS {

@@ -33,10 +33,11 @@
 //!    `u = v`, so a sinking wheel's arc also mobilises shear that carries part of its load (11% less static
 //!    sinkage on snow). `d = (u - N (u . N)) t` (`t = dt`, except in the step a contact begins: the part of the
 //!    step since the body's surface passed the surface it found there, so the slip accrues from when the body
-//!    reached the node whatever the step) moves `rho` elastically by `d / K` (Janosi's initial stiffness); beyond the yield circle
-//!    `|rho| <= 1 - exp(-h / K)` the excess hardens `h` and `rho` stays on the circle. Monotonic slip `j` thus gives
-//!    Janosi-Hanamoto exactly; unloading, reversal and reloading up to the previous yield are elastic, so a body at
-//!    rest under a load below its shear capacity is held like an elastic-plastic bristle instead of creeping;
+//!    reached the node whatever the step) moves `rho` elastically by `d / K` (Janosi's initial stiffness); beyond
+//!    the yield circle `|rho| <= 1 - exp(-h / K)` the excess hardens `h` and `rho` stays on the circle. Monotonic
+//!    slip `j` thus gives Janosi-Hanamoto exactly; unloading, reversal and reloading up to the previous yield are
+//!    elastic, so a body at rest under a load below its shear capacity is held like an elastic-plastic bristle
+//!    instead of creeping;
 //! 5. shear stress `tau = (c + sigma tan phi) rho`, opposing the body's slip;
 //! 6. force `A (sigma N - tau)` with `A = w delta^2 / N_z` the body's surface area over the cell (so the vertical
 //!    part is `w delta^2 sigma`, Bekker's load integral, and the horizontal part on a wheel's leading arc
@@ -51,8 +52,8 @@
 //! Compaction (motion) resistance, sinkage and traction loss are not added by hand: they emerge from this law. The
 //! contact also returns the Jacobians a vehicle needs to integrate a wheel's spin and vertical motion linearly
 //! implicitly ([`SoilContact::traction_stiffness`], [`SoilContact::normal_stiffness`],
-//! [`SoilContact::normal_damping`]) and the shear capacity the vehicle's shear
-//! damping respects ([`SoilContact::shear_capacity`]). [`rig`] is a single-wheel test rig on this model.
+//! [`SoilContact::normal_damping`]) and the shear capacity the vehicle's shear damping respects
+//! ([`SoilContact::shear_capacity`]). [`rig`] is a single-wheel test rig on this model.
 //!
 //! API (called by the vehicle model once per wheel / track shoe and step, after [`SoilGrid::begin_step`]):
 //! [`SoilGrid::new`] (allocates everything), [`SoilGrid::soil_at`] / [`SoilGrid::has_soil_at`] ("no soil here"
@@ -92,11 +93,12 @@ pub struct SoilContact {
     /// pressure itself acts along the body's surface normal at each node).
     pub normal_dir: Vector3<f64>,
     /// For implicit spin integration: d(shear force along the rolling direction)/d(slip velocity of the body's
-    /// surface along it), summed over nodes, N s/m. Per node `A dt (k_par c^2 + k_perp (1 - c^2))`, `c` the cosine
+    /// surface along it), summed over nodes, N s/m. Per node `A t (k_par c^2 + k_perp (1 - c^2))`, `c` the cosine
     /// between the mobilised shear and the rolling direction, `k_par` the slope of `|tau|` against slip along it
     /// (`tau_max / K` elastic, Janosi's `tau_max exp(-h / K) / K` on yield) and `k_perp` across it (`tau_max / K`
-    /// elastic, `tau_max |rho| / (K |rho_trial|)` on yield). Slip at speed `v` for one step adds `v dt` to `j`, hence the `dt`. For a wheel the
-    /// torque's derivative is `d(torque about the axle)/d(spin) = -r^2 traction_stiffness`.
+    /// elastic, `tau_max |rho| / (K |rho_trial|)` on yield). Slip at speed `v` for one step adds `v t` to `j` (`t`
+    /// the step, or in the step a contact begins the part of it since the body reached the node), hence the `t`.
+    /// For a wheel the torque's derivative is `d(torque about the axle)/d(spin) = -r^2 traction_stiffness`.
     pub traction_stiffness: f64,
     /// Mohr-Coulomb shear capacity of the contact, `sum (c + sigma tan phi) A` over the pressed nodes, N.
     pub shear_capacity: f64,

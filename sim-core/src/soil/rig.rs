@@ -136,7 +136,7 @@ impl WheelRig {
                 angular_velocity: Vector3::new(0.0, omega, 0.0),
             };
             let c: SoilContact = grid.wheel_contact(&w, dt);
-            vz += implicit_dv(&c, c.normal_stiffness, self.load, mass, vz, dt);
+            vz += implicit_dv(&c, self.load, mass, vz, dt);
             z += dt * vz;
             if drive == Drive::Towed {
                 omega += dt * c.torque.y / (self.inertia + dt * r * r * c.traction_stiffness);
@@ -182,7 +182,7 @@ impl WheelRig {
                 angular_velocity: Vector3::zeros(),
             };
             let c = grid.wheel_contact(&w, dt);
-            vz += implicit_dv(&c, c.normal_stiffness, load, mass, vz, dt);
+            vz += implicit_dv(&c, load, mass, vz, dt);
             z += dt * vz;
             if k >= from {
                 sum += r - z;
@@ -193,8 +193,9 @@ impl WheelRig {
 }
 
 /// The linearly implicit change of the wheel's vertical velocity over a step, with the soil's vertical stiffness
-/// `kz` (the branch the caller picks) and damping: `(m + dt C + dt^2 K) dv = dt (F_z - W - dt K v)`.
-fn implicit_dv(c: &SoilContact, kz: f64, load: f64, mass: f64, vz: f64, dt: f64) -> f64 {
+/// and damping: `(m + dt C + dt^2 K) dv = dt (F_z - W - dt K v)`.
+fn implicit_dv(c: &SoilContact, load: f64, mass: f64, vz: f64, dt: f64) -> f64 {
+    let kz = c.normal_stiffness;
     dt * (c.force.z - load - dt * kz * vz) / (mass + dt * c.normal_damping + dt * dt * kz)
 }
 
