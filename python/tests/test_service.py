@@ -169,9 +169,9 @@ def test_vb_worker_serves_the_sim_api_on_its_own_address():
 
     port = free_port()
     # No coordinator is needed for the Sim API: the worker keeps retrying to register meanwhile.
-    proc = subprocess.Popen([binary("VB_BIN"), "worker", "--coordinator", f"http://127.0.0.1:{free_port()}", "--token", "unused", "--sim",
+    proc = subprocess.Popen([binary("VB_BIN"), "worker", "--coordinator", f"http://127.0.0.1:{free_port()}", "--sim",
                              f"127.0.0.1:{port}", "--task-dir", vb.default_task_set()],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+                            env={**os.environ, "VB_WORKER_TOKEN": "unused"}, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         channel = grpc.insecure_channel(f"127.0.0.1:{port}")
         grpc.channel_ready_future(channel).result(timeout=60)

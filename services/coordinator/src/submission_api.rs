@@ -1,5 +1,5 @@
-//! The public `Coordinator` gRPC service (`CoordinatorApi`): submit, status, progress stream, list, cancel and
-//! results, each checked against the caller's token.
+//! The public `Coordinator` gRPC service (`CoordinatorApi`): submit, status, progress stream, list, cancel,
+//! results and an episode's planner log, each checked against the caller's token.
 
 use crate::*;
 
@@ -130,6 +130,25 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
                     convert::result_row(e, terrain)
                 })
                 .collect(),
+        }))
+    }
+
+    async fn episode_log(
+        &self,
+        req: Request<pb::EpisodeLogRequest>,
+    ) -> Result<Response<pb::EpisodeLogResponse>, Status> {
+        let token = self.0.user(&req).await?;
+        let r = req.get_ref();
+        self.0.owned(&token, &r.submission_id).await?;
+        let d = self
+            .0
+            .store
+            .reader()
+            .episode_detail(&r.submission_id, &r.task_id)
+            .await
+            .map_err(store_status)?;
+        Ok(Response::new(pb::EpisodeLogResponse {
+            planner_log: d.planner_log,
         }))
     }
 }

@@ -429,7 +429,7 @@ async fn api_episodes(
 async fn api_episode(
     State(lb): St,
     Path((id, task)): Path<(String, String)>,
-) -> Result<Json<vb_store::EpisodeDetail>, WebError> {
+) -> Result<Json<public::PublicEpisode>, WebError> {
     Ok(Json(public::episode_detail(&lb.reader, &id, &task).await?))
 }
 

@@ -1,9 +1,18 @@
 //! What the public may see of a submission: its name, planner kind and an identity hash, never its command line,
-//! environment, endpoint URL (which may carry credentials) or owner token. Every read of the store by the
+//! environment, endpoint URL (which may carry credentials), owner token or planner log (a planner prints what it
+//! likes, secrets it found included: the owner reads it with `vb-submit log`). Every read of the store by the
 //! leaderboard goes through here.
 
+use serde::Serialize;
 use sha2::{Digest, Sha256};
-use vb_store::{EpisodeDetail, EpisodeRecord, Reader, StoreError, StoredSummary, Submission};
+use vb_store::{EpisodeRecord, Reader, StoreError, StoredSummary, Submission};
+
+/// One episode as the public sees it: its record and trajectory, without the planner's log.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PublicEpisode {
+    pub record: EpisodeRecord,
+    pub trajectory_csv: String,
+}
 
 /// A short hash of a planner identity (`sha256:` and 12 hex digits): equal identities, equal hashes.
 pub fn identity_hash(identity: &str) -> String {
@@ -72,9 +81,11 @@ pub async fn episodes(r: &Reader, sub: &Submission) -> Result<Vec<EpisodeRecord>
         .collect())
 }
 
-pub async fn episode_detail(r: &Reader, id: &str, task: &str) -> Result<EpisodeDetail, StoreError> {
+pub async fn episode_detail(r: &Reader, id: &str, task: &str) -> Result<PublicEpisode, StoreError> {
     let kind = r.submission(id).await?.planner_kind;
-    let mut d = r.episode_detail(id, task).await?;
-    d.record = redact_episode(&kind, d.record);
-    Ok(d)
+    let d = r.episode_detail(id, task).await?;
+    Ok(PublicEpisode {
+        record: redact_episode(&kind, d.record),
+        trajectory_csv: d.trajectory_csv,
+    })
 }

@@ -5,6 +5,8 @@
 use std::io::{Read, Write};
 use vb_store::*;
 
+/// In the planner's log only: a planner prints what it likes (a token it found), so no public page may show it.
+const LOG_SECRET: &str = "found-token-4f1d9c";
 const EVIL: &str = "<script>alert(1)</script><img src=x onerror=alert(2)>";
 
 fn get(port: u16, path: &str) -> (String, String) {
@@ -71,7 +73,7 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
         metrics_json: metrics,
         trajectory_csv: format!("{}\n", sim_core::trajectory::CSV_HEADER),
         trajectory_gz: None,
-        planner_log: EVIL.into(),
+        planner_log: format!("{EVIL} {LOG_SECRET}"),
         sim_version: "s".into(),
         planner_identity: format!("exec:{EVIL}"),
         wall_time_s: 0.1,
@@ -111,6 +113,10 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
         } else {
             assert_clean(path, &body);
         }
+        assert!(
+            !body.contains(LOG_SECRET),
+            "{path} shows the planner's log to the public"
+        );
         assert!(
             head.to_ascii_lowercase().contains(
                 &format!("content-security-policy: {}", vb_leaderboard::CSP).to_ascii_lowercase()

@@ -163,6 +163,19 @@ pub async fn results(client: &mut Client, id: &str) -> Result<pb::ResultsRespons
         .into_inner())
 }
 
+/// The planner log of one episode of the caller's own submission.
+pub async fn episode_log(client: &mut Client, id: &str, task: &str) -> Result<String, SubmitError> {
+    Ok(client
+        .episode_log(pb::EpisodeLogRequest {
+            submission_id: id.into(),
+            task_id: task.into(),
+        })
+        .await
+        .map_err(rpc)?
+        .into_inner()
+        .planner_log)
+}
+
 /// Follows a submission's progress stream until it ends, calling `on` with every update; returns the last status.
 pub async fn watch(
     client: &mut Client,

@@ -104,6 +104,12 @@ enum Cmd {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Print one episode's planner log (stdout and stderr of the planner): only the submission's owner sees it.
+    Log {
+        id: String,
+        /// Task id, e.g. w001-t0.
+        task: String,
+    },
     /// Cancel a submission: finished episodes are kept, the rest are marked not run.
     Cancel { id: String },
     /// Check a planner on one short task locally before queueing the whole benchmark.
@@ -243,15 +249,19 @@ async fn do_submit(
 }
 
 fn main() -> std::process::ExitCode {
-    vb_submit::cli::restore_sigpipe();
+    let cli = Cli::parse();
+    // `validate` runs a planner it talks to over a socket: a planner that closes early must fail validation, not
+    // kill vb-submit with SIGPIPE (which stays ignored there); printing commands end quietly on a closed pipe.
+    if !matches!(cli.command, Cmd::Validate { .. }) {
+        vb_submit::cli::restore_sigpipe();
+    }
     let result = tokio::runtime::Runtime::new()
         .map_err(anyhow::Error::from)
-        .and_then(|rt| rt.block_on(run()));
+        .and_then(|rt| rt.block_on(run(cli)));
     vb_submit::cli::exit_code(result)
 }
 
-async fn run() -> anyhow::Result<()> {
-    let cli = Cli::parse();
+async fn run(cli: Cli) -> anyhow::Result<()> {
     use pb::planner_ref::Kind;
     match &cli.command {
         Cmd::Endpoint { url, opts } => {
@@ -338,6 +348,13 @@ async fn run() -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Cmd::Log { id, task } => {
+            let mut client =
+                vb_submit::connect(&cli.coordinator, &token(&cli)?, cli.tls_ca.as_deref()).await?;
+            let log = vb_submit::episode_log(&mut client, id, task).await?;
+            print!("{log}");
+            Ok(())
+        }
         Cmd::Cancel { id } => {
             let mut client =
                 vb_submit::connect(&cli.coordinator, &token(&cli)?, cli.tls_ca.as_deref()).await?;
@@ -375,6 +392,9 @@ async fn validate(what: &ValidateCmd) -> anyhow::Result<()> {
             v.planner_user.as_deref(),
         )
         .await?;
+        if let Some(why) = &r.unisolated {
+            eprintln!("note: the planner ran without namespaces of its own ({why}); a worker here would refuse it");
+        }
         println!(
                 "task {}: {} control steps, then the episode ended ({}: {}); round trip p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
                 v.task, r.control_steps, r.outcome, r.reason, r.round_trip_p50_ms, r.round_trip_p99_ms, r.round_trip_max_ms

@@ -19,6 +19,8 @@ pub struct Validation {
     pub round_trip_p99_ms: f64,
     pub round_trip_max_ms: f64,
     pub planner_log: String,
+    /// Why the planner ran without namespaces of its own (a worker here would refuse exec planners), if it did.
+    pub unisolated: Option<String>,
 }
 
 /// Runs `planner` on one short task locally, through the same code the workers use, and says whether it follows
@@ -42,6 +44,18 @@ pub async fn validate(
             "bad task id `{task_id}` (like w001-t0)"
         )));
     }
+    // The planner is the user's own, run on their machine: without namespaces here it still runs, and says so.
+    let (containment, unisolated) = match vb_worker::sandbox::Containment::probe(planner_user).await
+    {
+        Ok(c) => (c, None),
+        Err(why) => (
+            vb_worker::sandbox::Containment {
+                namespaces: false,
+                user: planner_user,
+            },
+            Some(why),
+        ),
+    };
     let spec = vb_worker::EpisodeSpec {
         task_id: task_id.into(),
         planner,
@@ -50,7 +64,7 @@ pub async fn validate(
         seed: 0,
         step_deadline_s,
         max_time: Some(max_time),
-        planner_user,
+        containment,
     };
     let run = vb_worker::run_episode(
         set,
@@ -73,5 +87,6 @@ pub async fn validate(
         round_trip_p99_ms: rt.get(rt.len() * 99 / 100).copied().unwrap_or(0.0) * 1e3,
         round_trip_max_ms: rt.last().copied().unwrap_or(0.0) * 1e3,
         planner_log: run.planner_log,
+        unisolated,
     })
 }

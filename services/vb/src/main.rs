@@ -51,9 +51,30 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
-    vb_submit::cli::restore_sigpipe();
+    let cli = Cli::parse();
+    // A printing command ends quietly on a closed pipe (`vb tasks stats | head`); a server keeps SIGPIPE ignored (the
+    // Rust runtime's default), so a peer that closes its connection mid-write costs that connection an EPIPE, not
+    // the process its life (hyper writes with writev, which cannot suppress the signal per call).
+    if !cli.command.is_server() {
+        vb_submit::cli::restore_sigpipe();
+    }
     init_logging();
-    vb_submit::cli::exit_code(run())
+    vb_submit::cli::exit_code(run(cli))
+}
+
+impl Command {
+    /// Whether this command talks to peers over the network (servers, and `vb bench`'s planner and leaderboard
+    /// loads): those must outlive any one connection.
+    fn is_server(&self) -> bool {
+        matches!(
+            self,
+            Command::Serve(_)
+                | Command::Coordinator(_)
+                | Command::Worker(_)
+                | Command::LeaderboardServer(_)
+                | Command::Bench(_)
+        )
+    }
 }
 
 /// The service processes' logs: one line per event on stderr with an RFC 3339 UTC time, the level, the module and
@@ -70,8 +91,7 @@ fn init_logging() {
         .try_init();
 }
 
-fn run() -> anyhow::Result<()> {
-    let cli = Cli::parse();
+fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Tasks(c) => cmd::tasks::run(c),
         Command::Terrain(c) => cmd::terrain::run(c),

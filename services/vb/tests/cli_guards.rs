@@ -31,6 +31,71 @@ fn a_worker_with_an_empty_token_says_so_instead_of_retrying_forever() {
 }
 
 #[test]
+fn a_worker_refuses_its_token_on_the_command_line_and_reads_it_from_a_file() {
+    // Issue 35: a planner read `vb worker --token ...` from /proc/*/cmdline.
+    let vb = env!("CARGO_BIN_EXE_vb");
+    let out = std::process::Command::new(vb)
+        .args([
+            "worker",
+            "--coordinator",
+            "http://127.0.0.1:9",
+            "--token",
+            "s3cret",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("VB_WORKER_TOKEN") && err.contains("--token-file") && err.contains("/proc"),
+        "{err}"
+    );
+    assert!(
+        !err.contains("s3cret"),
+        "the refusal repeats the secret: {err}"
+    );
+    // A file that is missing or holds nothing is named in the error.
+    let dir = std::env::temp_dir().join(format!("vb-token-file-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let missing = dir.join("missing");
+    let out = std::process::Command::new(vb)
+        .args([
+            "worker",
+            "--coordinator",
+            "http://127.0.0.1:9",
+            "--token-file",
+        ])
+        .arg(&missing)
+        .env_remove("VB_WORKER_TOKEN")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains(&*missing.to_string_lossy()),
+        "{err}"
+    );
+    let empty = dir.join("empty");
+    std::fs::write(&empty, "\n").unwrap();
+    let out = std::process::Command::new(vb)
+        .args([
+            "worker",
+            "--coordinator",
+            "http://127.0.0.1:9",
+            "--token-file",
+        ])
+        .arg(&empty)
+        .env("VB_WORKER_TOKEN", "ignored-when-a-file-is-given")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("no worker token"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn admin_token_create_without_a_store_here_explains_instead_of_making_one() {
     let dir = std::env::temp_dir().join(format!("vb-admin-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

@@ -119,7 +119,7 @@ async fn an_evaluation_runs_over_tls_and_nothing_else_gets_in() -> anyhow::Resul
     );
     let url = format!("https://localhost:{port}");
     let worker_token = create_token_with_role(&db, "tls-worker", "worker");
-    let _worker = Proc::start(
+    let _worker = Proc::start_env(
         "worker",
         &dir,
         &vb(),
@@ -131,9 +131,8 @@ async fn an_evaluation_runs_over_tls_and_nothing_else_gets_in() -> anyhow::Resul
             &ca.display().to_string(),
             "--slots",
             "2",
-            "--token",
-            &worker_token,
         ],
+        &[("VB_WORKER_TOKEN", &worker_token)],
     );
     let mut c = vb_submit::connect(&url, &token, Some(&ca)).await?;
     let req = pb::SubmitRequest {

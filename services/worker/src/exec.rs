@@ -3,16 +3,20 @@
 //! the environment variable `VB_PLANNER_ADDR` (`127.0.0.1:PORT`), and its stdout and stderr become the episode's
 //! planner log (bounded: lines are cut at [`MAX_LINE`] bytes and the log at [`PlannerLog::CAP`], with a marker).
 //!
-//! Containment of `exec` planners (they are for trusted clusters: they run as the worker's user): each one gets a
-//! clean environment (`PATH`, `VB_PLANNER_ADDR`, and `HOME` and `TMPDIR` in its working directory), a fresh private
-//! working directory removed after the episode, its own process group, killed as a whole when the episode ends or
-//! the worker drops it, so children it forked do not outlive the episode, resource limits, and a kill when the
-//! worker dies ([`crate::sandbox`]). Image planners run in a named
+//! Containment of `exec` planners (they are for trusted clusters unless run as another user): each one gets a
+//! clean environment (`PATH`, `VB_PLANNER_ADDR`, `HOME` and `TMPDIR`), its own process group, resource limits, a
+//! kill when the worker dies, and, where the machine allows (the worker probes at start and otherwise refuses exec
+//! planners), PID, mount and IPC namespaces of its own with a private `/proc` and tmpfs temporary directories, its
+//! working directory among them ([`crate::sandbox::namespaces`]): everything it starts dies with it, and nothing it
+//! wrote stays. Without namespaces (`vb-submit validate` on a machine that has none) it works in a fresh private
+//! directory removed after the episode. Image planners run in a named
 //! container that is removed when the episode ends, as an unprivileged user, with a read-only root filesystem, no
 //! capabilities, memory, CPU and process limits, and no network: the worker talks to it over a Unix socket in the
 //! episode's private directory, mounted into the container.
 
 use crate::remote::{PlannerLog, RemotePlanner, SharedLog};
+use crate::sandbox::namespaces::Namespaces;
+use crate::sandbox::Containment;
 use crate::EpisodeError;
 use sha2::{Digest, Sha256};
 use sim_core::planner::PlannerError;
@@ -186,7 +190,7 @@ pub async fn start(
     identity: String,
     step_deadline: Duration,
     startup: Duration,
-    user: Option<crate::sandbox::PlannerUser>,
+    containment: Containment,
 ) -> Result<(PlannerProcess, RemotePlanner), (PlannerError, String)> {
     let output: SharedLog = Arc::new(Mutex::new(PlannerLog::default()));
     let log_text = |o: &SharedLog| o.lock().map(|l| l.text()).unwrap_or_default();
@@ -196,63 +200,79 @@ pub async fn start(
             String::new(),
         ));
     };
-    let workdir = private_dir().map_err(|e| (e, String::new()))?;
-    if let Some(u) = user {
-        if let Err(e) = std::os::unix::fs::chown(&workdir, Some(u.uid), Some(u.gid)) {
-            let _ = std::fs::remove_dir_all(&workdir);
+    // An image planner has no network: it serves on a Unix socket in the episode's private directory on the host,
+    // mounted into its container (whose own namespaces contain it); an exec planner serves on a free loopback port.
+    let contained = argv.iter().any(|a| a.contains(WORKDIR_PLACEHOLDER));
+    // An exec planner in namespaces of its own works in its private tmpfs `/tmp`: nothing on the host to remove.
+    let isolated = containment.namespaces && !contained;
+    let user = containment.user.filter(|_| !contained);
+    let workdir = if isolated {
+        None
+    } else {
+        Some(private_dir().map_err(|e| (e, String::new()))?)
+    };
+    if let (Some(u), Some(dir)) = (user, &workdir) {
+        if let Err(e) = std::os::unix::fs::chown(dir, Some(u.uid), Some(u.gid)) {
+            let _ = std::fs::remove_dir_all(dir);
             let msg = format!("cannot give the planner's directory to uid {}: {e}", u.uid);
             return Err((PlannerError::Other(msg), String::new()));
         }
     }
-    // An image planner has no network: it serves on a Unix socket in the episode's private directory, mounted into
-    // its container; an exec planner serves on a free loopback port.
-    let contained = argv.iter().any(|a| a.contains(WORKDIR_PLACEHOLDER));
-    let (addr, endpoint) = if contained {
-        // The container's unprivileged user must be able to create the socket.
-        if std::os::unix::fs::chown(&workdir, Some(65534), Some(65534)).is_err() {
-            use std::os::unix::fs::PermissionsExt;
-            let _ = std::fs::set_permissions(&workdir, std::fs::Permissions::from_mode(0o777));
+    let (addr, endpoint) = match (&workdir, contained) {
+        (Some(dir), true) => {
+            // The container's unprivileged user must be able to create the socket.
+            if std::os::unix::fs::chown(dir, Some(65534), Some(65534)).is_err() {
+                use std::os::unix::fs::PermissionsExt;
+                let _ = std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o777));
+            }
+            (
+                format!("unix:{CONTAINER_SOCKET_DIR}/{SOCKET_NAME}"),
+                format!("unix:{}", dir.join(SOCKET_NAME).display()),
+            )
         }
-        (
-            format!("unix:{CONTAINER_SOCKET_DIR}/{SOCKET_NAME}"),
-            format!("unix:{}", workdir.join(SOCKET_NAME).display()),
-        )
-    } else {
-        let port = free_port().map_err(|e| (e, String::new()))?;
-        (
-            format!("127.0.0.1:{port}"),
-            format!("http://127.0.0.1:{port}"),
-        )
+        _ => {
+            let port = free_port().map_err(|e| (e, String::new()))?;
+            (
+                format!("127.0.0.1:{port}"),
+                format!("http://127.0.0.1:{port}"),
+            )
+        }
     };
-    let workdir_text = workdir.display().to_string();
+    // Where the planner works and keeps its files, as it sees it.
+    let home = match &workdir {
+        Some(dir) => dir.clone(),
+        None => PathBuf::from("/tmp"),
+    };
+    let workdir_text = home.display().to_string();
     let argv: Vec<String> = argv
         .iter()
         .map(|a| a.replace(WORKDIR_PLACEHOLDER, &workdir_text))
         .collect();
     let path = std::env::var_os("PATH").unwrap_or_else(|| "/usr/local/bin:/usr/bin:/bin".into());
     let limits = crate::sandbox::Limits::default();
+    let containment = Containment {
+        namespaces: isolated,
+        user,
+    };
+    let namespaces = Namespaces::new(user.map(|u| (u.uid, u.gid)), &argv);
     let mut command = Command::new(&argv[0]);
-    // SAFETY: the closure runs in the forked child before `exec`; `apply_in_child` and `become_in_child` make only
-    // async-signal-safe system calls (setrlimit, prctl, setgroups, setgid, setuid) and do not allocate.
+    // SAFETY: the closure runs in the forked child before `exec`; `apply_in_child` makes only async-signal-safe
+    // system calls (setrlimit, prctl, unshare, fork, mount, setgroups, setgid, setuid) on memory prepared here.
     #[allow(unsafe_code)]
     unsafe {
-        command.pre_exec(move || {
-            limits.apply_in_child()?;
-            match &user {
-                Some(u) => u.become_in_child(),
-                None => Ok(()),
-            }
-        });
+        command.pre_exec(move || containment.apply_in_child(&limits, &namespaces));
     }
+    // The child changes into its tmpfs `/tmp` itself once that is mounted.
+    let start_dir = workdir.clone().unwrap_or_else(|| PathBuf::from("/"));
     let spawned = command
         .args(&argv[1..])
         .env_clear()
         .env("PATH", path)
-        .env("HOME", &workdir)
-        .env("TMPDIR", &workdir)
+        .env("HOME", &home)
+        .env("TMPDIR", &home)
         .env("LANG", "C.UTF-8")
         .env(ADDR_ENV, &addr)
-        .current_dir(&workdir)
+        .current_dir(&start_dir)
         .process_group(0)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
@@ -262,7 +282,9 @@ pub async fn start(
     let mut child = match spawned {
         Ok(c) => c,
         Err(e) => {
-            let _ = std::fs::remove_dir_all(&workdir);
+            if let Some(dir) = &workdir {
+                let _ = std::fs::remove_dir_all(dir);
+            }
             return Err((
                 PlannerError::Crashed(format!("cannot start planner `{program}`: {e}")),
                 String::new(),
@@ -272,7 +294,7 @@ pub async fn start(
     // From here on, dropping `process` kills the group and removes the directory and the container.
     let mut process = PlannerProcess {
         pgid: child.id().map(|id| id as i32),
-        workdir: Some(workdir),
+        workdir,
         container: container_name(&argv),
         addr,
         output: output.clone(),

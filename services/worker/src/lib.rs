@@ -129,8 +129,8 @@ pub struct EpisodeSpec {
     pub step_deadline_s: f64,
     /// Overrides the default 60 s time limit (validation runs are short).
     pub max_time: Option<f64>,
-    /// Run exec planners as this (unprivileged) user instead of the worker's.
-    pub planner_user: Option<sandbox::PlannerUser>,
+    /// How exec planners are contained (namespaces, another user).
+    pub containment: sandbox::Containment,
 }
 
 /// A finished episode, ready to report.
@@ -254,10 +254,14 @@ pub async fn run_episode(
                     ))
                 }
             };
-            let user = spec
-                .planner_user
-                .filter(|_| matches!(kind_ref(&spec.planner), Some(Kind::Exec(_))));
-            match exec::start(&argv, identity.clone(), deadline, planner_startup, user).await {
+            let started = exec::start(
+                &argv,
+                identity.clone(),
+                deadline,
+                planner_startup,
+                spec.containment,
+            );
+            match started.await {
                 Ok((proc_, mut p)) => {
                     p.set_log(proc_.output.clone());
                     p.set_episode_context(set.version(), spec.seed);

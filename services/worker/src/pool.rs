@@ -96,10 +96,8 @@ type Active = Arc<Mutex<HashMap<String, Arc<AtomicBool>>>>;
 struct PlannerPolicy {
     /// How long a started planner process may take to serve.
     startup: Duration,
-    /// Whether it runs exec and image planners (the coordinator then leases it none: `runs_exec_planners`).
-    allow_exec: bool,
-    /// The user exec planners run as.
-    user: Option<sandbox::PlannerUser>,
+    /// How exec planners are contained.
+    containment: sandbox::Containment,
 }
 
 /// Runs a worker until `shutdown` turns true.
@@ -191,14 +189,25 @@ pub async fn run_worker(
             }
         })
     };
+    // Exec planners only where they can be given namespaces of their own: a worker that cannot contain them says so
+    // and leaves them to workers that can, rather than promising an isolation it does not give.
+    let (containment, runs_exec) = if cfg.allow_exec {
+        match sandbox::Containment::probe(cfg.planner_user).await {
+            Ok(c) => (c, true),
+            Err(why) => {
+                tracing::warn!(reason = %why, "exec planners are refused by this worker (left to other workers)");
+                (sandbox::Containment::default(), false)
+            }
+        }
+    } else {
+        (sandbox::Containment::default(), false)
+    };
     let policy = PlannerPolicy {
         startup: Duration::from_secs_f64(cfg.planner_startup_s.max(1.0)),
-        allow_exec: cfg.allow_exec,
-        user: cfg.planner_user,
+        containment,
     };
-    let allow_exec = policy.allow_exec;
     // Image planners only where Docker runs: other workers leave image submissions to those that can.
-    let runs_images = allow_exec
+    let runs_images = cfg.allow_exec
         && match exec::docker_available().await {
             Ok(()) => true,
             Err(why) => {
@@ -231,7 +240,7 @@ pub async fn run_worker(
                 .lease(pb::LeaseRequest {
                     worker_id: worker_id.clone(),
                     max: free as u32,
-                    runs_exec_planners: allow_exec,
+                    runs_exec_planners: runs_exec,
                     runs_image_planners: runs_images,
                 })
                 .await
@@ -396,8 +405,7 @@ async fn run_lease(
 ) -> Option<pb::EpisodeReport> {
     let PlannerPolicy {
         startup,
-        user: planner_user,
-        ..
+        containment,
     } = policy;
     let infra = |detail: String| pb::EpisodeReport {
         worker_id: worker_id.into(),
@@ -429,7 +437,7 @@ async fn run_lease(
         seed: lease.seed,
         step_deadline_s: lease.step_deadline_s,
         max_time: None,
-        planner_user,
+        containment,
     };
     match run_episode(set, spec, cancel.clone(), startup).await {
         Err(EpisodeError::Infrastructure(why)) => Some(infra(why)),

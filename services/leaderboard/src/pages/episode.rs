@@ -1,11 +1,12 @@
 //! An episode's page (`episode.html`): its result, metrics, the global path and the driven trajectory over the
-//! world's map, roll, pitch and speed over time, and the planner's log.
+//! world's map, roll, pitch and speed over time (the planner's log is its owner's: `vb-submit log`).
 
 use super::{render, Frame, MAP_PPM};
+use crate::public::PublicEpisode;
 use askama::Template;
 use sim_core::world::{Task, World};
 use std::fmt::Write;
-use vb_store::{EpisodeDetail, EpisodeState, Submission};
+use vb_store::{EpisodeState, Submission};
 
 struct MapView {
     width: String,
@@ -47,7 +48,8 @@ struct Page {
     metrics: Option<Vec<String>>,
     map: Option<MapView>,
     charts: Vec<LineChart>,
-    log: String,
+    submission_id: String,
+    task_id: String,
 }
 
 /// Parsed trajectory: time and (x, y, roll°, pitch°, speed).
@@ -127,7 +129,7 @@ fn map_view(sub: &Submission, world: &World, task: &Task, traj: &[[f64; 6]]) -> 
     }
 }
 
-pub fn page(sub: &Submission, d: &EpisodeDetail, world_task: Option<&(World, Task)>) -> String {
+pub fn page(sub: &Submission, d: &PublicEpisode, world_task: Option<&(World, Task)>) -> String {
     let r = &d.record;
     let traj = parse_trajectory(&d.trajectory_csv);
     let metrics = r
@@ -188,6 +190,7 @@ pub fn page(sub: &Submission, d: &EpisodeDetail, world_task: Option<&(World, Tas
             chart("pitch-chart", "pitch", "°", 4),
             chart("speed-chart", "speed", "m/s", 5),
         ],
-        log: d.planner_log.clone(),
+        submission_id: sub.id.clone(),
+        task_id: r.task_id.clone(),
     })
 }

@@ -94,7 +94,7 @@ fn bench_planner(tasks_spec: &str, task_dir: PathBuf, command: Vec<String>) -> a
             seed: 0,
             step_deadline_s: 1.0,
             max_time: None,
-            planner_user: None,
+            containment: Default::default(),
         };
         let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
         let run = rt

@@ -111,9 +111,15 @@ pub struct WorkerArgs {
     /// Do not run exec or image planners (they are untrusted code; exec planners run as this worker's user).
     #[arg(long)]
     no_exec: bool,
-    /// Worker token (`vb admin token create --role worker`), sent with every call to the coordinator.
-    #[arg(long, env = "VB_WORKER_TOKEN", hide_env_values = true)]
-    token: String,
+    /// Refused: a token on the command line is readable by every process on the machine (`/proc/PID/cmdline`).
+    /// Give the worker token (`vb admin token create --role worker`) in the environment variable VB_WORKER_TOKEN or
+    /// in a file (--token-file).
+    #[arg(long, hide = true)]
+    token: Option<String>,
+    /// File holding the worker token (`vb admin token create --role worker`; one line). Without it the token is read
+    /// from the environment variable VB_WORKER_TOKEN. Never on the command line.
+    #[arg(long)]
+    token_file: Option<PathBuf>,
     /// Run exec planners as this unprivileged user (needs root), so they cannot read the worker's files.
     #[arg(long)]
     planner_user: Option<String>,
@@ -151,7 +157,7 @@ pub enum TokenCmd {
         #[arg(long)]
         name: String,
         /// `user` (submits; sees its own submissions), `admin` (sees and cancels all) or `worker` (the worker API:
-        /// give it to `vb worker --token`).
+        /// give it to `vb worker` in VB_WORKER_TOKEN or --token-file).
         #[arg(long, default_value = "user", value_parser = parse_role)]
         role: vb_store::TokenRole,
         /// The service's store (default: `sqlite://out/vb.db`, which must exist: run this where `vb serve` runs).
@@ -460,13 +466,31 @@ pub fn coordinator(a: CoordinatorArgs) -> anyhow::Result<()> {
     })
 }
 
-pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
-    if a.token.trim().is_empty() {
+/// The worker token: from `--token-file` or `VB_WORKER_TOKEN`, never from the command line.
+fn worker_token(a: &WorkerArgs) -> anyhow::Result<String> {
+    if a.token.is_some() {
         bail!(
-            "the worker token (--token or VB_WORKER_TOKEN) is empty: create one with `vb admin token create --name \
-             NAME --role worker --db STORE`"
+            "--token puts the worker token on the command line, where every process on this machine can read it \
+             (/proc/PID/cmdline): set VB_WORKER_TOKEN or pass --token-file FILE instead"
         );
     }
+    let token = match &a.token_file {
+        Some(path) => std::fs::read_to_string(path)
+            .with_context(|| format!("reading the worker token from {}", path.display()))?,
+        None => std::env::var("VB_WORKER_TOKEN").unwrap_or_default(),
+    };
+    let token = token.trim().to_string();
+    if token.is_empty() {
+        bail!(
+            "no worker token: set VB_WORKER_TOKEN or pass --token-file FILE (create one with `vb admin token \
+             create --name NAME --role worker --db STORE`)"
+        );
+    }
+    Ok(token)
+}
+
+pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
+    let token = worker_token(&a)?;
     runtime()?.block_on(async move {
         let (stop, shutdown) = tokio::sync::watch::channel(false);
         let mut signal = StopSignal::new()?;
@@ -486,7 +510,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
             task_dir: a.task_dir.clone(),
             planner_startup_s: a.planner_startup_s,
             allow_exec: !a.no_exec,
-            token: a.token.clone(),
+            token,
             planner_user: planner_user(a.planner_user.as_deref())?,
             drain: Duration::from_secs_f64(a.drain_s.clamp(0.0, 3600.0)),
         };

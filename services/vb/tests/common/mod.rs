@@ -62,6 +62,17 @@ pub struct Proc {
 
 impl Proc {
     pub fn start(name: &str, dir: &Path, program: &Path, args: &[&str]) -> Proc {
+        Proc::start_env(name, dir, program, args, &[])
+    }
+
+    /// [`Proc::start`] with environment variables `env` set.
+    pub fn start_env(
+        name: &str,
+        dir: &Path,
+        program: &Path,
+        args: &[&str],
+        env: &[(&str, &str)],
+    ) -> Proc {
         let log = dir.join(format!("{name}.log"));
         let out = std::fs::OpenOptions::new()
             .create(true)
@@ -70,6 +81,7 @@ impl Proc {
             .expect("log file");
         let child = Command::new(program)
             .args(args)
+            .envs(env.iter().copied())
             .stdout(out.try_clone().expect("log file"))
             .stderr(out)
             .stdin(Stdio::null())
@@ -193,11 +205,10 @@ pub fn start_worker_with(
         &slots,
         "--name",
         name,
-        "--token",
-        &token,
     ];
     args.extend_from_slice(extra);
-    Proc::start(name, dir, &vb(), &args)
+    // The token never on the command line (`vb worker` refuses `--token`).
+    Proc::start_env(name, dir, &vb(), &args, &[("VB_WORKER_TOKEN", &token)])
 }
 
 pub fn wait_port(port: u16, limit: Duration) {
