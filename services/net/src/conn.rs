@@ -30,7 +30,7 @@ impl ConnState {
 }
 
 /// An accepted connection. It holds one of its server's connection slots until it is dropped. Once its deadline
-/// has passed, its reads and writes fail with [`io::ErrorKind::TimedOut`], so the protocol on top ends the
+/// has passed, its reads and writes fail (with [`io::ErrorKind::ConnectionAborted`]), so the protocol on top ends the
 /// connection (and drops it, closing the socket). The deadline is the last read or write that moved bytes plus the
 /// idle timeout and, until its first request is marked, its start plus the first-request timeout.
 #[derive(Debug)]
@@ -113,9 +113,11 @@ impl Conn {
         self.expired_error()
     }
 
+    /// `ConnectionAborted`, not `TimedOut`: tonic's TLS accept loop skips a handshake that failed with the former
+    /// and ends (stops serving) on the latter.
     fn expired_error(&self) -> Option<io::Error> {
         self.expired
-            .map(|why| io::Error::new(io::ErrorKind::TimedOut, why))
+            .map(|why| io::Error::new(io::ErrorKind::ConnectionAborted, why))
     }
 }
 

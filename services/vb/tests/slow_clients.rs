@@ -379,6 +379,68 @@ async fn the_coordinator_drops_connections_that_send_no_request_and_caps_its_con
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_tls_coordinator_drops_stalled_handshakes_and_goes_on_serving() {
+    let dir = temp_dir("tls-slow");
+    if make_certificates(&dir).is_none() {
+        eprintln!(
+            "SKIPPED: the openssl command is not installed (it makes the test's certificates)"
+        );
+        return;
+    }
+    let (db, token) = store(&dir);
+    let port = free_port();
+    let (cert, key, ca) = (
+        dir.join("server.pem").display().to_string(),
+        dir.join("server.key").display().to_string(),
+        dir.join("ca.pem"),
+    );
+    let _c = coordinator(
+        &dir,
+        &db,
+        port,
+        &[
+            "--tls-cert",
+            &cert,
+            "--tls-key",
+            &key,
+            "--header-timeout-s",
+            "1",
+            "--idle-timeout-s",
+            "60",
+        ],
+    );
+    let url = format!("https://localhost:{port}");
+    // Twice: a handshake that timed out must not stop the server from accepting the next connections.
+    for round in 0..2 {
+        tokio::task::spawn_blocking(move || {
+            let mut silent = connect(port);
+            // A TLS record header announcing a 512-byte ClientHello, and only its first bytes.
+            let mut partial = connect(port);
+            partial
+                .write_all(&[0x16, 0x03, 0x01, 0x02, 0x00, 0x01, 0x00, 0x01, 0xfc])
+                .expect("send");
+            for (what, s) in [
+                ("a silent connection", &mut silent),
+                ("a partial ClientHello", &mut partial),
+            ] {
+                assert!(
+                    closed_within(s, CLOSED_BY, b"").is_some(),
+                    "round {round}: {what} to the TLS port is still open after {CLOSED_BY:?}"
+                );
+            }
+        })
+        .await
+        .expect("stalled handshakes");
+        let mut c = vb_submit::connect(&url, &token, Some(&ca))
+            .await
+            .unwrap_or_else(|e| panic!("round {round}: TLS client refused: {e}"));
+        vb_submit::list(&mut c)
+            .await
+            .unwrap_or_else(|e| panic!("round {round}: {e}"));
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_coordinator_keeps_quiet_live_connections_drops_dead_peers_and_runs_a_submission() {
     let dir = temp_dir("grpc-keepalive");
     let (db, token) = store(&dir);

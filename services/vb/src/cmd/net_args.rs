@@ -4,7 +4,7 @@
 use clap::Args;
 
 #[derive(Args, Clone, Debug)]
-#[command(next_help_heading = "Connection limits (each server's own)")]
+#[command(next_help_heading = "Connection limits of each server (vb worker: of its --sim server)")]
 pub struct NetArgs {
     /// A client must send a request's headers within this, s: HTTP/1 from connecting or from the previous response
     /// (so also the longest wait of a kept-alive connection), gRPC a new connection's first request (TLS

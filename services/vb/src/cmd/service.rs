@@ -127,7 +127,6 @@ pub struct WorkerArgs {
     /// the queue (keep it below the time the process manager waits before SIGKILL).
     #[arg(long, default_value_t = 20.0)]
     drain_s: f64,
-    /// Limits of the --sim server.
     #[command(flatten)]
     net: NetArgs,
 }
