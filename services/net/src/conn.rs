@@ -114,10 +114,22 @@ impl Conn {
     }
 
     /// `ConnectionAborted`, not `TimedOut`: tonic's TLS accept loop skips a handshake that failed with the former
-    /// and ends (stops serving) on the latter.
+    /// and ends (stops serving) on the latter ([`tame`]).
     fn expired_error(&self) -> Option<io::Error> {
         self.expired
             .map(|why| io::Error::new(io::ErrorKind::ConnectionAborted, why))
+    }
+}
+
+/// A socket error as one that tonic's TLS accept loop skips. That loop (tonic 0.12) goes on after a failed handshake
+/// only for a few error kinds (reset, aborted, broken pipe, invalid data, early EOF) and stops accepting for good on
+/// any other: a peer whose handshake ended in `ETIMEDOUT` or `EHOSTUNREACH` would take the whole server down.
+fn tame(e: io::Error) -> io::Error {
+    use io::ErrorKind::*;
+    match e.kind() {
+        ConnectionAborted | ConnectionReset | BrokenPipe | Interrupted | InvalidData
+        | UnexpectedEof | WouldBlock => e,
+        _ => io::Error::new(ConnectionAborted, e),
     }
 }
 
@@ -138,7 +150,7 @@ impl AsyncRead for Conn {
                 }
                 Poll::Ready(Ok(()))
             }
-            Poll::Ready(Err(e)) => Poll::Ready(Err(e)),
+            Poll::Ready(Err(e)) => Poll::Ready(Err(tame(e))),
             Poll::Pending => match self.check_deadline(cx) {
                 Some(e) => Poll::Ready(Err(e)),
                 None => Poll::Pending,
@@ -163,7 +175,7 @@ impl AsyncWrite for Conn {
                 }
                 Poll::Ready(Ok(n))
             }
-            Poll::Ready(Err(e)) => Poll::Ready(Err(e)),
+            Poll::Ready(Err(e)) => Poll::Ready(Err(tame(e))),
             Poll::Pending => match self.check_deadline(cx) {
                 Some(e) => Poll::Ready(Err(e)),
                 None => Poll::Pending,
@@ -186,7 +198,7 @@ impl AsyncWrite for Conn {
                 }
                 Poll::Ready(Ok(n))
             }
-            Poll::Ready(Err(e)) => Poll::Ready(Err(e)),
+            Poll::Ready(Err(e)) => Poll::Ready(Err(tame(e))),
             Poll::Pending => match self.check_deadline(cx) {
                 Some(e) => Poll::Ready(Err(e)),
                 None => Poll::Pending,
@@ -199,10 +211,31 @@ impl AsyncWrite for Conn {
     }
 
     fn poll_flush(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
-        Pin::new(&mut self.io).poll_flush(cx)
+        Pin::new(&mut self.io).poll_flush(cx).map_err(tame)
     }
 
     fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
-        Pin::new(&mut self.io).poll_shutdown(cx)
+        Pin::new(&mut self.io).poll_shutdown(cx).map_err(tame)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn errors_that_would_stop_tonics_tls_accept_loop_become_aborted_connections() {
+        for kind in [
+            io::ErrorKind::TimedOut,
+            io::ErrorKind::HostUnreachable,
+            io::ErrorKind::NetworkUnreachable,
+            io::ErrorKind::Other,
+        ] {
+            let e = tame(io::Error::new(kind, "x"));
+            assert_eq!(e.kind(), io::ErrorKind::ConnectionAborted, "{kind:?}");
+            assert!(e.to_string().contains('x'));
+        }
+        let e = tame(io::Error::new(io::ErrorKind::ConnectionReset, "reset"));
+        assert_eq!(e.kind(), io::ErrorKind::ConnectionReset);
     }
 }
