@@ -432,12 +432,14 @@ fn check_id(id: &str) -> Result<(), Status> {
 }
 
 /// A gRPC server with the coordinator's two services (add more, e.g. the Sim API, before serving), over TLS when
-/// `tls` is given ([`server_tls`]).
+/// `tls` is given ([`server_tls`]), with `limits`' keepalive; serve it on [`vb_net::grpc::incoming`] with the same
+/// limits.
 pub fn grpc_router(
     c: &Arc<Coordinator>,
     tls: Option<tonic::transport::ServerTlsConfig>,
-) -> Result<tonic::transport::server::Router, CoordinatorError> {
-    let mut server = tonic::transport::Server::builder();
+    limits: &vb_net::Limits,
+) -> Result<vb_net::grpc::Router, CoordinatorError> {
+    let mut server = vb_net::grpc::server(limits);
     if let Some(tls) = tls {
         server = server
             .tls_config(tls)

@@ -451,7 +451,17 @@ async fn not_found() -> WebError {
     WebError::NotFound("no such page".into())
 }
 
-/// Serves the leaderboard on `listener` until the future is dropped.
+/// Serves the leaderboard on `listener` with the default [`vb_net::Limits`] until the future is dropped.
 pub async fn serve(lb: Arc<Leaderboard>, listener: tokio::net::TcpListener) -> std::io::Result<()> {
-    axum::serve(listener, lb.router()).await
+    serve_with(lb, listener, &vb_net::Limits::default()).await
+}
+
+/// Serves the leaderboard on `listener` within `limits` (header-read and idle timeouts, a connection limit) until
+/// the future is dropped.
+pub async fn serve_with(
+    lb: Arc<Leaderboard>,
+    listener: tokio::net::TcpListener,
+    limits: &vb_net::Limits,
+) -> std::io::Result<()> {
+    vb_net::http::serve(listener, lb.router(), limits, "leaderboard").await
 }

@@ -150,9 +150,35 @@ fn candle_stays_in_the_terrain_model_crate() {
         "vb-store",
         "vb-leaderboard",
         "vb-submit",
+        "vb-net",
     ] {
         assert_links_none(p, &[], &["candle-core", "candle-nn"]);
     }
+}
+
+/// The servers' connection guard (`vb-net`) is transport only: with both its sides it links no service crate, no
+/// store, no simulator and no generated protobuf types; the leaderboard, which uses its HTTP side, links no gRPC.
+#[test]
+fn the_connection_guard_is_transport_only_and_the_leaderboard_links_no_grpc() {
+    assert_links_none(
+        "vb-net",
+        &["http", "grpc"],
+        &[
+            "vb-proto",
+            "vb-store",
+            "vb-coordinator",
+            "vb-worker",
+            "vb-leaderboard",
+            "sim-core",
+            "tasks",
+            "sqlx-core",
+        ],
+    );
+    assert_links_none("vb-leaderboard", &[], &["tonic", "prost", "vb-proto"]);
+    assert!(
+        linked("vb-net", &["grpc"]).contains("tonic"),
+        "vb-net's grpc feature brings tonic"
+    );
 }
 
 /// Every crate declares the workspace's minimum Rust version, and it is no lower than any dependency's (the

@@ -135,14 +135,16 @@ impl SimService {
         pb::sim_server::SimServer::new(self)
     }
 
-    /// Serves the API alone on `listener` until the server fails.
+    /// Serves the API alone on `listener` within `limits` (connection limit, first-request and idle timeouts,
+    /// HTTP/2 keepalive) until the server fails.
     pub async fn serve(
         self,
         listener: tokio::net::TcpListener,
+        limits: &vb_net::Limits,
     ) -> Result<(), tonic::transport::Error> {
-        tonic::transport::Server::builder()
+        vb_net::grpc::server(limits)
             .add_service(self.server())
-            .serve_with_incoming(tokio_stream::wrappers::TcpListenerStream::new(listener))
+            .serve_with_incoming(vb_net::grpc::incoming(listener, limits, "Sim API"))
             .await
     }
 

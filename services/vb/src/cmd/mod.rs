@@ -5,6 +5,7 @@ pub mod bench_service;
 pub mod compare;
 pub mod eval;
 pub mod leaderboard;
+pub mod net_args;
 pub mod service;
 pub mod sim;
 pub mod tasks;

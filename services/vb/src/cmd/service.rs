@@ -11,6 +11,8 @@ use vb_coordinator::{Coordinator, CoordinatorConfig};
 use vb_leaderboard::Leaderboard;
 use vb_store::Store;
 
+use super::net_args::NetArgs;
+
 fn default_slots() -> usize {
     std::thread::available_parallelism().map_or(2, |n| n.get())
 }
@@ -48,6 +50,8 @@ pub struct ServeArgs {
     /// Run exec planners as this unprivileged user (needs root), so they cannot read the service's files.
     #[arg(long)]
     planner_user: Option<String>,
+    #[command(flatten)]
+    net: NetArgs,
 }
 
 #[derive(Args)]
@@ -83,6 +87,8 @@ pub struct CoordinatorArgs {
     /// The private key (PEM) of --tls-cert.
     #[arg(long, requires = "tls_cert")]
     tls_key: Option<PathBuf>,
+    #[command(flatten)]
+    net: NetArgs,
 }
 
 #[derive(Args)]
@@ -127,6 +133,8 @@ pub struct WorkerArgs {
     /// the queue (keep it below the time the process manager waits before SIGKILL).
     #[arg(long, default_value_t = 20.0)]
     drain_s: f64,
+    #[command(flatten)]
+    net: NetArgs,
 }
 
 #[derive(Args)]
@@ -140,6 +148,8 @@ pub struct LeaderboardArgs {
     /// Task-set directory (default: the benchmark's committed set, tasks/data/v4).
     #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
     task_dir: PathBuf,
+    #[command(flatten)]
+    net: NetArgs,
 }
 
 #[derive(Subcommand)]
@@ -285,26 +295,25 @@ fn sim_service(dir: &std::path::Path) -> anyhow::Result<vb_worker::sim_service::
     Ok(vb_worker::sim_service::SimService::new(Arc::new(set)))
 }
 
-/// Starts the coordinator's gRPC services on `listener`, with the `Sim` API when `sim` is given.
+/// Starts the coordinator's gRPC services on `listener` within `limits`, with the `Sim` API when `sim` is given.
 async fn start_coordinator(
     store: Store,
     cfg: CoordinatorConfig,
     listener: TcpListener,
     sim: Option<vb_worker::sim_service::SimService>,
     tls: Option<tonic::transport::ServerTlsConfig>,
+    limits: &vb_net::Limits,
 ) -> anyhow::Result<Arc<Coordinator>> {
     let coord = Coordinator::new(store, cfg)?;
     tokio::spawn(coord.clone().run_lease_sweeper());
     tokio::spawn(coord.clone().run_summary_keeper());
-    let mut grpc = vb_coordinator::grpc_router(&coord, tls)?;
+    let mut grpc = vb_coordinator::grpc_router(&coord, tls, limits)?;
     if let Some(sim) = sim {
         grpc = grpc.add_service(sim.server());
     }
+    let incoming = vb_net::grpc::incoming(listener, limits, "coordinator gRPC API");
     tokio::spawn(async move {
-        if let Err(e) = grpc
-            .serve_with_incoming(tokio_stream::wrappers::TcpListenerStream::new(listener))
-            .await
-        {
+        if let Err(e) = grpc.serve_with_incoming(incoming).await {
             tracing::error!(error = %e, "coordinator gRPC server stopped");
         }
     });
@@ -359,6 +368,7 @@ async fn evaluate_builtin(
 }
 
 pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
+    let limits = a.net.limits()?;
     runtime()?.block_on(async move {
         let mut signal = StopSignal::new()?;
         let store = open_store(&a.db).await?;
@@ -369,10 +379,10 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         let sim = sim_service(&a.task_dir)?;
         let mut ccfg = CoordinatorConfig::new(a.task_dir.clone());
         ccfg.allow_exec = !a.no_exec;
-        let coord = start_coordinator(store.clone(), ccfg, grpc, Some(sim), None).await?;
+        let coord = start_coordinator(store.clone(), ccfg, grpc, Some(sim), None, &limits).await?;
         let lb = Leaderboard::new(store.reader(), Some(tasks::TaskSet::load(&a.task_dir)?));
         tokio::spawn(async move {
-            if let Err(e) = vb_leaderboard::serve(lb, http).await {
+            if let Err(e) = vb_leaderboard::serve_with(lb, http, &limits).await {
                 tracing::error!(error = %e, "leaderboard stopped");
             }
         });
@@ -439,6 +449,7 @@ pub fn coordinator(a: CoordinatorArgs) -> anyhow::Result<()> {
             a.lease_s
         );
     }
+    let limits = a.net.limits()?;
     runtime()?.block_on(async move {
         let mut signal = StopSignal::new()?;
         let store = open_store(&a.db).await?;
@@ -460,7 +471,7 @@ pub fn coordinator(a: CoordinatorArgs) -> anyhow::Result<()> {
             (Some(cert), Some(key)) => Some(vb_coordinator::server_tls(cert, key)?),
             _ => None,
         };
-        start_coordinator(store, cfg, listener, None, tls).await?;
+        start_coordinator(store, cfg, listener, None, tls, &limits).await?;
         signal.recv().await;
         Ok(())
     })
@@ -491,6 +502,7 @@ fn worker_token(a: &WorkerArgs) -> anyhow::Result<String> {
 
 pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
     let token = worker_token(&a)?;
+    let limits = a.net.limits()?;
     runtime()?.block_on(async move {
         let (stop, shutdown) = tokio::sync::watch::channel(false);
         let mut signal = StopSignal::new()?;
@@ -519,7 +531,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
             let listener = bind(addr, "Sim API").await?;
             tracing::info!(addr = %listener.local_addr()?, "Sim API listening");
             tokio::spawn(async move {
-                if let Err(e) = sim.serve(listener).await {
+                if let Err(e) = sim.serve(listener, &limits).await {
                     tracing::error!(error = %e, "Sim API stopped");
                 }
             });
@@ -530,6 +542,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
 }
 
 pub fn leaderboard(a: LeaderboardArgs) -> anyhow::Result<()> {
+    let limits = a.net.limits()?;
     runtime()?.block_on(async move {
         let mut signal = StopSignal::new()?;
         let reader = vb_store::Reader::open(&a.db)
@@ -539,7 +552,7 @@ pub fn leaderboard(a: LeaderboardArgs) -> anyhow::Result<()> {
         let listener = bind(a.listen, "leaderboard").await?;
         tracing::info!(url = %format!("http://{}/", listener.local_addr()?), "leaderboard listening");
         tokio::select! {
-            r = vb_leaderboard::serve(Leaderboard::new(reader, set), listener) => r?,
+            r = vb_leaderboard::serve_with(Leaderboard::new(reader, set), listener, &limits) => r?,
             _ = signal.recv() => {}
         }
         Ok(())

@@ -1,0 +1,140 @@
+//! Raw clients of the slow-client tests: TCP connections that stall, trickle or answer nothing, and HTTP/2 clients
+//! that answer pings.
+
+use crate::common::create_token;
+use std::io::{ErrorKind, Read, Write};
+use std::net::TcpStream;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// The bound within which a connection past a 1 s timeout must have been closed.
+pub const CLOSED_BY: Duration = Duration::from_secs(10);
+/// The HTTP/2 client preface.
+pub const PREFACE: &[u8] = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n";
+/// An empty SETTINGS frame.
+pub const SETTINGS: &[u8] = &[0, 0, 0, 4, 0, 0, 0, 0, 0];
+
+/// A connection whose reads give up after 100 ms (so a test can write between them).
+pub fn connect(port: u16) -> TcpStream {
+    let s = TcpStream::connect(("127.0.0.1", port)).expect("connect");
+    s.set_read_timeout(Some(Duration::from_millis(100))).ok();
+    s
+}
+
+/// Reads (discarding what the server sends) and, every 200 ms, writes the next byte of `trickle`, until the server
+/// closes the connection; how long that took, or `None` if it was still open after `limit`.
+pub fn closed_within(s: &mut TcpStream, limit: Duration, trickle: &[u8]) -> Option<Duration> {
+    let t0 = Instant::now();
+    let mut next = 0;
+    let mut last_write = t0;
+    let mut buf = [0u8; 4096];
+    while t0.elapsed() < limit {
+        match s.read(&mut buf) {
+            Ok(0) => return Some(t0.elapsed()),
+            Ok(_) => {}
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
+            Err(_) => return Some(t0.elapsed()),
+        }
+        if next < trickle.len() && last_write.elapsed() >= Duration::from_millis(200) {
+            if s.write_all(&trickle[next..next + 1]).is_err() {
+                return Some(t0.elapsed());
+            }
+            next += 1;
+            last_write = Instant::now();
+        }
+    }
+    None
+}
+
+/// Whether the server still holds `s` open: nothing to read, no EOF, within a short look.
+pub fn still_open(s: &mut TcpStream) -> bool {
+    let mut buf = [0u8; 1];
+    s.set_nonblocking(true).ok();
+    let open = matches!(s.read(&mut buf), Err(e) if e.kind() == ErrorKind::WouldBlock);
+    s.set_nonblocking(false).ok();
+    open
+}
+
+pub fn open_fds(pid: u32) -> usize {
+    std::fs::read_dir(format!("/proc/{pid}/fd")).map_or(0, |d| d.count())
+}
+
+/// A store with one user token (which also creates the store).
+pub fn store(dir: &Path) -> (String, String) {
+    let db = format!("sqlite://{}", dir.join("vb.db").display());
+    let token = create_token(&db);
+    (db, token)
+}
+
+/// The status of GET / on a fresh connection, or `None` if the server closed it without an answer.
+pub fn try_get(port: u16) -> Option<u16> {
+    let mut s = TcpStream::connect(("127.0.0.1", port)).ok()?;
+    s.set_read_timeout(Some(Duration::from_secs(30))).ok();
+    s.write_all(b"GET / HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n")
+        .ok()?;
+    let mut head = [0u8; 12];
+    s.read_exact(&mut head).ok()?;
+    std::str::from_utf8(&head[9..12]).ok()?.parse().ok()
+}
+
+/// GET / until it answers 200 (the server may still be closing the connections a test let go).
+pub fn get_ok_within(port: u16, limit: Duration) {
+    let t0 = Instant::now();
+    loop {
+        let answered = try_get(port);
+        if answered == Some(200) {
+            return;
+        }
+        assert!(t0.elapsed() < limit, "GET / not answered: {answered:?}");
+        std::thread::sleep(Duration::from_millis(200));
+    }
+}
+
+/// An HTTP/2 connection (answering pings while its driver runs) that sent one request and got an answer.
+pub async fn h2_client(
+    port: u16,
+    path: &str,
+) -> (
+    h2::client::SendRequest<bytes::Bytes>,
+    tokio::task::JoinHandle<()>,
+) {
+    let tcp = tokio::net::TcpStream::connect(("127.0.0.1", port))
+        .await
+        .expect("connect");
+    let (send, conn) = h2::client::handshake(tcp).await.expect("h2 handshake");
+    let driver = tokio::spawn(async move {
+        let _ = conn.await;
+    });
+    let send = h2_request(send, port, path).await.expect("an answer");
+    (send, driver)
+}
+
+/// Sends an (empty) gRPC request on `send` and waits for the answer's headers.
+pub async fn h2_request(
+    send: h2::client::SendRequest<bytes::Bytes>,
+    port: u16,
+    path: &str,
+) -> Result<h2::client::SendRequest<bytes::Bytes>, h2::Error> {
+    let mut send = send.ready().await?;
+    let req = http::Request::builder()
+        .method("POST")
+        .uri(format!("http://127.0.0.1:{port}{path}"))
+        .header("content-type", "application/grpc")
+        .header("te", "trailers")
+        .body(())
+        .expect("request");
+    let (answer, _) = send.send_request(req, true)?;
+    answer.await?;
+    Ok(send)
+}
+
+/// HEADERS (stream 1, END_STREAM, END_HEADERS) of a POST to `path`, literal HPACK without Huffman.
+pub fn headers_frame(path: &str) -> Vec<u8> {
+    let mut block = vec![0x83, 0x86]; // :method POST, :scheme http (static table)
+    block.extend([0x04, path.len() as u8]); // :path, literal without indexing
+    block.extend(path.as_bytes());
+    block.extend([0x01, 1, b'a']); // :authority a
+    let mut f = vec![0, 0, block.len() as u8, 1, 0x05, 0, 0, 0, 1];
+    f.extend(block);
+    f
+}
