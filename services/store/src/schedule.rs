@@ -282,6 +282,19 @@ impl Store {
         Ok(n as u64)
     }
 
+    /// How many leases the workers of token `token_id` handed back unrun since `since` ([`Store::hand_back`]).
+    pub async fn hand_backs_since(&self, token_id: &str, since: f64) -> Result<u64> {
+        let n: i64 = sqlx::query(
+            "SELECT CAST(COUNT(*) AS BIGINT) AS n FROM lease_hand_backs WHERE token_id = $1 AND at > $2",
+        )
+        .bind(token_id)
+        .bind(since)
+        .fetch_one(&self.pool)
+        .await?
+        .try_get("n")?;
+        Ok(n as u64)
+    }
+
     /// Worker `worker_id` could not run its leased episode (not the planner's fault; `why`, kept for the record if
     /// the episode finally fails this way): it goes back to the queue.
     pub async fn release(
@@ -308,10 +321,21 @@ impl Store {
 
     /// Worker `worker_id` is stopping and hands back its leased episode unfinished: it goes back to the queue (a
     /// cancelled submission's is marked not run) at once, without using up an attempt or counting as a dropped
-    /// lease. Whether the lease was still the worker's.
+    /// lease; the hand-back is recorded against the worker's token (`lease_hand_backs`), whose rate the coordinator
+    /// limits ([`Store::hand_backs_since`]). Whether the lease was still the worker's.
     pub async fn hand_back(&self, worker_id: &str, lease_id: &str, now: f64) -> Result<bool> {
         let _w = self.write.lock().await;
         let mut tx = self.pool.begin().await?;
+        sqlx::query(
+            "INSERT INTO lease_hand_backs (token_id, worker_id, submission_id, task_id, at) \
+             SELECT w.token_id, e.worker_id, e.submission_id, e.task_id, $3 FROM episodes e \
+             JOIN workers w ON w.id = e.worker_id WHERE e.lease_id = $1 AND e.worker_id = $2 AND e.state = 'leased'",
+        )
+        .bind(lease_id)
+        .bind(worker_id)
+        .bind(now)
+        .execute(&mut *tx)
+        .await?;
         let n = requeue_unused(&mut tx, worker_id, lease_id, None).await?;
         tx.commit().await?;
         if n > 0 {
