@@ -3,6 +3,7 @@
 
 use vb_store::*;
 
+#[allow(dead_code)]
 mod common;
 
 use common::*;
