@@ -140,7 +140,7 @@ pub fn check_image_ref(image: &str) -> Result<(), InputError> {
             || parts[0] == "localhost"
             || parts[0].bytes().any(|b| b.is_ascii_uppercase()))
     {
-        check_registry(parts[0]).or_else(|why| bad(why))?;
+        check_registry(parts[0]).or_else(&bad)?;
         parts.remove(0);
     }
     for p in parts {
