@@ -1,6 +1,6 @@
--- Leases a stopping worker handed back unrun, per worker token. A hand-back uses no attempt of the episode, but a
--- token that hands back many leases in a window (a stolen token leasing and handing back in a loop) gets no new
--- leases for a while, like one that drops them.
+-- Leases given back unrun, per worker token: handed back by a stopping worker, or refused by one that cannot run the
+-- submission. Neither uses an attempt of the episode, but a token that gives back many leases in a window (a stolen
+-- token leasing and handing back in a loop) gets no new leases for a while, like one that drops them.
 CREATE TABLE lease_hand_backs (
     token_id       TEXT NOT NULL,
     worker_id      TEXT NOT NULL,

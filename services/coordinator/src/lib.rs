@@ -50,9 +50,9 @@ pub struct CoordinatorConfig {
     /// `drop_window_s` gets no new leases until the window has passed.
     pub max_dropped_leases: u64,
     pub drop_window_s: f64,
-    /// A worker token whose workers handed back this many leases unrun within `drop_window_s` gets no new leases
-    /// until fewer remain in the window: its own budget, larger than the drop budget, since a stopping worker hands
-    /// back all it holds at once (a hand-back uses no attempt of the episode).
+    /// A worker token whose workers gave back this many leases unrun (handed back when stopping, or refused) within
+    /// `drop_window_s` gets no new leases until fewer remain in the window: its own budget, larger than the drop
+    /// budget, since a stopping worker hands back all it holds at once (neither uses an attempt of the episode).
     pub max_handed_back_leases: u64,
 }
 

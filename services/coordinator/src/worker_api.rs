@@ -60,7 +60,8 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
                  no new leases until fewer remain in the window"
             )));
         }
-        // Handing leases back uses no attempt, so a token that leases and hands back in a loop is limited by rate.
+        // Handing leases back (or refusing them) uses no attempt, so a token that leases and gives back in a loop is
+        // limited by rate.
         let limit = self.0.cfg.max_handed_back_leases;
         let handed = self
             .0
@@ -70,7 +71,8 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
             .map_err(store_status)?;
         if handed >= limit {
             return Err(Status::resource_exhausted(format!(
-                "throttled: this token's workers handed back {handed} leases unrun in the last {window:.0} s (limit \
+                "throttled: this token's workers handed back {handed} leases unrun (stopping or refusing) in the last \
+                 {window:.0} s (limit \
                  {limit}); no new leases until fewer remain in the window"
             )));
         }

@@ -13,8 +13,9 @@
 //!   [`MAX_ATTEMPTS`] times, after which the episode is recorded as an infrastructure failure; every lease that ends
 //!   without a result is recorded against its worker's token (`lease_drops`), and a token's repeated drops of one
 //!   episode count as one attempt, so one token cannot use up an episode's attempts;
-//! - a lease handed back unrun by a stopping worker uses no attempt, and is recorded against its token
-//!   (`lease_hand_backs`) so the coordinator can limit a token's rate of hand-backs as it limits drops;
+//! - a lease handed back unrun by a stopping worker (or refused by one that cannot run it) uses no attempt, and is
+//!   recorded against its token (`lease_hand_backs`) so the coordinator can limit a token's rate of them as it
+//!   limits drops;
 //! - cancelling keeps finished episodes and marks everything that never ran as `not_run`.
 
 use sha2::{Digest, Sha256};

@@ -57,6 +57,20 @@ async fn hand_backs_use_no_attempt_and_are_counted_per_token_in_a_window() -> an
         );
         let p = store.reader().progress(&sub).await?;
         assert_eq!((p.queued, p.finished), (2, 0), "{url}");
+        // A refusal (a worker that cannot run the submission) gives the lease back unrun too, and is counted alike.
+        let leases = store.lease(&w, 1, 30.0, false, last + 2.0).await?;
+        assert!(
+            store
+                .refuse(&w, &leases[0].lease_id, "no image", last + 2.0)
+                .await?
+        );
+        assert_eq!(
+            store.hand_backs_since("tk-loop", 0.0).await?,
+            2 * u64::from(rounds) + 2,
+            "{url}"
+        );
+        let p = store.reader().progress(&sub).await?;
+        assert_eq!((p.queued, p.finished), (2, 0), "{url}");
     }
     Ok(())
 }

@@ -124,6 +124,37 @@ async fn a_token_that_leases_and_hands_back_in_a_loop_is_throttled() -> anyhow::
         .await?
         .into_inner();
     assert_eq!(got.leases.len(), 1);
+    // Refusing instead of handing back (a new worker id each time, since a worker that refused a submission is not
+    // leased it again) is given back unrun all the same, and throttled all the same.
+    let refuser = create_token_with_role(&db, "refuser", "worker");
+    let mut refused = 0;
+    let refusal = loop {
+        assert!(refused <= 100, "never throttled after {refused} refusals");
+        let me = w
+            .register(authed(register("refuser"), &refuser))
+            .await?
+            .into_inner();
+        match w.lease(authed(lease(&me.worker_id), &refuser)).await {
+            Ok(r) => {
+                for l in r.into_inner().leases {
+                    refused += 1;
+                    let no = pb::EpisodeReport {
+                        worker_id: me.worker_id.clone(),
+                        lease_id: l.lease_id.clone(),
+                        submission_id: l.submission_id.clone(),
+                        task_id: l.task_id.clone(),
+                        cannot_run: true,
+                        detail: "no such image".into(),
+                        ..Default::default()
+                    };
+                    w.report_result(authed(no, &refuser)).await?;
+                }
+            }
+            Err(e) => break e,
+        }
+    };
+    assert_eq!(refusal.code(), tonic::Code::ResourceExhausted, "{refusal}");
+    assert_eq!(refused, 5, "the budget is 5 given back in the window");
     vb_submit::cancel(&mut c, &sub).await?;
     Ok(())
 }

@@ -77,8 +77,8 @@ pub struct CoordinatorArgs {
     /// The window of --max-dropped-leases and --max-handed-back-leases, s.
     #[arg(long, default_value_t = 600.0)]
     drop_window_s: f64,
-    /// A worker token whose workers hand back this many leases unrun (stopping workers do, without using an
-    /// attempt) within --drop-window-s gets no new leases until fewer remain in the window: a budget of its own,
+    /// A worker token whose workers hand back this many leases unrun (stopping workers do, and workers refusing a
+    /// submission they cannot run, without using an attempt) within --drop-window-s gets no new leases until fewer remain in the window: a budget of its own,
     /// so draining workers are not throttled but a token leasing and handing back in a loop is.
     #[arg(long, default_value_t = 256)]
     max_handed_back_leases: u64,
