@@ -1,11 +1,13 @@
 //! Values that cross crates, with one string form each: how an episode ended ([`Outcome`], and
 //! [`RecordedOutcome`] as the service records it), under which rules ([`Rules`]), its metrics
 //! ([`EpisodeMetrics`]), a task's id ([`TaskId`], `wNNN-tK`), the states of the service's episodes and submissions
-//! ([`EpisodeState`], [`SubmissionState`]), and the trajectory codec ([`trajectory`]).
+//! ([`EpisodeState`], [`SubmissionState`]), the trajectory codec ([`trajectory`]), and the checks of user-given
+//! names and image references ([`input`]).
 //!
 //! A leaf crate (serde and thiserror only): the simulator produces these values and re-exports them; the service,
 //! the store, the leaderboard and `vb-submit` read them without linking the simulator.
 
+pub mod input;
 mod state;
 mod task_id;
 pub mod trajectory;

@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use sim_core::world::{
     ElevationLevel, Heightmap, Obstacle, ObstacleDensity, Patch, Semantic, SemanticsKind, Surface,
-    Task, World, MAP_PX, PATCHES,
+    Task, World, MAP_PX,
 };
 use std::path::{Path, PathBuf};
 
@@ -322,7 +322,8 @@ impl TaskSet {
 
     /// Opens a task set directory: reads and validates the manifest, and recomputes the version from the world
     /// files, refusing a set whose files do not hash to the version its manifest claims (results carry the
-    /// version, so it must say what they were computed on).
+    /// version, so it must say what they were computed on), and checks every world file's numbers against their
+    /// physical ranges ([`crate::check`]).
     pub fn load(dir: &Path) -> Result<TaskSet, TasksError> {
         let path = dir.join("manifest.json");
         let bytes = read(&path)?;
@@ -356,6 +357,10 @@ impl TaskSet {
                     manifest.version
                 ),
             ));
+        }
+        // Every world file's numbers in their physical ranges, so a bad set is refused when opened, not mid-run.
+        for w in &manifest.worlds {
+            read_spec(&dir.join("worlds"), w.id)?;
         }
         Ok(TaskSet {
             dir: dir.to_path_buf(),
@@ -424,70 +429,39 @@ fn check_scale(scale: f64) -> Result<(), TasksError> {
     }
 }
 
-/// Loads `NNN.json` + `NNN.png` from a worlds directory.
-pub fn load_record(worlds_dir: &Path, id: u32) -> Result<WorldRecord, TasksError> {
+/// Reads `NNN.json` from a worlds directory and checks its fields and their physical ranges ([`crate::check`]).
+fn read_spec(worlds_dir: &Path, id: u32) -> Result<(WorldSpec, PathBuf), TasksError> {
     let json_path = worlds_dir.join(format!("{}.json", world_stem(id)));
-    let png_path = worlds_dir.join(format!("{}.png", world_stem(id)));
     let spec: WorldSpec =
         serde_json::from_slice(&read(&json_path)?).map_err(|e| TasksError::Json {
             path: json_path.clone(),
             source: e,
         })?;
-    let bad = |field: &str, msg: String| TasksError::field(&json_path, field, msg);
     if spec.id != id {
-        return Err(bad(
+        return Err(TasksError::field(
+            &json_path,
             "id",
             format!("{} does not match the file name ({id})", spec.id),
         ));
     }
-    if !(spec.cell.is_finite() && spec.cell > 0.0) {
-        return Err(bad(
-            "cell",
-            format!("{} is not a positive length", spec.cell),
-        ));
-    }
-    if !(spec.height_min.is_finite()
-        && spec.height_max.is_finite()
-        && spec.height_max >= spec.height_min)
-    {
-        return Err(bad(
-            "height_max",
-            "height range is empty or not finite".into(),
-        ));
-    }
-    if spec.patches.len() != PATCHES * PATCHES {
-        return Err(bad(
-            "patches",
-            format!(
-                "{} patches, expected {}",
-                spec.patches.len(),
-                PATCHES * PATCHES
-            ),
-        ));
-    }
+    crate::check::world_spec(&spec, &json_path)?;
+    Ok((spec, json_path))
+}
+
+/// Loads `NNN.json` + `NNN.png` from a worlds directory.
+pub fn load_record(worlds_dir: &Path, id: u32) -> Result<WorldRecord, TasksError> {
+    let (spec, json_path) = read_spec(worlds_dir, id)?;
+    let png_path = worlds_dir.join(format!("{}.png", world_stem(id)));
+    let bad = |field: &str, msg: String| TasksError::field(&json_path, field, msg);
     let mut patches = Vec::with_capacity(spec.patches.len());
     for (k, p) in spec.patches.iter().enumerate() {
+        // Checked above: a rigid class has a friction in range, a deformable one none.
         let surface = match (p.class.soil(), p.friction) {
-            (Some(soil), None) => Surface::Deformable { soil },
-            (None, Some(f)) if (0.0..=2.0).contains(&f) => Surface::Rigid { friction: f },
-            (None, Some(f)) => {
-                return Err(bad(
-                    &format!("patches[{k}].friction"),
-                    format!("{f} is not in [0, 2]"),
-                ))
-            }
-            (None, None) => {
-                return Err(bad(
-                    &format!("patches[{k}].friction"),
-                    format!("missing for rigid class {}", p.class.as_str()),
-                ))
-            }
-            (Some(_), Some(_)) => {
-                return Err(bad(
-                    &format!("patches[{k}].friction"),
-                    format!("given for deformable class {}", p.class.as_str()),
-                ))
-            }
+            (Some(soil), _) => Surface::Deformable { soil },
+            (None, f) => Surface::Rigid {
+                friction: f
+                    .ok_or_else(|| bad(&format!("patches[{k}].friction"), "missing".into()))?,
+            },
         };
         patches.push(Patch {
             semantic: p.class,
@@ -495,37 +469,8 @@ pub fn load_record(worlds_dir: &Path, id: u32) -> Result<WorldRecord, TasksError
         });
     }
     let heightmap = load_png16(&png_path, spec.height_min, spec.height_max, spec.cell)?;
-    for (k, o) in spec.obstacles.iter().enumerate() {
-        let finite = [o.x, o.y, o.z, o.yaw]
-            .iter()
-            .chain(o.half_extents.iter())
-            .all(|v| v.is_finite());
-        if !finite || o.half_extents.iter().any(|h| *h <= 0.0) {
-            return Err(bad(
-                &format!("obstacles[{k}]"),
-                "non-finite position or non-positive size".into(),
-            ));
-        }
-    }
     let mut tasks = Vec::with_capacity(spec.tasks.len());
-    for (k, t) in spec.tasks.iter().enumerate() {
-        let pts = [t.start, t.goal];
-        if pts
-            .iter()
-            .chain(t.path.iter())
-            .any(|p| !heightmap.contains(p[0], p[1]))
-        {
-            return Err(bad(
-                &format!("tasks[{k}]"),
-                "start, goal or path point outside the map".into(),
-            ));
-        }
-        if t.path.len() < 2 {
-            return Err(bad(
-                &format!("tasks[{k}].path"),
-                "a path needs at least two points".into(),
-            ));
-        }
+    for t in &spec.tasks {
         tasks.push(Task {
             world_id: id,
             index: t.index,

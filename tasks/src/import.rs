@@ -178,10 +178,11 @@ pub fn import_world(w: &ReleaseWorld) -> Result<WorldRecord, TasksError> {
         }
     };
     let (lo, hi) = (cfg.terrain.min_height, cfg.terrain.max_height);
-    if !(lo.is_finite() && hi.is_finite() && hi > lo) {
+    let lim = crate::check::MAX_ABS_HEIGHT;
+    if !(lo.is_finite() && hi.is_finite() && hi > lo && lo.abs() <= lim && hi.abs() <= lim) {
         return Err(bad(
             "terrain.max_height",
-            format!("height range [{lo}, {hi}] is empty or not finite"),
+            format!("height range [{lo}, {hi}] is empty or not within [-{lim}, {lim}] m"),
         ));
     }
     let heightmap = heightmap_io::load_heightmap(&w.bmp, 1.0, lo, hi)?;

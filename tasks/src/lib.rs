@@ -5,6 +5,7 @@
 //! - [`obstacles`]: rocks and trees with the release's spacing rules.
 //! - [`path`]: A* global paths on the obstacle grid, obstacles inflated by the vehicle footprint.
 //! - [`generate`]: the whole pipeline from a seed and a height source to a [`TaskSet`].
+//! - [`check`]: the physical ranges of a world file's numbers, checked on load.
 //! - [`format`]: the versioned on-disk format (`FORMAT.md`) and [`TaskSet`] loading and saving.
 //! - [`heightmap_io`]: external heightmaps (8/16-bit PNG/BMP, `.npy`).
 //! - [`import`]: the original Verti-Bench release's worlds.
@@ -13,6 +14,7 @@
 //! - [`stats`]: composition and geometry statistics, and the original worlds' per-level statistics sets match.
 //! - [`render`]: PNG pictures of worlds and a contact sheet.
 
+pub mod check;
 pub mod cli;
 pub mod design;
 pub mod format;

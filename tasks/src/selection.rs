@@ -29,7 +29,8 @@ fn in_split(w: &crate::format::WorldEntry, split: &str) -> bool {
     }
 }
 
-/// Selects `(world id, task index)` pairs from a task set.
+/// Selects `(world id, task index)` pairs from a task set: the union of the comma-separated items, each task once,
+/// in id order.
 pub fn select(set: &TaskSet, spec: &str) -> Result<Vec<(u32, u32)>, TasksError> {
     let ids = set.world_ids();
     let all = || {
@@ -40,8 +41,13 @@ pub fn select(set: &TaskSet, spec: &str) -> Result<Vec<(u32, u32)>, TasksError> 
     if spec.trim() == "all" {
         return Ok(all());
     }
+    // A union: items may repeat or overlap (`all,all`, `low,w001-t0`); each task is selected once.
     let mut out = BTreeSet::new();
     for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        if item == "all" {
+            out.extend(all());
+            continue;
+        }
         let bad = || {
             TasksError::Param {
             field: "tasks".into(),
@@ -88,4 +94,22 @@ pub fn select(set: &TaskSet, spec: &str) -> Result<Vec<(u32, u32)>, TasksError> 
         });
     }
     Ok(out.into_iter().collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn repeated_and_overlapping_items_select_each_task_once() {
+        let set = TaskSet::committed().unwrap();
+        let all = select(&set, "all").unwrap();
+        assert_eq!(all.len(), 10 * set.world_ids().len());
+        assert_eq!(select(&set, "all,all").unwrap(), all);
+        assert_eq!(select(&set, " all , low ,all").unwrap(), all);
+        let one = select(&set, "w001-t3,w001-t3,1").unwrap();
+        assert_eq!(one, select(&set, "1").unwrap());
+        let e = select(&set, "all,banana").unwrap_err().to_string();
+        assert!(e.contains("`banana` is not `all`"), "{e}");
+    }
 }

@@ -2,12 +2,13 @@
 //! and holds a cruising speed. Copy this crate to start your own planner.
 //!
 //! ```text
-//! example-planner [--addr HOST:PORT] [--fault KIND] [--fault-after N] [--delay-ms MS]
+//! example-planner [--addr HOST:PORT] [--fault KIND] [--fault-after N] [--delay-ms MS] [--control-rate-hz HZ]
 //! ```
 //! The address defaults to `$VB_PLANNER_ADDR` (set by workers that start the planner for an `exec` or `image`
 //! submission: `127.0.0.1:PORT`, or `unix:PATH` in a container without network), else `127.0.0.1:50061`. `--fault` makes it misbehave after N control steps, to test how the service copes:
 //! `crash` (exit 3), `hang` (never answer), `nan` (a NaN steering command), `range` (throttle 5.0).
-//! `--delay-ms` sleeps before every answer (a slow but well-behaved planner).
+//! `--delay-ms` sleeps before every answer (a slow but well-behaved planner); `--control-rate-hz` announces another
+//! control rate than 10 Hz (an invalid one tests how the service reports a planner's protocol error).
 
 // tonic::Status is large (176 bytes) and is the error type of every gRPC handler; boxing it everywhere buys nothing.
 #![allow(clippy::result_large_err)]
@@ -34,6 +35,8 @@ struct Options {
     fault: Fault,
     fault_after: u64,
     delay: Duration,
+    /// The control rate announced in `Info` (10 Hz; `--control-rate-hz` announces another, even an invalid one).
+    control_rate_hz: f64,
 }
 
 /// Per-episode state: the path, the vehicle's geometry and the cruising speed.
@@ -129,7 +132,7 @@ impl Planner for ExamplePlanner {
         Ok(Response::new(pb::PlannerInfo {
             name: "example-pure-pursuit".into(),
             version: env!("CARGO_PKG_VERSION").into(),
-            control_rate_hz: 10.0,
+            control_rate_hz: self.opts.control_rate_hz,
             local_map_size: 0,
             local_map_resolution: 0.0,
         }))
@@ -233,6 +236,7 @@ fn parse_args() -> anyhow::Result<(String, Options)> {
         fault: Fault::None,
         fault_after: 0,
         delay: Duration::ZERO,
+        control_rate_hz: 10.0,
     };
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
@@ -252,11 +256,14 @@ fn parse_args() -> anyhow::Result<(String, Options)> {
                 }
             }
             "--fault-after" => opts.fault_after = value()?.parse().context("--fault-after")?,
+            "--control-rate-hz" => {
+                opts.control_rate_hz = value()?.parse().context("--control-rate-hz")?
+            }
             "--delay-ms" => {
                 opts.delay = Duration::from_millis(value()?.parse().context("--delay-ms")?)
             }
             "-h" | "--help" => {
-                println!("example-planner [--addr HOST:PORT] [--fault crash|hang|nan|range] [--fault-after N] [--delay-ms MS]");
+                println!("example-planner [--addr HOST:PORT] [--fault crash|hang|nan|range] [--fault-after N] [--delay-ms MS] [--control-rate-hz HZ]");
                 std::process::exit(0);
             }
             other => anyhow::bail!("unknown argument `{other}` (see --help)"),

@@ -9,6 +9,7 @@
 
 mod convert;
 mod submission_api;
+mod validate;
 mod worker_api;
 
 use std::path::PathBuf;
@@ -49,6 +50,10 @@ pub struct CoordinatorConfig {
     /// `drop_window_s` gets no new leases until the window has passed.
     pub max_dropped_leases: u64,
     pub drop_window_s: f64,
+    /// A worker token whose workers gave back this many leases unrun (handed back when stopping, or refused) within
+    /// `drop_window_s` gets no new leases until fewer remain in the window: its own budget, larger than the drop
+    /// budget, since a stopping worker hands back all it holds at once (neither uses an attempt of the episode).
+    pub max_handed_back_leases: u64,
 }
 
 impl CoordinatorConfig {
@@ -60,6 +65,7 @@ impl CoordinatorConfig {
             allow_exec: true,
             max_dropped_leases: 32,
             drop_window_s: 600.0,
+            max_handed_back_leases: 256,
         }
     }
 }
@@ -201,13 +207,15 @@ impl Coordinator {
         Ok(t)
     }
 
-    /// A worker's (or admin's) token (the worker API).
+    /// A worker's token (the worker API): roles are kept apart, so neither a user's nor an admin's token works here.
     async fn worker<T>(&self, req: &Request<T>) -> Result<Token, Status> {
         let t = self.authenticate(req).await?;
-        if t.role == TokenRole::User {
-            return Err(Status::permission_denied(
-                "the worker API needs a worker token (`vb admin token create --role worker`)",
-            ));
+        if t.role != TokenRole::Worker {
+            return Err(Status::permission_denied(format!(
+                "the worker API needs a worker token (`vb admin token create --role worker`), not a{} {} token",
+                if t.role == TokenRole::Admin { "n" } else { "" },
+                t.role.as_str()
+            )));
         }
         Ok(t)
     }
@@ -257,159 +265,6 @@ impl Coordinator {
             .map_err(store_status)?;
         Ok(convert::status(&sub, &p, recent.rate()))
     }
-
-    fn validate_submit(&self, r: &pb::SubmitRequest) -> Result<ValidSubmit, Status> {
-        let bad = |m: String| Status::invalid_argument(m);
-        let name = r.name.trim();
-        if name.is_empty() || name.chars().count() > MAX_NAME || name.chars().any(char::is_control)
-        {
-            return Err(bad(format!(
-                "name must be 1 to {MAX_NAME} printable characters (got {} characters)",
-                r.name.chars().count()
-            )));
-        }
-        let (kind, spec) = match r.planner.as_ref().and_then(|p| p.kind.as_ref()) {
-            None => {
-                return Err(bad(
-                    "planner is missing: give an endpoint, exec argv, image or builtin".into(),
-                ))
-            }
-            Some(pb::planner_ref::Kind::Builtin(b)) => {
-                if baselines::by_name(b).is_none() {
-                    return Err(bad(format!(
-                        "unknown builtin planner `{b}` (available: {})",
-                        baselines::NAMES.join(", ")
-                    )));
-                }
-                ("builtin", b.clone())
-            }
-            Some(pb::planner_ref::Kind::Endpoint(u)) => {
-                if !(u.starts_with("http://") || u.starts_with("https://"))
-                    || u.len() > MAX_SPEC_LEN
-                {
-                    return Err(bad(format!(
-                        "endpoint `{u}` must be an http:// or https:// URL"
-                    )));
-                }
-                ("endpoint", u.clone())
-            }
-            Some(pb::planner_ref::Kind::Exec(e)) => {
-                if !self.cfg.allow_exec {
-                    return Err(Status::permission_denied(
-                        "this coordinator does not run exec planners",
-                    ));
-                }
-                if e.argv.is_empty()
-                    || e.argv.len() > MAX_ARGV
-                    || e.argv.iter().any(|a| a.len() > MAX_ARG_LEN)
-                {
-                    return Err(bad(format!(
-                        "exec argv must have 1 to {MAX_ARGV} arguments of at most {MAX_ARG_LEN} bytes"
-                    )));
-                }
-                if e.argv[0].trim().is_empty() {
-                    return Err(bad("exec argv[0] (the program) is empty".into()));
-                }
-                (
-                    "exec",
-                    serde_json::to_string(&e.argv).map_err(|e| Status::internal(e.to_string()))?,
-                )
-            }
-            Some(pb::planner_ref::Kind::Image(i)) => {
-                if !self.cfg.allow_exec {
-                    return Err(Status::permission_denied(
-                        "this coordinator does not run container planners",
-                    ));
-                }
-                if i.trim().is_empty()
-                    || i.len() > MAX_SPEC_LEN
-                    || i.chars().any(char::is_whitespace)
-                {
-                    return Err(bad(format!("image reference `{i}` is not valid")));
-                }
-                ("image", i.clone())
-            }
-        };
-        let vehicle_name = if r.vehicle.is_empty() {
-            "hmmwv"
-        } else {
-            r.vehicle.as_str()
-        };
-        let vehicle = sim_core::vehicle::vehicle_by_name(vehicle_name)
-            .map_err(|e| bad(format!("vehicle: {e}")))?;
-        let scale = if r.scale == 0.0 {
-            vehicle.scale
-        } else {
-            r.scale
-        };
-        if !(scale.is_finite() && scale > 0.0 && scale <= 1.0) {
-            return Err(bad(format!(
-                "scale {} must be in (0, 1] (0 = the vehicle's own)",
-                r.scale
-            )));
-        }
-        let deadline = if r.step_deadline_s == 0.0 {
-            1.0
-        } else {
-            r.step_deadline_s
-        };
-        if !(deadline.is_finite() && deadline > 0.0 && deadline <= 60.0) {
-            return Err(bad(format!(
-                "step_deadline_s {} must be in (0, 60] (0 = the default, 1 s)",
-                r.step_deadline_s
-            )));
-        }
-        if r.task_ids.len() > 10_000 || r.task_ids.iter().any(|t| t.len() > 64) {
-            return Err(bad("too many or too long task ids".into()));
-        }
-        let spec_str = if r.task_ids.is_empty() {
-            "all".to_string()
-        } else {
-            r.task_ids.join(",")
-        };
-        let selected =
-            tasks::selection::select(&self.set, &spec_str).map_err(|e| bad(e.to_string()))?;
-        let mut episodes = Vec::with_capacity(selected.len());
-        for (w, t) in selected {
-            let meta = self
-                .set
-                .world_meta(w)
-                .map_err(|e| Status::internal(e.to_string()))?;
-            episodes.push(NewEpisode {
-                task_id: contracts::TaskId::new(w, t).to_string(),
-                world_id: w,
-                task_index: t,
-                level: meta.level.as_str().into(),
-                semantics: meta.semantics.as_str().into(),
-                density: meta.density.as_str().into(),
-            });
-        }
-        Ok(ValidSubmit {
-            sub: NewSubmission {
-                name: name.to_string(),
-                owner: String::new(),
-                owner_token: String::new(),
-                planner_kind: kind.into(),
-                planner_identity: match kind {
-                    "builtin" => format!("builtin:{spec} ({SIM_VERSION})"),
-                    _ => format!("{kind}:{spec}"),
-                },
-                planner_spec: spec,
-                vehicle: vehicle.name.clone(),
-                scale,
-                seed: r.seed,
-                step_deadline_s: deadline,
-                task_set_version: self.set.version().to_string(),
-                sim_version: SIM_VERSION.into(),
-            },
-            episodes,
-        })
-    }
-}
-
-pub(crate) struct ValidSubmit {
-    sub: NewSubmission,
-    episodes: Vec<NewEpisode>,
 }
 
 /// gRPC `Coordinator` service.

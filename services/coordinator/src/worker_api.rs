@@ -1,5 +1,6 @@
 //! The internal `WorkerPool` gRPC service (`WorkerPoolApi`): register, lease, heartbeat and report, each checked
-//! against the worker token; throttles tokens that drop leases.
+//! against the worker token (only a worker token: not a user's, not an admin's); throttles tokens that drop leases
+//! or hand them back at a high rate.
 
 use crate::*;
 use vb_store::ReportOutcome;
@@ -23,6 +24,8 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
                 "worker_name too long or slots not in 1..=1024",
             ));
         }
+        contracts::input::check_display_text("worker_name", &r.worker_name)
+            .map_err(|e| Status::invalid_argument(e.to_string()))?;
         let id = self
             .0
             .store
@@ -55,6 +58,22 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
             return Err(Status::resource_exhausted(format!(
                 "throttled: this token's workers dropped {dropped} leases in the last {window:.0} s (limit {limit}); \
                  no new leases until fewer remain in the window"
+            )));
+        }
+        // Handing leases back (or refusing them) uses no attempt, so a token that leases and gives back in a loop is
+        // limited by rate.
+        let limit = self.0.cfg.max_handed_back_leases;
+        let handed = self
+            .0
+            .store
+            .hand_backs_since(&token.id, t - window)
+            .await
+            .map_err(store_status)?;
+        if handed >= limit {
+            return Err(Status::resource_exhausted(format!(
+                "throttled: this token's workers handed back {handed} leases unrun (stopping or refusing) in the last \
+                 {window:.0} s (limit \
+                 {limit}); no new leases until fewer remain in the window"
             )));
         }
         let leases = {

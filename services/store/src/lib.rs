@@ -13,6 +13,9 @@
 //!   [`MAX_ATTEMPTS`] times, after which the episode is recorded as an infrastructure failure; every lease that ends
 //!   without a result is recorded against its worker's token (`lease_drops`), and a token's repeated drops of one
 //!   episode count as one attempt, so one token cannot use up an episode's attempts;
+//! - a lease handed back unrun by a stopping worker (or refused by one that cannot run it) uses no attempt, and is
+//!   recorded against its token (`lease_hand_backs`) so the coordinator can limit a token's rate of them as it
+//!   limits drops;
 //! - cancelling keeps finished episodes and marks everything that never ran as `not_run`.
 
 use sha2::{Digest, Sha256};
@@ -40,6 +43,10 @@ pub enum StoreError {
     Random(String),
     #[error("corrupt row: {0}")]
     Corrupt(String),
+    /// User-given text the store refuses to keep (a token name with control, bidirectional or invisible
+    /// characters: it is shown as a submission's owner).
+    #[error("{0}")]
+    Input(#[from] contracts::input::InputError),
 }
 
 pub type Result<T> = std::result::Result<T, StoreError>;

@@ -282,6 +282,20 @@ impl Store {
         Ok(n as u64)
     }
 
+    /// How many leases the workers of token `token_id` gave back unrun since `since` ([`Store::hand_back`] and
+    /// [`Store::refuse`]).
+    pub async fn hand_backs_since(&self, token_id: &str, since: f64) -> Result<u64> {
+        let n: i64 = sqlx::query(
+            "SELECT CAST(COUNT(*) AS BIGINT) AS n FROM lease_hand_backs WHERE token_id = $1 AND at > $2",
+        )
+        .bind(token_id)
+        .bind(since)
+        .fetch_one(&self.pool)
+        .await?
+        .try_get("n")?;
+        Ok(n as u64)
+    }
+
     /// Worker `worker_id` could not run its leased episode (not the planner's fault; `why`, kept for the record if
     /// the episode finally fails this way): it goes back to the queue.
     pub async fn release(
@@ -308,10 +322,12 @@ impl Store {
 
     /// Worker `worker_id` is stopping and hands back its leased episode unfinished: it goes back to the queue (a
     /// cancelled submission's is marked not run) at once, without using up an attempt or counting as a dropped
-    /// lease. Whether the lease was still the worker's.
+    /// lease; the hand-back is recorded against the worker's token (`lease_hand_backs`), whose rate the coordinator
+    /// limits ([`Store::hand_backs_since`]). Whether the lease was still the worker's.
     pub async fn hand_back(&self, worker_id: &str, lease_id: &str, now: f64) -> Result<bool> {
         let _w = self.write.lock().await;
         let mut tx = self.pool.begin().await?;
+        record_hand_back(&mut tx, worker_id, lease_id, now).await?;
         let n = requeue_unused(&mut tx, worker_id, lease_id, None).await?;
         tx.commit().await?;
         if n > 0 {
@@ -322,8 +338,8 @@ impl Store {
 
     /// Worker `worker_id` cannot run its leased episode's submission at all (`why`: e.g. it lacks the image): the
     /// episode goes back to the queue without using an attempt, with `why` as its detail, and no episode of that
-    /// submission is leased to this worker again, so they wait for a worker that can run them. Whether the lease
-    /// was still the worker's.
+    /// submission is leased to this worker again, so they wait for a worker that can run them. Counted with the
+    /// token's hand-backs. Whether the lease was still the worker's.
     pub async fn refuse(
         &self,
         worker_id: &str,
@@ -344,6 +360,9 @@ impl Store {
             return Ok(false);
         };
         let submission_id: String = row.try_get("submission_id")?;
+        // Given back unrun like a hand-back, and counted with them: otherwise a token could lease and refuse in a
+        // loop (a new worker id each time) instead.
+        record_hand_back(&mut tx, worker_id, lease_id, now).await?;
         sqlx::query(
             "INSERT INTO worker_refusals (worker_id, submission_id, reason, at) VALUES ($1, $2, $3, $4) \
              ON CONFLICT (worker_id, submission_id) DO NOTHING",
@@ -360,6 +379,26 @@ impl Store {
         self.finish_submissions(now).await?;
         Ok(true)
     }
+}
+
+/// Records worker `worker_id`'s leased episode `lease_id`, about to be given back unrun, against its token.
+async fn record_hand_back(
+    tx: &mut sqlx::Transaction<'static, sqlx::Any>,
+    worker_id: &str,
+    lease_id: &str,
+    now: f64,
+) -> Result<()> {
+    sqlx::query(
+        "INSERT INTO lease_hand_backs (token_id, worker_id, submission_id, task_id, at) \
+         SELECT w.token_id, e.worker_id, e.submission_id, e.task_id, $3 FROM episodes e \
+         JOIN workers w ON w.id = e.worker_id WHERE e.lease_id = $1 AND e.worker_id = $2 AND e.state = 'leased'",
+    )
+    .bind(lease_id)
+    .bind(worker_id)
+    .bind(now)
+    .execute(&mut **tx)
+    .await?;
+    Ok(())
 }
 
 /// Returns worker `worker_id`'s leased episode `lease_id` unused: queued again (not run, if its submission was

@@ -7,7 +7,9 @@ impl Store {
     // ---- tokens ----
 
     /// Creates a token named `name` with `role`; returns the token, which is shown once and stored only as a hash.
+    /// The name is shown as its submissions' owner: control, bidirectional and invisible characters are refused.
     pub async fn create_token(&self, name: &str, role: TokenRole, now: f64) -> Result<String> {
+        contracts::input::check_display_text("token name", name)?;
         let _w = self.write.lock().await;
         let token = format!("vbt_{}", random_hex(24)?);
         sqlx::query(

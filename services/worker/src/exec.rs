@@ -324,11 +324,18 @@ pub async fn start(
                 text,
             ));
         }
-        if let Ok(mut p) =
-            RemotePlanner::connect(&endpoint, step_deadline, Duration::from_millis(500)).await
-        {
-            p.set_crash_context(output.clone());
-            return Ok((process, p));
+        match RemotePlanner::connect(&endpoint, step_deadline, Duration::from_millis(500)).await {
+            Ok(mut p) => {
+                p.set_crash_context(output.clone());
+                return Ok((process, p));
+            }
+            // The planner served and answered wrongly (a bad control rate, ...): its fault, reported as such at
+            // once rather than retried until the startup timeout. Not yet listening: try again.
+            Err(e @ (PlannerError::Protocol(_) | PlannerError::Timeout(_))) => {
+                drop(process);
+                return Err((e, log_text(&output)));
+            }
+            Err(_) => {}
         }
         if t0.elapsed() > startup {
             drop(process);
@@ -376,8 +383,11 @@ pub async fn docker_available() -> Result<(), String> {
 }
 
 pub async fn image_command(image: &str) -> Result<(Vec<String>, String), EpisodeError> {
+    // The coordinator checked it at submission; a worker checks again before it reaches a command line, and passes
+    // it after `--` so nothing in it can read as an option.
+    contracts::input::check_image_ref(image).map_err(|e| e.to_string())?;
     let out = Command::new("docker")
-        .args(["image", "inspect", "--format", "{{.Id}}", image])
+        .args(["image", "inspect", "--format", "{{.Id}}", "--", image])
         .output()
         .await
         .map_err(|e| format!("docker is not available on this worker: {e}"))?;
@@ -422,6 +432,7 @@ pub async fn image_command(image: &str) -> Result<(Vec<String>, String), Episode
         "256",
         "-e",
         ADDR_ENV,
+        "--",
         image,
     ]
     .map(String::from)

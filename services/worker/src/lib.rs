@@ -235,10 +235,10 @@ pub async fn run_episode(
                     (AnyPlanner::Remote(Box::new(p)), identity)
                 }
                 Err(e) => {
-                    let reason = if matches!(e, PlannerError::Timeout(_)) {
-                        "planner_timeout"
-                    } else {
-                        "planner_unreachable"
+                    // A planner that answered wrongly is at fault for what it said, not unreachable.
+                    let reason = match e {
+                        PlannerError::Timeout(_) | PlannerError::Protocol(_) => e.reason(),
+                        _ => "planner_unreachable",
                     };
                     return Ok(failed(reason, &e, String::new(), identity, t0));
                 }

@@ -160,21 +160,21 @@ impl RemotePlanner {
         let rate = info.control_rate_hz;
         if !(rate.is_finite() && rate > 0.0 && rate <= 1000.0) {
             return Err(PlannerError::Protocol(format!(
-                "control_rate_hz {rate} is not in (0, 1000]"
+                "planner announced control rate {rate} Hz (Info.control_rate_hz); it must be in (0, 1000] Hz"
             )));
         }
         let crop = match info.local_map_size {
             0 => None,
             n if n > 512 => {
                 return Err(PlannerError::Protocol(format!(
-                    "local_map_size {n} is over 512"
+                    "planner announced local_map_size {n}; it must be at most 512"
                 )));
             }
             n => {
                 let r = info.local_map_resolution;
                 if !(r.is_finite() && r > 0.0) {
                     return Err(PlannerError::Protocol(format!(
-                        "local_map_resolution {r} must be positive when local_map_size is set"
+                        "planner announced local_map_resolution {r}; it must be positive when local_map_size is set"
                     )));
                 }
                 Some(CropSpec {

@@ -78,9 +78,14 @@ pub struct CoordinatorArgs {
     /// --drop-window-s gets no new leases until the window has passed.
     #[arg(long, default_value_t = 32)]
     max_dropped_leases: u64,
-    /// The window of --max-dropped-leases, s.
+    /// The window of --max-dropped-leases and --max-handed-back-leases, s.
     #[arg(long, default_value_t = 600.0)]
     drop_window_s: f64,
+    /// A worker token whose workers hand back this many leases unrun (stopping workers do, and workers refusing a
+    /// submission they cannot run, without using an attempt) within --drop-window-s gets no new leases until fewer remain in the window: a budget of its own,
+    /// so draining workers are not throttled but a token leasing and handing back in a loop is.
+    #[arg(long, default_value_t = 256)]
+    max_handed_back_leases: u64,
     /// Serve gRPC over TLS with this certificate chain (PEM); clients then connect to https://.
     #[arg(long, requires = "tls_key")]
     tls_cert: Option<PathBuf>,
@@ -460,6 +465,7 @@ pub fn coordinator(a: CoordinatorArgs) -> anyhow::Result<()> {
         cfg.allow_exec = !a.no_exec;
         cfg.max_dropped_leases = a.max_dropped_leases;
         cfg.drop_window_s = a.drop_window_s;
+        cfg.max_handed_back_leases = a.max_handed_back_leases;
         tracing::info!(
             addr = %listener.local_addr()?,
             tls = a.tls_cert.is_some(),
