@@ -159,16 +159,15 @@ impl AsyncRead for Conn {
     }
 }
 
-impl AsyncWrite for Conn {
-    fn poll_write(
-        mut self: Pin<&mut Self>,
+impl Conn {
+    /// A write's outcome as the guard sees it: bytes written are progress, errors are [`tame`]d, and a write that
+    /// waits is checked against the deadline.
+    fn after_write(
+        &mut self,
         cx: &mut Context<'_>,
-        buf: &[u8],
+        r: Poll<io::Result<usize>>,
     ) -> Poll<io::Result<usize>> {
-        if let Some(e) = self.expired_error() {
-            return Poll::Ready(Err(e));
-        }
-        match Pin::new(&mut self.io).poll_write(cx, buf) {
+        match r {
             Poll::Ready(Ok(n)) => {
                 if n > 0 {
                     self.progress();
@@ -182,6 +181,20 @@ impl AsyncWrite for Conn {
             },
         }
     }
+}
+
+impl AsyncWrite for Conn {
+    fn poll_write(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+    ) -> Poll<io::Result<usize>> {
+        if let Some(e) = self.expired_error() {
+            return Poll::Ready(Err(e));
+        }
+        let r = Pin::new(&mut self.io).poll_write(cx, buf);
+        self.after_write(cx, r)
+    }
 
     fn poll_write_vectored(
         mut self: Pin<&mut Self>,
@@ -191,19 +204,8 @@ impl AsyncWrite for Conn {
         if let Some(e) = self.expired_error() {
             return Poll::Ready(Err(e));
         }
-        match Pin::new(&mut self.io).poll_write_vectored(cx, bufs) {
-            Poll::Ready(Ok(n)) => {
-                if n > 0 {
-                    self.progress();
-                }
-                Poll::Ready(Ok(n))
-            }
-            Poll::Ready(Err(e)) => Poll::Ready(Err(tame(e))),
-            Poll::Pending => match self.check_deadline(cx) {
-                Some(e) => Poll::Ready(Err(e)),
-                None => Poll::Pending,
-            },
-        }
+        let r = Pin::new(&mut self.io).poll_write_vectored(cx, bufs);
+        self.after_write(cx, r)
     }
 
     fn is_write_vectored(&self) -> bool {

@@ -271,28 +271,33 @@ impl Store {
 
     /// How many leases the workers of token `token_id` dropped since `since`.
     pub async fn drops_since(&self, token_id: &str, since: f64) -> Result<u64> {
-        let n: i64 = sqlx::query(
+        self.count_since(
             "SELECT CAST(COUNT(*) AS BIGINT) AS n FROM lease_drops WHERE token_id = $1 AND at > $2",
+            token_id,
+            since,
         )
-        .bind(token_id)
-        .bind(since)
-        .fetch_one(&self.pool)
-        .await?
-        .try_get("n")?;
-        Ok(n as u64)
+        .await
     }
 
     /// How many leases the workers of token `token_id` gave back unrun since `since` ([`Store::hand_back`] and
     /// [`Store::refuse`]).
     pub async fn hand_backs_since(&self, token_id: &str, since: f64) -> Result<u64> {
-        let n: i64 = sqlx::query(
+        self.count_since(
             "SELECT CAST(COUNT(*) AS BIGINT) AS n FROM lease_hand_backs WHERE token_id = $1 AND at > $2",
+            token_id,
+            since,
         )
-        .bind(token_id)
-        .bind(since)
-        .fetch_one(&self.pool)
-        .await?
-        .try_get("n")?;
+        .await
+    }
+
+    /// The count `sql` gives for a token id ($1) and a time ($2).
+    async fn count_since(&self, sql: &str, token_id: &str, since: f64) -> Result<u64> {
+        let n: i64 = sqlx::query(sql)
+            .bind(token_id)
+            .bind(since)
+            .fetch_one(&self.pool)
+            .await?
+            .try_get("n")?;
         Ok(n as u64)
     }
 

@@ -176,6 +176,34 @@ pub async fn episode_log(client: &mut Client, id: &str, task: &str) -> Result<St
         .planner_log)
 }
 
+/// Writes the planner log of every finished episode of `r` (the caller's own submission) that has one to
+/// `dir/TASK.log`; how many.
+pub async fn write_logs(
+    client: &mut Client,
+    r: &pb::ResultsResponse,
+    dir: &Path,
+) -> Result<usize, SubmitError> {
+    let id = r.status.as_ref().map_or("", |s| s.submission_id.as_str());
+    std::fs::create_dir_all(dir)
+        .map_err(|e| SubmitError::Io(format!("cannot make {}: {e}", dir.display())))?;
+    let mut n = 0;
+    for e in r.episodes.iter().filter(|e| e.state == "done") {
+        // A task id is `wNNN-tK` (checked), so it names a file safely.
+        let task: contracts::TaskId = e.task_id.parse().map_err(|_| {
+            SubmitError::Protocol(format!("task id `{}` in the results", e.task_id))
+        })?;
+        let log = episode_log(client, id, &e.task_id).await?;
+        if log.is_empty() {
+            continue;
+        }
+        let path = dir.join(format!("{task}.log"));
+        std::fs::write(&path, log)
+            .map_err(|e| SubmitError::Io(format!("cannot write {}: {e}", path.display())))?;
+        n += 1;
+    }
+    Ok(n)
+}
+
 /// Follows a submission's progress stream until it ends, calling `on` with every update; returns the last status.
 pub async fn watch(
     client: &mut Client,

@@ -103,6 +103,9 @@ enum Cmd {
         /// charts.svg) into this new or empty directory instead.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// With --out: also write each finished episode's planner log to DIR/logs/TASK.log (yours only).
+        #[arg(long, requires = "out")]
+        logs: bool,
     },
     /// Print one episode's planner log (stdout and stderr of the planner): only the submission's owner sees it.
     Log {
@@ -321,7 +324,12 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Cmd::Results { id, format, out } => {
+        Cmd::Results {
+            id,
+            format,
+            out,
+            logs,
+        } => {
             let mut client =
                 vb_submit::connect(&cli.coordinator, &token(&cli)?, cli.tls_ca.as_deref()).await?;
             let r = vb_submit::results(&mut client, id).await?;
@@ -339,6 +347,10 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 Some(dir) => {
                     let s = vb_submit::results::write_dir(dir, &r)?;
                     print!("{}", results::report::summary_text(&s));
+                    if *logs {
+                        let n = vb_submit::write_logs(&mut client, &r, &dir.join("logs")).await?;
+                        println!("wrote {n} planner logs in {}", dir.join("logs").display());
+                    }
                     println!("wrote {}", dir.display());
                 }
                 None if format == "json" => {

@@ -22,8 +22,10 @@ pub fn vb_submit_bin() -> PathBuf {
     workspace_bin("vb-submit", "vb-submit")
 }
 
-/// Binary `bin` of workspace package `package`, built with this test's profile when missing.
+/// Binary `bin` of workspace package `package`, brought up to date with this test's profile once per test process
+/// (`cargo test` builds only the packages under test: a binary of another package could be missing, or stale).
 fn workspace_bin(bin: &str, package: &str) -> PathBuf {
+    static BUILT: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
     let exe = std::env::current_exe().expect("test executable path");
     let dir = exe
         .parent()
@@ -31,7 +33,8 @@ fn workspace_bin(bin: &str, package: &str) -> PathBuf {
         .expect("target dir")
         .to_path_buf();
     let path = dir.join(bin);
-    if !path.exists() {
+    let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
+    if !built.iter().any(|b| b == bin) {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let mut cmd = Command::new(cargo);
         cmd.args(["build", "-p", package, "--bin", bin]);
@@ -42,6 +45,7 @@ fn workspace_bin(bin: &str, package: &str) -> PathBuf {
             .status()
             .unwrap_or_else(|e| panic!("running cargo build -p {package}: {e}"));
         assert!(st.success(), "building {bin} failed");
+        built.push(bin.to_string());
     }
     path
 }
