@@ -3,6 +3,7 @@
 
 use anyhow::bail;
 use clap::{Args, Parser, Subcommand};
+use contracts::input::shown;
 use std::path::PathBuf;
 use vb_proto::v1 as pb;
 
@@ -234,8 +235,8 @@ async fn do_submit(
                  {}: {}): see `vb-submit results {} --format json`",
                 broken.len(),
                 first.task_id,
-                first.reason,
-                first.detail,
+                shown(&first.reason),
+                shown(&first.detail),
                 r.submission_id
             );
         }
@@ -303,7 +304,7 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                         println!("no submissions");
                     }
                     for s in all {
-                        println!("{}  {}", vb_submit::status_line(&s), s.name);
+                        println!("{}", vb_submit::list_line(&s));
                     }
                 }
                 Some(id) if *watch => {
@@ -337,7 +338,8 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             }
             match out {
                 Some(dir) => {
-                    let s = vb_submit::results::write_dir(dir, &r)?;
+                    let mut s = vb_submit::results::write_dir(dir, &r)?;
+                    s.planner = shown(&s.planner).into_owned();
                     print!("{}", results::report::summary_text(&s));
                     println!("wrote {}", dir.display());
                 }
