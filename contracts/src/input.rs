@@ -1,6 +1,11 @@
 //! Checks of user-given text before it is stored or reaches a command line: names shown on pages
-//! ([`check_display_text`]) and container image references ([`check_image_ref`], Docker's reference grammar).
-//! Pure functions, shared by the coordinator (at submission) and the worker (before `docker`).
+//! ([`check_display_text`]) and container image references ([`check_image_ref`], Docker's reference grammar);
+//! and the one way user-given text is shown ([`shown`], [`shown_lines`]): what a check would refuse, made visible.
+//! Pure functions, shared by the coordinator (at submission), the worker (before `docker`), the leaderboard and
+//! `vb-submit` (when showing).
+
+use std::borrow::Cow;
+use std::fmt::Write as _;
 
 /// Why a piece of user input was refused; the message names the field.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
@@ -64,6 +69,37 @@ pub fn check_display_text(field: &str, text: &str) -> Result<(), InputError> {
         }
     }
     Ok(())
+}
+
+/// User-given text as it may be shown to people: every character [`hidden_char_kind`] flags (control, bidirectional,
+/// zero-width and other invisible characters) is replaced by a visible escape of its code point, `\u{202E}`;
+/// everything else is kept. Names stored before [`check_display_text`] refused such characters, and text no check
+/// reaches (a worker's reason or detail), are shown through this. Borrowed when there is nothing to escape.
+pub fn shown(text: &str) -> Cow<'_, str> {
+    neutralise(text, |_| false)
+}
+
+/// [`shown`] for text of several lines (a page, a log): line feeds and tabs are kept, everything else
+/// [`hidden_char_kind`] flags (carriage returns, escape sequences, bidirectional and invisible characters) is escaped.
+pub fn shown_lines(text: &str) -> Cow<'_, str> {
+    neutralise(text, |c| c == '\n' || c == '\t')
+}
+
+fn neutralise(text: &str, keep: impl Fn(char) -> bool) -> Cow<'_, str> {
+    let hidden = |c: char| !keep(c) && hidden_char_kind(c).is_some();
+    let Some(first) = text.find(hidden) else {
+        return Cow::Borrowed(text);
+    };
+    let mut out = String::with_capacity(text.len() + 16);
+    out.push_str(&text[..first]);
+    for c in text[first..].chars() {
+        if hidden(c) {
+            let _ = write!(out, "\\u{{{:04X}}}", c as u32);
+        } else {
+            out.push(c);
+        }
+    }
+    Cow::Owned(out)
 }
 
 /// Longest image reference accepted (Docker's limit on the name is 255).
@@ -321,5 +357,37 @@ mod tests {
         let e = check_display_text("worker_name", "ab\u{202E}").unwrap_err();
         assert_eq!(e.field, "worker_name");
         assert!(e.message.contains("character 3 is U+202E"), "{e}");
+    }
+
+    #[test]
+    fn shown_text_escapes_what_the_check_refuses_and_keeps_the_rest() {
+        for ok in ["PID baseline", "规划器 🚙 <b>&", ""] {
+            assert!(matches!(shown(ok), Cow::Borrowed(t) if t == ok), "{ok}");
+        }
+        assert_eq!(shown("evil\u{202E}gnp.exe"), "evil\\u{202E}gnp.exe");
+        assert_eq!(shown("pi\u{200B}d\u{E0041}"), "pi\\u{200B}d\\u{E0041}");
+        assert_eq!(
+            shown("a\nb\tc\rd\u{1b}[2J"),
+            "a\\u{000A}b\\u{0009}c\\u{000D}d\\u{001B}[2J"
+        );
+        assert_eq!(
+            shown_lines("a\nb\tc\rd\u{1b}[2J\u{2066}"),
+            "a\nb\tc\\u{000D}d\\u{001B}[2J\\u{2066}"
+        );
+        // Whatever is shown passes the check, except the line feeds and tabs `shown_lines` keeps.
+        for bad in [
+            "evil\u{202E}gnp",
+            "\u{FEFF}x\u{200D}",
+            "c1\u{85}",
+            "\u{2028}",
+            "\u{E007F}",
+        ] {
+            assert_eq!(check_display_text("name", &shown(bad)), Ok(()), "{bad:?}");
+            assert_eq!(
+                check_display_text("name", &shown_lines(bad)),
+                Ok(()),
+                "{bad:?}"
+            );
+        }
     }
 }

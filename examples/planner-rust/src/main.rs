@@ -37,6 +37,8 @@ struct Options {
     delay: Duration,
     /// The control rate announced in `Info` (10 Hz; `--control-rate-hz` announces another, even an invalid one).
     control_rate_hz: f64,
+    /// The name announced in `Info` (`--name` announces another, even one a worker refuses).
+    name: String,
 }
 
 /// Per-episode state: the path, the vehicle's geometry and the cruising speed.
@@ -130,7 +132,7 @@ type AnswerStream = Pin<Box<dyn Stream<Item = Result<pb::PlannerMessage, Status>
 impl Planner for ExamplePlanner {
     async fn info(&self, _: Request<pb::InfoRequest>) -> Result<Response<pb::PlannerInfo>, Status> {
         Ok(Response::new(pb::PlannerInfo {
-            name: "example-pure-pursuit".into(),
+            name: self.opts.name.clone(),
             version: env!("CARGO_PKG_VERSION").into(),
             control_rate_hz: self.opts.control_rate_hz,
             local_map_size: 0,
@@ -237,6 +239,7 @@ fn parse_args() -> anyhow::Result<(String, Options)> {
         fault_after: 0,
         delay: Duration::ZERO,
         control_rate_hz: 10.0,
+        name: "example-pure-pursuit".into(),
     };
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
@@ -259,11 +262,12 @@ fn parse_args() -> anyhow::Result<(String, Options)> {
             "--control-rate-hz" => {
                 opts.control_rate_hz = value()?.parse().context("--control-rate-hz")?
             }
+            "--name" => opts.name = value()?,
             "--delay-ms" => {
                 opts.delay = Duration::from_millis(value()?.parse().context("--delay-ms")?)
             }
             "-h" | "--help" => {
-                println!("example-planner [--addr HOST:PORT] [--fault crash|hang|nan|range] [--fault-after N] [--delay-ms MS] [--control-rate-hz HZ]");
+                println!("example-planner [--addr HOST:PORT] [--fault crash|hang|nan|range] [--fault-after N] [--delay-ms MS] [--control-rate-hz HZ] [--name NAME]");
                 std::process::exit(0);
             }
             other => anyhow::bail!("unknown argument `{other}` (see --help)"),

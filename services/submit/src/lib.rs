@@ -236,6 +236,12 @@ fn fmt_duration(s: f64) -> String {
     }
 }
 
+/// A line of `vb-submit status`'s list: the status line and the submission's name, shown escaped
+/// ([`contracts::input::shown`]: a name stored before such characters were refused cannot reorder or hide the line).
+pub fn list_line(s: &SubmissionStatus) -> String {
+    format!("{}  {}", status_line(s), contracts::input::shown(&s.name))
+}
+
 /// One line: state, a progress bar, counts, queue position and ETA.
 pub fn status_line(s: &SubmissionStatus) -> String {
     let width = 30;
@@ -268,4 +274,23 @@ pub fn status_line(s: &SubmissionStatus) -> String {
         line += &format!(", {} not run", s.not_run);
     }
     line
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_listed_name_shows_hidden_characters_escaped() {
+        let s = super::SubmissionStatus {
+            submission_id: "s1".into(),
+            name: "evil\u{202E}gnp.exe\u{200B}".into(),
+            state: "done".into(),
+            ..Default::default()
+        };
+        let line = super::list_line(&s);
+        assert!(
+            line.ends_with("  evil\\u{202E}gnp.exe\\u{200B}") && line.starts_with("s1 done"),
+            "{line}"
+        );
+        assert!(!line.contains(['\u{202E}', '\u{200B}']), "{line}");
+    }
 }

@@ -3,6 +3,7 @@
 
 use anyhow::bail;
 use clap::{Args, Parser, Subcommand};
+use contracts::input::shown;
 use std::path::PathBuf;
 use vb_proto::v1 as pb;
 
@@ -237,8 +238,8 @@ async fn do_submit(
                  {}: {}): see `vb-submit results {} --format json`",
                 broken.len(),
                 first.task_id,
-                first.reason,
-                first.detail,
+                shown(&first.reason),
+                shown(&first.detail),
                 r.submission_id
             );
         }
@@ -306,7 +307,7 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                         println!("no submissions");
                     }
                     for s in all {
-                        println!("{}  {}", vb_submit::status_line(&s), s.name);
+                        println!("{}", vb_submit::list_line(&s));
                     }
                 }
                 Some(id) if *watch => {
@@ -345,7 +346,8 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             }
             match out {
                 Some(dir) => {
-                    let s = vb_submit::results::write_dir(dir, &r)?;
+                    let mut s = vb_submit::results::write_dir(dir, &r)?;
+                    s.planner = shown(&s.planner).into_owned();
                     print!("{}", results::report::summary_text(&s));
                     if *logs {
                         let n = vb_submit::write_logs(&mut client, &r, &dir.join("logs")).await?;

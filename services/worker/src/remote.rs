@@ -21,6 +21,8 @@ use vb_proto::v1::planner_client::PlannerClient;
 pub const MAX_PLANNER_MESSAGE: usize = 1 << 20;
 /// Largest message the worker sends (the episode start carries the world maps).
 pub const MAX_WORKER_MESSAGE: usize = 16 << 20;
+/// Longest name a planner may announce in `Info` (as long as a submission's name may be).
+pub const MAX_PLANNER_NAME: usize = 100;
 
 /// The planner's log (its `log` fields and, for processes the worker started, stdout and stderr), capped.
 #[derive(Debug, Default)]
@@ -161,6 +163,17 @@ impl RemotePlanner {
         if !(rate.is_finite() && rate > 0.0 && rate <= 1000.0) {
             return Err(PlannerError::Protocol(format!(
                 "planner announced control rate {rate} Hz (Info.control_rate_hz); it must be in (0, 1000] Hz"
+            )));
+        }
+        if info.name.chars().count() > MAX_PLANNER_NAME {
+            return Err(PlannerError::Protocol(format!(
+                "planner announced a name of {} characters (Info.name); it must be at most {MAX_PLANNER_NAME}",
+                info.name.chars().count()
+            )));
+        }
+        if let Err(e) = contracts::input::check_display_text("Info.name", &info.name) {
+            return Err(PlannerError::Protocol(format!(
+                "planner announced a name that cannot be shown as it is ({e})"
             )));
         }
         let crop = match info.local_map_size {

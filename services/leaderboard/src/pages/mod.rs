@@ -1,6 +1,7 @@
 //! Every page of the leaderboard, rendered by askama from `web/templates/` (compiled in and checked at build
 //! time). Askama escapes every `{{ value }}` for HTML; the only unescaped insertions are the page frame's own
-//! style sheet and SVG charts that our templates rendered ([`results::charts::Markup`]).
+//! style sheet and SVG charts that our templates rendered ([`results::charts::Markup`]). Askama leaves control,
+//! bidirectional and invisible characters as they are; [`render`] shows them escaped on every page.
 //!
 //! Why askama: templates are checked against their Rust view structs when the crate compiles (a missing field or a
 //! typo fails the build, not a request), escaping is on by default for `.html` and `.svg`, the templates stay
@@ -154,7 +155,14 @@ impl PairedCells {
     }
 }
 
-/// Renders a page (as [`results::charts::Markup::render`] renders any of our templates).
+/// Renders a page (as [`results::charts::Markup::render`] renders any of our templates), with every control,
+/// bidirectional or invisible character shown as its escape ([`contracts::input::shown_lines`]; line feeds and
+/// tabs kept): names stored before such characters were refused, a worker's detail, whatever a field carries, on
+/// every page this module renders. Our templates and style sheet carry none.
 pub(crate) fn render(t: &impl Template) -> String {
-    results::charts::Markup::render(t).into_string()
+    let page = results::charts::Markup::render(t).into_string();
+    match contracts::input::shown_lines(&page) {
+        std::borrow::Cow::Borrowed(_) => page,
+        std::borrow::Cow::Owned(shown) => shown,
+    }
 }

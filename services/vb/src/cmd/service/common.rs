@@ -1,0 +1,143 @@
+//! What the service's subcommands share: the async runtime, the stop signal, the store, listening sockets, the
+//! `Sim` API and starting the coordinator.
+
+use anyhow::{bail, Context};
+use std::net::SocketAddr;
+use std::sync::Arc;
+use tokio::net::TcpListener;
+use vb_coordinator::{Coordinator, CoordinatorConfig};
+use vb_store::Store;
+
+/// The user named by `--planner-user`, if any.
+pub(super) fn planner_user(
+    name: Option<&str>,
+) -> anyhow::Result<Option<vb_worker::sandbox::PlannerUser>> {
+    name.map(vb_worker::sandbox::PlannerUser::lookup)
+        .transpose()
+        .map_err(anyhow::Error::msg)
+}
+
+/// A database URL for a log line: the password (and user) of `postgres://user:password@host/db` left out.
+pub(super) fn without_credentials(url: &str) -> String {
+    match (url.split_once("://"), url.rsplit_once('@')) {
+        (Some((scheme, _)), Some((_, host))) => format!("{scheme}://***@{host}"),
+        _ => url.to_string(),
+    }
+}
+
+/// Ctrl-C (SIGINT) and SIGTERM, caught from the moment this is made: made first thing, so a signal that arrives while
+/// a service starts stops it cleanly at its next wait instead of killing it half-started (the default action).
+pub(super) struct StopSignal {
+    term: tokio::signal::unix::Signal,
+    int: tokio::signal::unix::Signal,
+}
+
+impl StopSignal {
+    pub(super) fn new() -> anyhow::Result<StopSignal> {
+        use tokio::signal::unix::{signal, SignalKind};
+        Ok(StopSignal {
+            term: signal(SignalKind::terminate())?,
+            int: signal(SignalKind::interrupt())?,
+        })
+    }
+
+    pub(super) async fn recv(&mut self) {
+        tokio::select! {
+            _ = self.term.recv() => {}
+            _ = self.int.recv() => {}
+        }
+    }
+}
+
+pub(super) fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the async runtime")
+}
+
+/// Creates the directory of a SQLite database file.
+fn prepare_db(url: &str) -> anyhow::Result<()> {
+    if let Some(path) = url.strip_prefix("sqlite://") {
+        let path = path.split('?').next().unwrap_or(path);
+        if let Some(dir) = std::path::Path::new(path).parent() {
+            if !dir.as_os_str().is_empty() {
+                std::fs::create_dir_all(dir)
+                    .with_context(|| format!("creating {}", dir.display()))?;
+            }
+        }
+    }
+    Ok(())
+}
+
+pub(super) async fn open_store(url: &str) -> anyhow::Result<Store> {
+    prepare_db(url)?;
+    Store::open(url)
+        .await
+        .with_context(|| format!("opening the store at {url}"))
+}
+
+/// The store to administer: the one `--db` names, or the default `sqlite://out/vb.db`, which must already exist (run
+/// from another directory it would be a new, empty store, and its token one no service knows).
+pub(super) async fn admin_store(db: Option<&str>) -> anyhow::Result<Store> {
+    let Some(url) = db else {
+        return open_existing_store(DEFAULT_DB).await;
+    };
+    open_store(url).await
+}
+
+const DEFAULT_DB: &str = "sqlite://out/vb.db";
+
+async fn open_existing_store(url: &str) -> anyhow::Result<Store> {
+    if let Some(path) = url.strip_prefix("sqlite://") {
+        let path = path.split('?').next().unwrap_or(path);
+        if !std::path::Path::new(path).exists() {
+            bail!(
+                "no store at {path} (in {}): run this where `vb serve` or `vb coordinator` runs, or pass --db \
+                 with their store",
+                std::env::current_dir().map_or("?".into(), |d| d.display().to_string())
+            );
+        }
+    }
+    open_store(url).await
+}
+
+pub(super) async fn bind(addr: SocketAddr, what: &str) -> anyhow::Result<TcpListener> {
+    TcpListener::bind(addr)
+        .await
+        .with_context(|| format!("cannot listen on {addr} for the {what} (is another vb running? pick another with a flag)"))
+}
+
+/// The `Sim` API on the task set in `dir`.
+pub(super) fn sim_service(
+    dir: &std::path::Path,
+) -> anyhow::Result<vb_worker::sim_service::SimService> {
+    let set = tasks::TaskSet::load(dir)
+        .with_context(|| format!("loading the task set {}", dir.display()))?;
+    Ok(vb_worker::sim_service::SimService::new(Arc::new(set)))
+}
+
+/// Starts the coordinator's gRPC services on `listener` within `limits`, with the `Sim` API when `sim` is given.
+pub(super) async fn start_coordinator(
+    store: Store,
+    cfg: CoordinatorConfig,
+    listener: TcpListener,
+    sim: Option<vb_worker::sim_service::SimService>,
+    tls: Option<tonic::transport::ServerTlsConfig>,
+    limits: &vb_net::Limits,
+) -> anyhow::Result<Arc<Coordinator>> {
+    let coord = Coordinator::new(store, cfg)?;
+    tokio::spawn(coord.clone().run_lease_sweeper());
+    tokio::spawn(coord.clone().run_summary_keeper());
+    let mut grpc = vb_coordinator::grpc_router(&coord, tls, limits)?;
+    if let Some(sim) = sim {
+        grpc = grpc.add_service(sim.server());
+    }
+    let incoming = vb_net::grpc::incoming(listener, limits, "coordinator gRPC API");
+    tokio::spawn(async move {
+        if let Err(e) = grpc.serve_with_incoming(incoming).await {
+            tracing::error!(error = %e, "coordinator gRPC server stopped");
+        }
+    });
+    Ok(coord)
+}

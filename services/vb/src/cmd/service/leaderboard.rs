@@ -1,0 +1,24 @@
+//! `vb leaderboard`: the HTTP leaderboard over the coordinator's store (read only).
+
+use super::args::LeaderboardArgs;
+use super::common::{bind, runtime, StopSignal};
+use anyhow::Context;
+use vb_leaderboard::Leaderboard;
+
+pub fn leaderboard(a: LeaderboardArgs) -> anyhow::Result<()> {
+    let limits = a.net.limits()?;
+    runtime()?.block_on(async move {
+        let mut signal = StopSignal::new()?;
+        let reader = vb_store::Reader::open(&a.db)
+            .await
+            .with_context(|| format!("opening the store at {}", a.db))?;
+        let set = tasks::TaskSet::load(&a.task_dir).ok();
+        let listener = bind(a.listen, "leaderboard").await?;
+        tracing::info!(url = %format!("http://{}/", listener.local_addr()?), "leaderboard listening");
+        tokio::select! {
+            r = vb_leaderboard::serve_with(Leaderboard::new(reader, set), listener, &limits) => r?,
+            _ = signal.recv() => {}
+        }
+        Ok(())
+    })
+}
