@@ -150,6 +150,34 @@ fn eventually(limit: Duration, mut pred: impl FnMut() -> bool) -> bool {
     pred()
 }
 
+/// A `vb worker` that inherits descriptor 9 without close-on-exec (as from a careless supervisor): a shell opens it
+/// and executes the worker in its place (same process id).
+fn start_worker_with_a_stray_descriptor(dir: &Path, db: &str, port: u16) -> Proc {
+    let token = create_token_with_role(db, "worker", "worker");
+    let url = format!("http://127.0.0.1:{port}");
+    let vb = vb();
+    let vb = vb.to_str().expect("a UTF-8 path");
+    let args = [
+        "-c",
+        "exec 9</dev/null; exec \"$0\" \"$@\"",
+        vb,
+        "worker",
+        "--coordinator",
+        &url,
+        "--slots",
+        "1",
+        "--name",
+        "worker",
+    ];
+    Proc::start_env(
+        "worker",
+        dir,
+        Path::new("/bin/sh"),
+        &args,
+        &[("VB_WORKER_TOKEN", &token)],
+    )
+}
+
 fn image_submission(image: &str) -> pb::SubmitRequest {
     pb::SubmitRequest {
         name: "slow image".into(),
@@ -174,7 +202,7 @@ async fn a_killed_worker_s_planner_container_and_directory_go() -> anyhow::Resul
     let token = create_token(&db);
     let port = free_port();
     let _coordinator = start_coordinator(&dir, "coordinator", &db, port);
-    let mut worker = start_worker(&dir, "worker", &db, port, 1);
+    let mut worker = start_worker_with_a_stray_descriptor(&dir, &db, port);
     let pid = worker.child.id();
     let mut c = client(port, &token).await;
     let id = vb_submit::submit(&mut c, image_submission(&image.0))
@@ -209,6 +237,24 @@ async fn a_killed_worker_s_planner_container_and_directory_go() -> anyhow::Resul
     assert_eq!(status.finished, 0, "{}", vb_submit::status_line(&status));
     assert!(running(), "{name} still runs");
 
+    // Its watchdog holds only its pipe and /dev/null (none of the worker's descriptors, not even those the worker
+    // inherited without close-on-exec from this test), and not the worker's token.
+    let dogs = watchdogs_of(&name);
+    assert_eq!(dogs.len(), 1, "one watchdog for {name}");
+    let fds: Vec<String> = std::fs::read_dir(format!("/proc/{}/fd", dogs[0]))?
+        .flatten()
+        .filter_map(|e| std::fs::read_link(e.path()).ok())
+        .map(|l| l.display().to_string())
+        .collect();
+    assert_eq!(fds.len(), 3, "{fds:?}");
+    assert!(
+        fds.iter()
+            .all(|l| l.starts_with("pipe:") || l == "/dev/null"),
+        "{fds:?}"
+    );
+    let environ = std::fs::read(format!("/proc/{}/environ", dogs[0]))?;
+    assert!(!String::from_utf8_lossy(&environ).contains("VB_WORKER_TOKEN"));
+
     worker.kill();
     assert!(
         eventually(Duration::from_secs(10), || !container_exists(&name)),
@@ -220,6 +266,22 @@ async fn a_killed_worker_s_planner_container_and_directory_go() -> anyhow::Resul
         workdirs[0].display()
     );
     Ok(())
+}
+
+/// The process ids of the watchdogs of container `name`.
+fn watchdogs_of(name: &str) -> Vec<u32> {
+    std::fs::read_dir("/proc")
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| {
+            let pid: u32 = e.file_name().to_str()?.parse().ok()?;
+            let cmd = std::fs::read(e.path().join("cmdline")).ok()?;
+            let args: Vec<&[u8]> = cmd.split(|&b| b == 0).collect();
+            (args.contains(&&b"vb-planner-watchdog"[..]) && args.contains(&name.as_bytes()))
+                .then_some(pid)
+        })
+        .collect()
 }
 
 /// An owner label of this machine and PID namespace for `pid` (started at `start`).

@@ -9,8 +9,9 @@
 //!   only writer is the worker. The pipe closes when the episode ends or the worker dies, a SIGKILL included (the
 //!   kernel closes a dead process's descriptors); the watchdog then runs `docker rm -f` on the container, removes
 //!   the directory and exits. It is a shell, not the worker's own binary, because it must not depend on that binary
-//!   (replaced by an upgrade, or `vb-submit`), must inherit nothing but the pipe and `/dev/null` (the worker's
-//!   descriptors are all close-on-exec: no listening socket stays open in it), and has nothing else to do.
+//!   (replaced by an upgrade, or `vb-submit`), must inherit nothing but the pipe and `/dev/null` (every other
+//!   descriptor is marked close-on-exec before it executes: no socket or supervisor's pipe of the worker stays open
+//!   in it), and has nothing else to do. Its environment is only `PATH`, `HOME` and `DOCKER_*`: not the token.
 //! - A **sweep** at the worker's start ([`sweep`]) removes the containers and directories of dead workers of this
 //!   machine that a watchdog did not (the machine crashed or rebooted, a watchdog was killed): never those of a
 //!   worker it cannot prove dead (another PID namespace, another machine sharing the Docker daemon, a process it
@@ -200,9 +201,22 @@ impl Watchdog {
     /// Starts the watchdog of container `name` and directory `dir` (both may not exist yet).
     pub fn spawn(name: &str, dir: &Path) -> std::io::Result<Watchdog> {
         let (read, write) = pipe()?;
-        let mut child = Command::new("/bin/sh")
+        // Only what `docker` needs to reach the worker's daemon: not the worker's token.
+        let env = std::env::vars_os().filter(|(k, _)| {
+            let k = k.to_string_lossy();
+            k == "PATH" || k == "HOME" || k.starts_with("DOCKER_")
+        });
+        let mut command = Command::new("/bin/sh");
+        // SAFETY: the closure runs in the forked child before `exec` and makes only async-signal-safe system calls.
+        #[allow(unsafe_code)]
+        unsafe {
+            command.pre_exec(cloexec_above_stdio);
+        }
+        let mut child = command
             .args(["-c", SCRIPT, "vb-planner-watchdog", name])
             .arg(dir)
+            .env_clear()
+            .envs(env)
             .current_dir("/")
             .process_group(0)
             .stdin(Stdio::from(read))
@@ -220,6 +234,34 @@ impl Watchdog {
     pub fn client_exited(&mut self) {
         let _ = self.pipe.write_all(b"exited\n");
     }
+}
+
+/// In the watchdog's forked child before `exec`: marks every descriptor above the standard ones close-on-exec. The
+/// worker's own are already; this catches those it inherited without the flag (a supervisor's pipe, a socket passed
+/// to it), which the watchdog would otherwise keep open after the worker's death. `close_range(2)` with
+/// `CLOSE_RANGE_CLOEXEC` (Linux 5.11), else one by one; only async-signal-safe system calls, no allocation.
+fn cloexec_above_stdio() -> std::io::Result<()> {
+    const CLOSE_RANGE_CLOEXEC: libc::c_uint = 1 << 2;
+    // SAFETY: changes only descriptor flags of this (forked) process; touches no memory.
+    #[allow(unsafe_code)]
+    let r = unsafe {
+        libc::syscall(
+            libc::SYS_close_range,
+            3 as libc::c_uint,
+            libc::c_uint::MAX,
+            CLOSE_RANGE_CLOEXEC,
+        )
+    };
+    if r != 0 {
+        for fd in 3..65_536 {
+            // SAFETY: as above; EBADF on unused numbers is ignored.
+            #[allow(unsafe_code)]
+            unsafe {
+                libc::fcntl(fd, libc::F_SETFD, libc::FD_CLOEXEC)
+            };
+        }
+    }
+    Ok(())
 }
 
 /// A close-on-exec pipe (read end, write end): only the watchdog, given the read end as its standard input, holds
