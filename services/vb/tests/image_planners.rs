@@ -239,7 +239,7 @@ async fn a_killed_worker_s_planner_container_and_directory_go() -> anyhow::Resul
 
     // Its watchdog holds only its pipe and /dev/null (none of the worker's descriptors, not even those the worker
     // inherited without close-on-exec from this test), and not the worker's token.
-    let dogs = watchdogs_of(&name);
+    let dogs = watchdogs(|a| a == name);
     assert_eq!(dogs.len(), 1, "one watchdog for {name}");
     let fds: Vec<String> = std::fs::read_dir(format!("/proc/{}/fd", dogs[0]))?
         .flatten()
@@ -268,8 +268,59 @@ async fn a_killed_worker_s_planner_container_and_directory_go() -> anyhow::Resul
     Ok(())
 }
 
-/// The process ids of the watchdogs of container `name`.
-fn watchdogs_of(name: &str) -> Vec<u32> {
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_ended_episode_s_container_and_directory_go() -> anyhow::Result<()> {
+    let _serial = SERIAL.lock().await;
+    if !docker_answers() {
+        return Ok(());
+    }
+    let dir = temp_dir("image-end");
+    let image = slow_planner_image(&dir, 0);
+    let db = format!("sqlite://{}", dir.join("vb.db").display());
+    let token = create_token(&db);
+    let port = free_port();
+    let _coordinator = start_coordinator(&dir, "coordinator", &db, port);
+    let worker = start_worker(&dir, "worker", &db, port, 1);
+    let pid = worker.child.id();
+    let mut c = client(port, &token).await;
+    let id = vb_submit::submit(&mut c, image_submission(&image.0))
+        .await?
+        .submission_id;
+    let status = wait_for(port, &token, &id, Duration::from_secs(120), |s| {
+        s.state == "done"
+    })
+    .await;
+    assert!(
+        status.total > 0 && status.finished == status.total,
+        "{}",
+        vb_submit::status_line(&status)
+    );
+    let mine = |(_, owner): &(String, String)| owner.split('.').nth(2) == Some(&pid.to_string());
+    assert!(
+        eventually(Duration::from_secs(10), || !planner_containers()
+            .iter()
+            .any(mine)),
+        "a container of the ended episode stays: {:?}",
+        planner_containers()
+    );
+    assert!(
+        eventually(Duration::from_secs(5), || dirs_of(pid).is_empty()),
+        "its directory stays: {:?}",
+        dirs_of(pid)
+    );
+    // Nor does its watchdog linger.
+    assert!(
+        eventually(Duration::from_secs(5), || watchdogs(
+            |a| a.contains(&format!(".{pid}."))
+        )
+        .is_empty()),
+        "a watchdog lingers"
+    );
+    Ok(())
+}
+
+/// The process ids of the watchdogs with an argument for which `pred` holds.
+fn watchdogs(pred: impl Fn(&str) -> bool) -> Vec<u32> {
     std::fs::read_dir("/proc")
         .into_iter()
         .flatten()
@@ -277,9 +328,9 @@ fn watchdogs_of(name: &str) -> Vec<u32> {
         .filter_map(|e| {
             let pid: u32 = e.file_name().to_str()?.parse().ok()?;
             let cmd = std::fs::read(e.path().join("cmdline")).ok()?;
-            let args: Vec<&[u8]> = cmd.split(|&b| b == 0).collect();
-            (args.contains(&&b"vb-planner-watchdog"[..]) && args.contains(&name.as_bytes()))
-                .then_some(pid)
+            let cmd = String::from_utf8_lossy(&cmd).into_owned();
+            let args: Vec<&str> = cmd.split('\0').collect();
+            (args.contains(&"vb-planner-watchdog") && args.iter().any(|a| pred(a))).then_some(pid)
         })
         .collect()
 }
