@@ -9,13 +9,15 @@
 //! planners), PID, mount and IPC namespaces of its own with a private `/proc` and tmpfs temporary directories, its
 //! working directory among them ([`crate::sandbox::namespaces`]): everything it starts dies with it, and nothing it
 //! wrote stays. Without namespaces (`vb-submit validate` on a machine that has none) it works in a fresh private
-//! directory removed after the episode. Image planners run in a named
-//! container that is removed when the episode ends, as an unprivileged user, with a read-only root filesystem, no
-//! capabilities, memory, CPU and process limits, and no network: the worker talks to it over a Unix socket in the
-//! episode's private directory, mounted into the container.
+//! directory removed after the episode. Image planners run in a named container labelled with their worker,
+//! removed when the episode ends, as an unprivileged user, with a read-only root filesystem, no capabilities,
+//! memory, CPU and process limits, and no network: the worker talks to it over a Unix socket in the episode's
+//! private directory, mounted into the container. A watchdog removes both when the worker dies, even by SIGKILL,
+//! and a worker's start removes what dead workers left ([`crate::sandbox::reaper`]).
 
 use crate::remote::{PlannerLog, RemotePlanner, SharedLog};
 use crate::sandbox::namespaces::Namespaces;
+use crate::sandbox::reaper::{self, Watchdog};
 use crate::sandbox::Containment;
 use crate::EpisodeError;
 use sha2::{Digest, Sha256};
@@ -41,12 +43,12 @@ const SOCKET_NAME: &str = "planner.sock";
 pub const MAX_LINE: usize = 4096;
 
 /// A running planner process in its own process group, with its private working directory (and, for an image, its
-/// container): all of them are killed and removed when it stops or is dropped.
+/// container, which its watchdog removes): all of them are killed and removed when it stops or is dropped.
 pub struct PlannerProcess {
     child: Child,
     pgid: Option<i32>,
     workdir: Option<PathBuf>,
-    container: Option<String>,
+    watchdog: Option<Watchdog>,
     pub addr: String,
     pub output: SharedLog,
     pub identity: String,
@@ -57,7 +59,10 @@ impl PlannerProcess {
     pub async fn stop(mut self) {
         self.kill_group();
         let _ = self.child.start_kill();
-        let _ = tokio::time::timeout(Duration::from_secs(5), self.child.wait()).await;
+        let waited = tokio::time::timeout(Duration::from_secs(5), self.child.wait()).await;
+        if let (Ok(Ok(_)), Some(w)) = (waited, &mut self.watchdog) {
+            w.client_exited();
+        }
     }
 
     fn kill_group(&self) {
@@ -71,39 +76,21 @@ impl PlannerProcess {
 impl Drop for PlannerProcess {
     fn drop(&mut self) {
         self.kill_group();
-        if let Some(name) = self.container.take() {
-            // The `docker run` client dies with the group; the container must be removed by name.
-            remove_container(name);
-        }
         if let Some(dir) = &self.workdir {
             let _ = std::fs::remove_dir_all(dir);
         }
+        // The `docker run` client dies with the group; closing the pipe has the watchdog remove the container.
+        drop(self.watchdog.take());
     }
 }
 
-/// Removes a container (waited for on a thread of its own, so no zombie stays behind).
-fn remove_container(name: String) {
-    std::thread::spawn(move || {
-        let _ = std::process::Command::new("docker")
-            .args(["rm", "-f", &name])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .status();
-    });
-}
-
-/// A fresh private (0700) working directory for one planner process.
-fn private_dir() -> Result<PathBuf, PlannerError> {
+/// Makes a fresh private (0700) working directory for one planner process at `dir` ([`reaper::private_dir_path`]).
+fn make_private_dir(dir: &Path) -> Result<(), PlannerError> {
     use std::os::unix::fs::DirBuilderExt;
-    let mut id = [0u8; 8];
-    getrandom::getrandom(&mut id).map_err(|e| PlannerError::Other(e.to_string()))?;
-    let name: String = id.iter().map(|b| format!("{b:02x}")).collect();
-    let dir = std::env::temp_dir().join(format!("vb-planner-{name}"));
     std::fs::DirBuilder::new()
         .mode(0o700)
-        .create(&dir)
-        .map_err(|e| PlannerError::Other(format!("cannot make {}: {e}", dir.display())))?;
-    Ok(dir)
+        .create(dir)
+        .map_err(|e| PlannerError::Other(format!("cannot make {}: {e}", dir.display())))
 }
 
 fn free_port() -> Result<u16, PlannerError> {
@@ -184,9 +171,10 @@ pub fn exec_identity(argv: &[String]) -> String {
 }
 
 /// Starts `argv` with `VB_PLANNER_ADDR` set and waits (up to `startup`) until it serves; returns the process and a
-/// connected planner.
+/// connected planner. `image`: `argv` is an [`image_command`] (else an exec planner's own command).
 pub async fn start(
     argv: &[String],
+    image: bool,
     identity: String,
     step_deadline: Duration,
     startup: Duration,
@@ -202,15 +190,32 @@ pub async fn start(
     };
     // An image planner has no network: it serves on a Unix socket in the episode's private directory on the host,
     // mounted into its container (whose own namespaces contain it); an exec planner serves on a free loopback port.
-    let contained = argv.iter().any(|a| a.contains(WORKDIR_PLACEHOLDER));
+    // Said by the caller, never read off the command: an exec planner naming the placeholder would otherwise run
+    // uncontained and as the worker's user.
+    let contained = image;
     // An exec planner in namespaces of its own works in its private tmpfs `/tmp`: nothing on the host to remove.
     let isolated = containment.namespaces && !contained;
     let user = containment.user.filter(|_| !contained);
+    let fail = |e: String| (PlannerError::Other(e), String::new());
     let workdir = if isolated {
         None
     } else {
-        Some(private_dir().map_err(|e| (e, String::new()))?)
+        Some(reaper::private_dir_path().map_err(fail)?)
     };
+    // An image planner's watchdog starts first: whenever the worker dies from here on, it removes the container
+    // and the directory.
+    let watchdog = match (contained, container_name(argv), &workdir) {
+        (true, Some(name), Some(dir)) => Some(Watchdog::spawn(&name, dir).map_err(|e| {
+            fail(format!(
+                "cannot start the watchdog that removes the planner's container: {e}"
+            ))
+        })?),
+        (true, _, _) => return Err(fail("an image planner without a container name".into())),
+        _ => None,
+    };
+    if let Some(dir) = &workdir {
+        make_private_dir(dir).map_err(|e| (e, String::new()))?;
+    }
     if let (Some(u), Some(dir)) = (user, &workdir) {
         if let Err(e) = std::os::unix::fs::chown(dir, Some(u.uid), Some(u.gid)) {
             let _ = std::fs::remove_dir_all(dir);
@@ -246,7 +251,13 @@ pub async fn start(
     let workdir_text = home.display().to_string();
     let argv: Vec<String> = argv
         .iter()
-        .map(|a| a.replace(WORKDIR_PLACEHOLDER, &workdir_text))
+        .map(|a| {
+            if contained {
+                a.replace(WORKDIR_PLACEHOLDER, &workdir_text)
+            } else {
+                a.clone()
+            }
+        })
         .collect();
     let path = std::env::var_os("PATH").unwrap_or_else(|| "/usr/local/bin:/usr/bin:/bin".into());
     let limits = crate::sandbox::Limits::default();
@@ -295,7 +306,7 @@ pub async fn start(
     let mut process = PlannerProcess {
         pgid: child.id().map(|id| id as i32),
         workdir,
-        container: container_name(&argv),
+        watchdog,
         addr,
         output: output.clone(),
         identity,
@@ -362,10 +373,6 @@ fn container_name(argv: &[String]) -> Option<String> {
         .map(|w| w[1].clone())
 }
 
-/// The command that runs a container planner, and its identity (the image id as Docker reports it). The container
-/// is named, so it can be removed when the episode ends; it runs as nobody (65534) with a read-only root filesystem
-/// (a 64 MB `/tmp`), no capabilities, 2 GB of memory, one CPU and 256 processes, and no network: it serves on a Unix
-/// socket (`VB_PLANNER_ADDR=unix:/run/vb/planner.sock`) in the episode's private directory, its only volume.
 /// Whether this machine can run image planners: a Docker daemon answers (within 10 s). `Err` says why not.
 pub async fn docker_available() -> Result<(), String> {
     let probe = Command::new("docker")
@@ -382,6 +389,11 @@ pub async fn docker_available() -> Result<(), String> {
     }
 }
 
+/// The command that runs a container planner, and its identity (the image id as Docker reports it). The container
+/// is named and labelled with this worker ([`reaper::LABEL`]), so it can be removed when the episode ends or the
+/// worker dies; it runs as nobody (65534) with a read-only root filesystem (a 64 MB `/tmp`), no capabilities, 2 GB of
+/// memory, one CPU and 256 processes, and no network: it serves on a Unix socket
+/// (`VB_PLANNER_ADDR=unix:/run/vb/planner.sock`) in the episode's private directory, its only volume.
 pub async fn image_command(image: &str) -> Result<(Vec<String>, String), EpisodeError> {
     // The coordinator checked it at submission; a worker checks again before it reaches a command line, and passes
     // it after `--` so nothing in it can read as an option.
@@ -402,6 +414,10 @@ pub async fn image_command(image: &str) -> Result<(Vec<String>, String), Episode
         return Err(format!("docker image inspect {image} failed: {err}").into());
     }
     let id = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    // Labelled with this worker, so that a worker starting on this machine can tell whether its owner is dead.
+    let owner = reaper::Owner::current().map_err(|e| {
+        EpisodeError::CannotRun(format!("this worker cannot label containers: {e}"))
+    })?;
     let mut name = [0u8; 8];
     getrandom::getrandom(&mut name).map_err(|e| e.to_string())?;
     let name: String = name.iter().map(|b| format!("{b:02x}")).collect();
@@ -411,6 +427,8 @@ pub async fn image_command(image: &str) -> Result<(Vec<String>, String), Episode
         "--rm",
         "--name",
         &format!("vb-planner-{name}"),
+        "--label",
+        &format!("{}={}", reaper::LABEL, owner.label()),
         "--network",
         "none",
         "--volume",

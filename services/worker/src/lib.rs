@@ -256,6 +256,7 @@ pub async fn run_episode(
             };
             let started = exec::start(
                 &argv,
+                matches!(kind_ref(&spec.planner), Some(Kind::Image(_))),
                 identity.clone(),
                 deadline,
                 planner_startup,

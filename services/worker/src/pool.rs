@@ -215,6 +215,18 @@ pub async fn run_worker(
                 false
             }
         };
+    // What planners of this machine's dead workers left (a watchdog removes it unless the machine went down or the
+    // watchdog was killed): never anything of a worker not proven dead.
+    if cfg.allow_exec {
+        let swept = sandbox::reaper::sweep(runs_images).await;
+        if swept != sandbox::reaper::Swept::default() {
+            tracing::info!(
+                containers = swept.containers,
+                dirs = swept.dirs,
+                "removed what planners of dead workers left"
+            );
+        }
+    }
     // Signalled whenever an episode ends, so the loop leases for the freed slot at once.
     let freed = Arc::new(tokio::sync::Notify::new());
     let permits = Arc::new(tokio::sync::Semaphore::new(slots));

@@ -7,6 +7,7 @@
 use nix::sys::resource::{setrlimit, Resource};
 
 pub mod namespaces;
+pub mod reaper;
 
 /// How exec planners are contained: always the resource limits and the death signal; the namespaces where the
 /// machine allows them (a worker refuses exec planners where it does not, see [`Containment::probe`]); optionally
