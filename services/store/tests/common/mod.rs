@@ -12,7 +12,12 @@ pub async fn backends(test: &str) -> anyhow::Result<Vec<String>> {
         Ok(admin) if !admin.is_empty() => {
             sqlx::any::install_default_drivers();
             let pool = sqlx::AnyPool::connect(&admin).await?;
-            let db = format!("vbtest_{}_{test}", std::process::id());
+            // An SQL identifier: a test named `hand-backs` gets `hand_backs`.
+            let name: String = test
+                .chars()
+                .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                .collect();
+            let db = format!("vbtest_{}_{name}", std::process::id());
             sqlx::query(&format!("DROP DATABASE IF EXISTS {db}"))
                 .execute(&pool)
                 .await?;
