@@ -103,6 +103,9 @@ fn free_port() -> Result<u16, PlannerError> {
 
 /// Copies a planner's output into its log line by line, in bounded memory: a line is cut at [`MAX_LINE`] bytes.
 fn capture(stream: impl AsyncRead + Unpin + Send + 'static, log: SharedLog) {
+    if let Ok(mut l) = log.lock() {
+        l.stream_opened();
+    }
     tokio::spawn(async move {
         let mut reader = stream;
         let mut chunk = vec![0u8; 8192];
@@ -137,6 +140,9 @@ fn capture(stream: impl AsyncRead + Unpin + Send + 'static, log: SharedLog) {
         }
         if !line.is_empty() {
             push(&line, cut);
+        }
+        if let Ok(mut l) = log.lock() {
+            l.stream_closed();
         }
     });
 }

@@ -29,10 +29,22 @@ pub const MAX_PLANNER_NAME: usize = 100;
 pub struct PlannerLog {
     text: String,
     dropped: usize,
+    /// Output streams of a process still being read into this log.
+    open_streams: usize,
 }
 
 impl PlannerLog {
     pub const CAP: usize = 64 << 10;
+
+    /// A process's output stream starts being read into the log.
+    pub fn stream_opened(&mut self) {
+        self.open_streams += 1;
+    }
+
+    /// That stream reached its end: everything the process wrote to it is in the log.
+    pub fn stream_closed(&mut self) {
+        self.open_streams = self.open_streams.saturating_sub(1);
+    }
 
     pub fn push_line(&mut self, line: &str) {
         if self.text.len() + line.len() + 1 > Self::CAP {
@@ -242,7 +254,17 @@ impl RemotePlanner {
         let tail = self
             .crash_context
             .as_ref()
-            .and_then(|l| l.lock().ok().map(|l| l.tail(600)))
+            .map(|log| {
+                // The process's last words may still be in its pipes when its connection drops: wait (on this
+                // blocking thread) until its output ends, a moment at most.
+                let t0 = std::time::Instant::now();
+                while log.lock().is_ok_and(|l| l.open_streams > 0)
+                    && t0.elapsed() < Duration::from_millis(500)
+                {
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+                log.lock().map(|l| l.tail(600)).unwrap_or_default()
+            })
             .unwrap_or_default();
         if tail.is_empty() {
             PlannerError::Crashed(msg)
