@@ -12,42 +12,53 @@ pub fn vb() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_vb"))
 }
 
-/// The example planner's binary (built on demand: it belongs to another package of the workspace).
+/// The example planner's binary (another package's: `cargo test` leaves it missing, or stale after a change, so it
+/// is brought up to date once per test process; nothing else writes it).
 pub fn example_planner() -> PathBuf {
-    workspace_bin("example-planner", "example-planner")
+    static BUILT: std::sync::Once = std::sync::Once::new();
+    let path = target_dir().join("example-planner");
+    BUILT.call_once(|| cargo_build(&["-p", "example-planner", "--bin", "example-planner"]));
+    path
 }
 
-/// The `vb-submit` binary (built on demand: it belongs to another package of the workspace).
+/// The `vb-submit` binary. `cargo test --workspace` builds it with the `validate` feature (which `vb` turns on);
+/// built the same way here only when missing, so this never replaces it with another feature set.
 pub fn vb_submit_bin() -> PathBuf {
-    workspace_bin("vb-submit", "vb-submit")
-}
-
-/// Binary `bin` of workspace package `package`, brought up to date with this test's profile once per test process
-/// (`cargo test` builds only the packages under test: a binary of another package could be missing, or stale).
-fn workspace_bin(bin: &str, package: &str) -> PathBuf {
-    static BUILT: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
-    let exe = std::env::current_exe().expect("test executable path");
-    let dir = exe
-        .parent()
-        .and_then(Path::parent)
-        .expect("target dir")
-        .to_path_buf();
-    let path = dir.join(bin);
-    let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
-    if !built.iter().any(|b| b == bin) {
-        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        let mut cmd = Command::new(cargo);
-        cmd.args(["build", "-p", package, "--bin", bin]);
-        if dir.ends_with("release") {
-            cmd.arg("--release");
-        }
-        let st = cmd
-            .status()
-            .unwrap_or_else(|e| panic!("running cargo build -p {package}: {e}"));
-        assert!(st.success(), "building {bin} failed");
-        built.push(bin.to_string());
+    let path = target_dir().join("vb-submit");
+    if !path.exists() {
+        cargo_build(&[
+            "-p",
+            "vb-submit",
+            "--bin",
+            "vb-submit",
+            "--features",
+            "validate",
+        ]);
     }
     path
+}
+
+/// The directory of this test's profile (`target/debug`).
+fn target_dir() -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    exe.parent()
+        .and_then(Path::parent)
+        .expect("target dir")
+        .to_path_buf()
+}
+
+/// `cargo build ARGS` with this test's profile.
+fn cargo_build(args: &[&str]) {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = Command::new(cargo);
+    cmd.arg("build").args(args);
+    if target_dir().ends_with("release") {
+        cmd.arg("--release");
+    }
+    let st = cmd
+        .status()
+        .unwrap_or_else(|e| panic!("running cargo build {args:?}: {e}"));
+    assert!(st.success(), "cargo build {args:?} failed");
 }
 
 pub fn free_port() -> u16 {
