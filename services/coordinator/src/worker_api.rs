@@ -47,35 +47,28 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
         let r = req.into_inner();
         let t = now();
         self.0.known_worker(&r.worker_id, &token, t).await?;
-        let (limit, window) = (self.0.cfg.max_dropped_leases, self.0.cfg.drop_window_s);
+        let window = self.0.cfg.drop_window_s;
         let dropped = self
             .0
             .store
             .drops_since(&token.id, t - window)
             .await
             .map_err(store_status)?;
-        if dropped >= limit {
-            return Err(Status::resource_exhausted(format!(
-                "throttled: this token's workers dropped {dropped} leases in the last {window:.0} s (limit {limit}); \
-                 no new leases until fewer remain in the window"
-            )));
-        }
+        throttle(dropped, self.0.cfg.max_dropped_leases, window, "dropped")?;
         // Handing leases back (or refusing them) uses no attempt, so a token that leases and gives back in a loop is
         // limited by rate.
-        let limit = self.0.cfg.max_handed_back_leases;
         let handed = self
             .0
             .store
             .hand_backs_since(&token.id, t - window)
             .await
             .map_err(store_status)?;
-        if handed >= limit {
-            return Err(Status::resource_exhausted(format!(
-                "throttled: this token's workers handed back {handed} leases unrun (stopping or refusing) in the last \
-                 {window:.0} s (limit \
-                 {limit}); no new leases until fewer remain in the window"
-            )));
-        }
+        throttle(
+            handed,
+            self.0.cfg.max_handed_back_leases,
+            window,
+            "handed back",
+        )?;
         let leases = {
             let _g = self.0.lease_lock.lock().await;
             self.0.store.expire_leases(t).await.map_err(store_status)?;
@@ -235,4 +228,16 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
             duplicate: outcome == ReportOutcome::Duplicate,
         }))
     }
+}
+
+/// RESOURCE_EXHAUSTED when a token's workers `did` (dropped, handed back) `n` leases in the last `window` s and the
+/// limit is `limit`.
+fn throttle(n: u64, limit: u64, window: f64, did: &str) -> Result<(), Status> {
+    if n < limit {
+        return Ok(());
+    }
+    Err(Status::resource_exhausted(format!(
+        "throttled: this token's workers {did} {n} leases in the last {window:.0} s (limit {limit}); no new leases \
+         until fewer remain in the window"
+    )))
 }

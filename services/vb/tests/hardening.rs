@@ -153,15 +153,12 @@ async fn a_worker_outlives_endpoint_planners_that_close_early() -> anyhow::Resul
     let sub = vb_submit::submit(
         &mut c,
         pb::SubmitRequest {
-            name: "closes early".into(),
-            planner: Some(pb::PlannerRef {
-                kind: Some(pb::planner_ref::Kind::Endpoint(format!(
-                    "http://127.0.0.1:{endpoint}"
-                ))),
-            }),
-            task_ids: vec!["1".into(), "2".into()],
             step_deadline_s: 1.0,
-            ..Default::default()
+            ..endpoint_submission(
+                "closes early",
+                &format!("http://127.0.0.1:{endpoint}"),
+                &["1", "2"],
+            )
         },
     )
     .await?;

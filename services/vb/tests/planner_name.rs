@@ -28,14 +28,7 @@ async fn a_planner_announcing_a_name_that_cannot_be_shown_fails_as_a_protocol_er
     );
     wait_port(planner_port, Duration::from_secs(30));
     let mut c = client(port, &token).await;
-    let endpoint = pb::SubmitRequest {
-        name: "spoofer".into(),
-        planner: Some(pb::PlannerRef {
-            kind: Some(pb::planner_ref::Kind::Endpoint(format!("http://{addr}"))),
-        }),
-        task_ids: vec!["w002-t0".into()],
-        ..Default::default()
-    };
+    let endpoint = endpoint_submission("spoofer", &format!("http://{addr}"), &["w002-t0"]);
     let long = pb::SubmitRequest {
         name: "long-winded".into(),
         planner: Some(pb::PlannerRef {
@@ -85,14 +78,7 @@ async fn a_planner_announcing_a_name_that_cannot_be_shown_fails_as_a_protocol_er
     wait_port(planner_port, Duration::from_secs(30));
     let id = vb_submit::submit(
         &mut c,
-        pb::SubmitRequest {
-            name: "plain".into(),
-            planner: Some(pb::PlannerRef {
-                kind: Some(pb::planner_ref::Kind::Endpoint(format!("http://{addr}"))),
-            }),
-            task_ids: vec!["w002-t0".into()],
-            ..Default::default()
-        },
+        endpoint_submission("plain", &format!("http://{addr}"), &["w002-t0"]),
     )
     .await?
     .submission_id;

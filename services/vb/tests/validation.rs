@@ -368,14 +368,7 @@ async fn a_planner_announcing_a_bad_control_rate_fails_as_a_protocol_error() -> 
         task_ids: vec!["w002-t0".into()],
         ..Default::default()
     };
-    let endpoint = pb::SubmitRequest {
-        name: "still".into(),
-        planner: Some(pb::PlannerRef {
-            kind: Some(pb::planner_ref::Kind::Endpoint(format!("http://{addr}"))),
-        }),
-        task_ids: vec!["w002-t1".into()],
-        ..Default::default()
-    };
+    let endpoint = endpoint_submission("still", &format!("http://{addr}"), &["w002-t1"]);
     for (req, rate) in [(exec, "5000"), (endpoint, "0")] {
         let id = vb_submit::submit(&mut c, req).await?.submission_id;
         wait_for(port, &token, &id, Duration::from_secs(120), |s| {

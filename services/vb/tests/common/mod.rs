@@ -414,3 +414,16 @@ pub fn make_certificates(dir: &Path) -> Option<()> {
     }
     Some(())
 }
+
+/// A submission of the planner serving at `url` on `tasks`.
+pub fn endpoint_submission(name: &str, url: &str, tasks: &[&str]) -> vb_proto::v1::SubmitRequest {
+    use vb_proto::v1 as pb;
+    pb::SubmitRequest {
+        name: name.into(),
+        planner: Some(pb::PlannerRef {
+            kind: Some(pb::planner_ref::Kind::Endpoint(url.into())),
+        }),
+        task_ids: tasks.iter().map(|s| s.to_string()).collect(),
+        ..Default::default()
+    }
+}
