@@ -40,6 +40,6 @@ pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
 /// shear slip (static sinkage is Bekker's). Revision 6: a rolling rim's damping pressure covers the part of each cell
 /// inside its contact, a node's shear accrues from when the rim reached it, and the soil's vertical stiffness takes
 /// each node on the branch the rim moves it along (converged in the step at speed).
-pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r6");
+pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r7");
 pub use vehicle::{Simulation, VehicleSpec};
 pub mod world;

@@ -1,7 +1,7 @@
 //! Contact geometry: which nodes a rigid wheel or a flat plate presses, the body's surface normal and velocity there,
 //! and the fraction of each node's cell the body covers (step 1 of the module's algorithm).
 
-use super::node::{Hit, RimPoint};
+use super::node::{bristle_over_janosi, Hit, RimPoint, BRISTLE_AT_REST};
 use super::{PlateGeometry, SoilContact, SoilGrid, WheelGeometry};
 use nalgebra::Vector3;
 
@@ -19,11 +19,16 @@ fn coverage(a: f64, half: f64, delta: f64) -> f64 {
     }
 }
 
-/// A body's sinking motion ([`Hit::compaction_velocity`]): the part of its velocity `v` along the ground's unit
-/// normal `n` while it moves into the soil, else zero.
+/// Bekker's `b` of a contact patch as Chrono's SCM computes it, `2 A / P` of the hull of the nodes the body's rays
+/// hit, for a hull `length x width` (a rectangle: `L W / (L + W)`); `f64::INFINITY` (no `k_c` term, as Chrono's
+/// `oob = 0`) when the hull has no area.
 #[inline]
-fn sinking(v: &Vector3<f64>, n: &Vector3<f64>) -> Vector3<f64> {
-    n * v.dot(n).min(0.0)
+fn patch_b(length: f64, width: f64) -> f64 {
+    if length <= 0.0 || width <= 0.0 {
+        f64::INFINITY
+    } else {
+        length * width / (length + width)
+    }
 }
 
 impl SoilGrid {
@@ -45,10 +50,13 @@ impl SoilGrid {
     /// patches are skipped.
     ///
     /// Each node whose vertical ray meets the rim (`|u| < r` along the wheel's heading, `|a| < b / 2 + delta / 2`
-    /// along the axle) is pressed by the rim point above it; the pressure acts along the rim's inward radial
-    /// direction there (the wheel's surface normal, as Chrono's SCM uses the normals of its ray hits), so the
-    /// leading arc of a sinking wheel pushes it back (compaction resistance). Nodes at the wheel's sides count for
-    /// the fraction of their cell inside the width, so the discrete contact width is `b` wherever the wheel is.
+    /// along the axle) is pressed by the rim point above it, as Chrono's SCM: the pressure acts along the
+    /// undeformed terrain's normal at the node (vertical on level ground) over the cell's horizontal area, the shear
+    /// in the terrain's plane, so compacting the soil costs the wheel torque (the moment of the pressure on its
+    /// leading arc about the axle), not drawbar pull. Nodes at the wheel's sides count for the fraction of their cell
+    /// inside the width, so the discrete contact width is `b` wherever the wheel is. Bekker's `b` is the patch's, as
+    /// Chrono computes it ([`patch_b`]): the hull of the nodes whose rays hit the wheel up to Chrono's test height
+    /// (0.1 m) above the surface, on average `delta` shorter than the chord and narrower than the wheel on the grid.
     pub fn wheel_contact(&mut self, w: &WheelGeometry, dt: f64) -> SoilContact {
         let mut out = SoilContact::default();
         if self.tile_index.is_empty() {
@@ -74,8 +82,27 @@ impl SoilGrid {
         // (0 between its offsets `u` now and `u + advance` before) is yielded as deep as the rim bottom went, so the
         // ruts do not depend on which of the node's positions under the wheel the steps happen to catch.
         let advance = w.velocity.dot(&fwd) * dt;
-        // The centre's sinking velocity (not the rim's spin): the soil under the wheel moves down with it.
-        let compaction_velocity = sinking(&w.velocity, &out.normal_dir);
+        let (vf, vz) = (w.velocity.dot(&fwd), w.velocity.z);
+        // The patch's Bekker width: rays hit the rim where it is less than Chrono's test height above the surface
+        // of the nodes there, which ahead of the wheel is the surface it meets and behind it the rut it leaves
+        // (each taken a radius from the centre, beyond the contact).
+        let half_chord = |sign: f64| {
+            let at = w.centre + fwd * (sign * w.radius);
+            let above = w.centre.z - self.surface_height(at.x, at.y) - self.test_height;
+            if above <= 0.0 {
+                w.radius
+            } else if above < w.radius {
+                (w.radius * w.radius - above * above).sqrt()
+            } else {
+                0.0
+            }
+        };
+        let chord = half_chord(1.0) + half_chord(-1.0);
+        let b = patch_b(chord - self.delta, w.width - self.delta);
+        let speed = (w.velocity - out.normal_dir * w.velocity.dot(&out.normal_dir))
+            .norm()
+            .max(w.angular_velocity.dot(&w.axle).abs() * w.radius);
+        let bristle = bristle_over_janosi(speed, self.creep_speed);
         for j in j0..=j1 {
             for i in i0..=i1 {
                 let x = i as f64 * self.delta - self.half_x;
@@ -89,14 +116,19 @@ impl SoilGrid {
                 }
                 let h = (w.radius * w.radius - u * u).sqrt();
                 let p = Vector3::new(x, y, w.centre.z - h);
-                let normal = Vector3::new(-u * fwd.x, -u * fwd.y, h) / w.radius;
+                let normal = self.surface_normal(x, y);
+                let roll = (fwd - normal * fwd.dot(&normal)).normalize();
+                // The rim point over the fixed node falls at `v_z - u v_f / h` (the rim's advance included).
+                let approach = normal.z * (u * vf / h - vz);
                 let hit = Hit {
                     p,
                     v: w.velocity + w.angular_velocity.cross(&(p - w.centre)),
                     normal,
-                    roll: w.axle.cross(&normal).normalize(),
+                    approach,
+                    roll,
+                    axle: w.axle,
+                    bristle,
                     weight,
-                    compaction_velocity,
                     swept_bottom: ((u < 0.0) != (u + advance < 0.0))
                         .then_some(w.centre.z - w.radius),
                     rim: Some(RimPoint {
@@ -104,10 +136,12 @@ impl SoilGrid {
                         height: h,
                         radius: w.radius,
                         forward: fwd,
+                        lateral: side * d.dot(&side),
                         centre_velocity: w.velocity,
+                        angular_velocity: w.angular_velocity,
                     }),
                 };
-                self.press_node((i, j), &hit, w.width, &w.centre, dt, &mut out);
+                self.press_node((i, j), &hit, b, &w.centre, dt, &mut out);
             }
         }
         if out.nodes > 0 {
@@ -123,8 +157,9 @@ impl SoilGrid {
     /// Soil force on a flat rectangular plate (a track shoe or belt segment), updating the soil's memory. The
     /// plate's lower face is the plane through `centre` with normal `plate.up`; nodes whose vertical ray meets the
     /// face inside the `length x width` rectangle (grown by half a cell, edge nodes weighted by the fraction of their
-    /// cell inside) are pressed. Pressure acts along `plate.up`, shear in the face. The Bekker width is the plate's
-    /// smaller side.
+    /// cell inside) are pressed. As for a wheel, the pressure acts along the undeformed terrain's normal over the
+    /// cell's horizontal area and the shear in the terrain's plane. The Bekker width is the plate's smaller side (a
+    /// track's shoes on the ground form one long patch in Chrono, whose `2 A / P` is about the track's width).
     pub fn plate_contact(&mut self, plate: &PlateGeometry, dt: f64) -> SoilContact {
         let mut out = SoilContact::default();
         if self.tile_index.is_empty() || plate.up.z < 1e-3 {
@@ -136,7 +171,7 @@ impl SoilGrid {
         let (hl, hw) = (0.5 * plate.length, 0.5 * plate.width);
         let reach = hl.hypot(hw) + self.delta;
         let (i0, i1, j0, j1) = self.node_box(&plate.centre, reach, reach);
-        let compaction_velocity = sinking(&plate.velocity, &out.normal_dir);
+        let bristle = BRISTLE_AT_REST;
         for j in j0..=j1 {
             for i in i0..=i1 {
                 let x = i as f64 * self.delta - self.half_x;
@@ -150,13 +185,18 @@ impl SoilGrid {
                 if weight == 0.0 {
                     continue;
                 }
+                let v = plate.velocity + plate.angular_velocity.cross(&d);
+                let normal = self.surface_normal(x, y);
                 let hit = Hit {
                     p: plate.centre + d,
-                    v: plate.velocity + plate.angular_velocity.cross(&d),
-                    normal: plate.up,
-                    roll: plate.forward,
+                    v,
+                    normal,
+                    // The face over a fixed node moves down at `-v . up / up_z`.
+                    approach: normal.z * (-v.dot(&plate.up) / plate.up.z),
+                    roll: (plate.forward - normal * plate.forward.dot(&normal)).normalize(),
+                    axle: Vector3::zeros(),
+                    bristle,
                     weight,
-                    compaction_velocity,
                     swept_bottom: None,
                     rim: None,
                 };

@@ -1,5 +1,6 @@
 //! Soil Contact Model (Bekker-Wong pressure-sinkage, Janosi-Hanamoto shear, elastic unloading, damping) on a
-//! sparse grid with memory, after Chrono's SCM (physics.md section 2.4).
+//! sparse grid with memory: Chrono's SCM (`SCMTerrain.cpp`, the simulator Verti-Bench runs), term by term as
+//! `../shared/reference/scm-chrono-formulation.md` gives it, with the departures listed below.
 //!
 //! The grid spacing is 0.1 m at full scale (times the world's scale). Each node remembers its plastic sinkage
 //! `s_p`, its yield pressure and its accumulated shear displacement `j`; only touched nodes cost memory: nodes live
@@ -10,50 +11,54 @@
 //! Per step, for each body (a wheel via [`SoilGrid::wheel_contact`], a track shoe or plate via
 //! [`SoilGrid::plate_contact`]) and each node whose vertical ray meets the body (as Chrono's SCM casts rays up
 //! through the body's collision shape):
-//! 1. the hit: the body's surface point `p` above the node, its velocity `v`, the body's unit surface normal `N` there
-//!    (wheel: the rim's inward radial direction; plate: `plate.up`) and the fraction `w` of the node's cell the body
-//!    covers (1 inside; the nodes at a wheel's or plate's side edges count for the part of their cell inside the
-//!    width, so the discrete width equals the body's; see `contact.rs`);
-//! 2. sinkage below the undeformed surface along the ray `s = h0 - p_z`, penetration of the current surface
-//!    `s - s_p`; elastic trial `sigma = K_e (s - s_p)`; if it exceeds the node's yield pressure, Bekker
-//!    `sigma = (k_c / b + k_phi) s^n` holds, the yield pressure rises to it and `s_p = s - sigma / K_e` (so unloading
-//!    and reloading follow the elastic line until the previous yield): ruts persist;
-//! 3. damping `sigma += R |v . N|` while the surface moves into the soil (`v . N < 0`); on a wheel, over the part
-//!    of the node's cell (along the track) inside the rim's contact with the surface it found there and on the side
-//!    where the rim moves into the soil, evaluated at that part's midpoint, so the damped area grows continuously as
-//!    the rim's edge advances over a cell (the cell just ahead of the edge gets its share too, with no sinkage or
-//!    shear); [`node::RimPoint::damping`];
-//! 4. shear, elastic-plastic in the tangent plane of `N`: the node keeps its mobilised shear `rho = tau / tau_max`
-//!    (a vector) and a hardening displacement `h` (both reset when contact is lost). The slip is the body's velocity
-//!    relative to the soil, `u = v - v_c`, where `v_c` is the body centre's motion along the undeformed ground's
-//!    normal while it sinks (zero while it rises): the soil column under the contact moves down with the body
-//!    (Bekker's pressure-sinkage is that compaction; a wheel pressed statically carries its load by pressure alone,
-//!    as in Wong's static rigid wheel), while rolling and sliding at constant sinkage keep Wong-Reece's slip
-//!    kinematics exactly (`v_c = 0`); a rising body leaves the soil behind and slides along it. Chrono's SCM takes
-//!    `u = v`, so a sinking wheel's arc also mobilises shear that carries part of its load (11% less static
-//!    sinkage on snow). `d = (u - N (u . N)) t` (`t = dt`, except in the step a contact begins: the part of the
-//!    step since the body's surface passed the surface it found there, so the slip accrues from when the body
-//!    reached the node whatever the step) moves `rho` elastically by `d / K` (Janosi's initial stiffness); beyond
-//!    the yield circle `|rho| <= 1 - exp(-h / K)` the excess hardens `h` and `rho` stays on the circle. Monotonic
-//!    slip `j` thus gives Janosi-Hanamoto exactly; unloading, reversal and reloading up to the previous yield are
-//!    elastic, so a body at rest under a load below its shear capacity is held like an elastic-plastic bristle
-//!    instead of creeping;
-//! 5. shear stress `tau = (c + sigma tan phi) rho`, opposing the body's slip;
-//! 6. force `A (sigma N - tau)` with `A = w delta^2 / N_z` the body's surface area over the cell (so the vertical
-//!    part is `w delta^2 sigma`, Bekker's load integral, and the horizontal part on a wheel's leading arc
-//!    `w delta^2 sigma tan(theta)`, the compaction resistance `b integral sigma dz`; Chrono's SCM takes
-//!    `A = delta^2`, which differs by `cos(theta)` on the arc). `N_z` is floored at 0.1.
+//! 1. the hit: the body's surface point `p` above the node, the body's material velocity `v` there (a wheel's spin
+//!    included), the undeformed terrain's unit normal `N` at the node (Chrono's `GetInitNormal`; vertical on level
+//!    ground) and the fraction `w` of the node's cell the body covers (1 inside; the nodes at a wheel's or plate's
+//!    side edges count for the part of their cell inside the width, so the discrete width equals the body's; see
+//!    `contact.rs`);
+//! 2. sinkage `s = N_z (h0 - p_z)` (Chrono's `p_hit_offset`), penetration of the current surface `s - s_p`;
+//!    elastic trial `sigma = K_e (s - s_p)`; if it exceeds the node's yield pressure, Bekker
+//!    `sigma = (k_c / b + k_phi) s^n` holds (`b` the contact patch's `2 A / P`, as Chrono), the yield pressure rises
+//!    to it and `s_p = s - sigma / K_e` (so unloading and reloading follow the elastic line until the previous
+//!    yield): ruts persist;
+//! 3. damping `sigma += -R (v . N)` while the body's material moves into the soil (`v . N < 0`, the spin included:
+//!    a slipping wheel's leading arc is damped at `R omega u`); on a wheel over the part of the node's cell (along
+//!    the track) inside the rim's contact with the surface it found there and on the side where the rim moves into
+//!    the soil, evaluated at that part's midpoint, so the damped area grows continuously as the rim's edge advances
+//!    over a cell (the cell just ahead of the edge gets its share too, with no sinkage or shear);
+//!    [`node::RimPoint::damping`];
+//! 4. shear displacement `j += |v_t| t`, `v_t = v - N (v . N)` the slip in the terrain's plane, `t` the step (in the
+//!    step a contact begins, the part of it since the body's surface passed the surface it found there); `j` only
+//!    grows and is never reset, not when a contact ends nor between the front and rear wheels' passes (Chrono);
+//! 5. shear stress `tau = (c + sigma tan phi)(1 - exp(-j / K))` opposite the slip, its direction following the
+//!    slip through a short elastic bristle (see the departures);
+//! 6. force `delta^2 w (sigma N - tau)` at `p` (Chrono's `m_area = delta^2`, the cell's horizontal area), and its
+//!    moment about the body's centre: a wheel's spin is driven by that moment about its axle, so compaction and
+//!    damping cost engine torque (the pressure's moment on the leading arc), not drawbar pull.
 //!
-//! A wheel's contact is also swept over the step: a node that the rim's lowest point passed over between the wheel's
-//! previous and current position is yielded as deep as that point went (`Hit::swept_bottom`), so the ruts of a
-//! fast wheel do not depend on which of the node's positions under the wheel the steps happen to catch (at 30 m/s
-//! the wheel moves 12 cm per 4 ms step, more than a node spacing).
+//! Departures from Chrono, none of which changes the law at driving speeds:
+//! - the shear's direction follows the slip through an elastic bristle of length `K / 200` on a rolling wheel
+//!   (`K / 20` at rest and on a plate)
+//!   (`node::bristle_over_janosi`) instead of flipping the step the slip velocity does, so a body at rest is held
+//!   elastically instead of chattering (a parked vehicle on a slope);
+//! - forces are returned with their Jacobians (vertical stiffness on the branch each node moves along, damping,
+//!   traction and spin stiffness), and the vehicle integrates the wheel's vertical motion and spin linearly
+//!   implicitly with them (Chrono applies SCM's forces explicitly and chatters on stiff soils at 5 ms);
+//! - a wheel's contact is swept over the step: a node that the rim's lowest point passed over between the wheel's
+//!   previous and current position is yielded as deep as that point went (`Hit::swept_bottom`), so ruts of a fast
+//!   wheel (12 cm per 4 ms step at 30 m/s) do not depend on which positions the steps catch;
+//! - edge nodes count for the part of their cell inside the body's width, and Bekker's `b` comes from the
+//!   continuous hull of the contact (`contact::patch_b`), so the contact does not jump between 2 and 3 node rows
+//!   as a wheel crosses the grid;
+//! - no damping suction: Chrono leaves `-R (v . N)` unclamped, so trailing nodes still in contact (about 1 mm of
+//!   elastic rebound) pull the wheel; here only material moving into the soil is damped, and the shear strength
+//!   `c + sigma tan phi` is not negative;
+//! - no bulldozing (Chrono moves displaced material to the rut's rim; it adds no force of its own).
 //!
-//! Compaction (motion) resistance, sinkage and traction loss are not added by hand: they emerge from this law. The
-//! contact also returns the Jacobians a vehicle needs to integrate a wheel's spin and vertical motion linearly
-//! implicitly ([`SoilContact::traction_stiffness`], [`SoilContact::normal_stiffness`],
-//! [`SoilContact::normal_damping`]) and the shear capacity the vehicle's shear damping respects
-//! ([`SoilContact::shear_capacity`]). [`rig`] is a single-wheel test rig on this model.
+//! The contact also returns the Jacobians a vehicle needs to integrate a wheel's spin and vertical motion linearly
+//! implicitly ([`SoilContact::traction_stiffness`], [`SoilContact::spin_stiffness`],
+//! [`SoilContact::normal_stiffness`], [`SoilContact::normal_damping`]) and the shear capacity the vehicle's shear
+//! damping respects ([`SoilContact::shear_capacity`]). [`rig`] is a single-wheel test rig on this model.
 //!
 //! API (called by the vehicle model once per wheel / track shoe and step, after [`SoilGrid::begin_step`]):
 //! [`SoilGrid::new`] (allocates everything), [`SoilGrid::soil_at`] / [`SoilGrid::has_soil_at`] ("no soil here"
@@ -87,10 +92,10 @@ pub struct SoilContact {
     /// Sinkage below the undeformed surface, m: a wheel's rim depth under its centre, normal to the undeformed
     /// surface (Wong's `z0`); a plate's deepest pressed node.
     pub sinkage: f64,
-    /// Sum of the nodes' normal forces (pressure times body surface area, each along its own surface normal), N.
+    /// Sum of the nodes' normal forces (pressure times the cells' horizontal area, each along the terrain's normal
+    /// at its node), N.
     pub normal: f64,
-    /// Unit normal of the undeformed ground under the body's centre (a reference frame for the caller: the
-    /// pressure itself acts along the body's surface normal at each node).
+    /// Unit normal of the undeformed ground under the body's centre (a reference frame for the caller).
     pub normal_dir: Vector3<f64>,
     /// For implicit spin integration: d(shear force along the rolling direction)/d(slip velocity of the body's
     /// surface along it), summed over nodes, N s/m. Per node `A t (k_par c^2 + k_perp (1 - c^2))`, `c` the cosine
@@ -98,8 +103,18 @@ pub struct SoilContact {
     /// (`tau_max / K` elastic, Janosi's `tau_max exp(-h / K) / K` on yield) and `k_perp` across it (`tau_max / K`
     /// elastic, `tau_max |rho| / (K |rho_trial|)` on yield). Slip at speed `v` for one step adds `v t` to `j` (`t`
     /// the step, or in the step a contact begins the part of it since the body reached the node), hence the `t`.
-    /// For a wheel the torque's derivative is `d(torque about the axle)/d(spin) = -r^2 traction_stiffness`.
+    /// (`K` is the bristle's length while elastic, `node::bristle_over_janosi`, Janosi's `K` on yield.)
     pub traction_stiffness: f64,
+    /// For implicit spin integration: `-d(torque about the axle)/d(spin)`, N m s: the shear's share (each node's
+    /// traction stiffness times its lever arm squared, `h^2` under a wheel's centre) and the damping's
+    /// (`R w delta^2 u^2` over the leading arc's damped cells). Zero for a plate.
+    pub spin_stiffness: f64,
+    /// For the force a wheel's spin change passes to its vehicle: `d(shear force along the rolling direction)/
+    /// d(spin)`, N s (each node's traction stiffness times its lever arm, `h` under a wheel's centre).
+    pub spin_force: f64,
+    /// `d(damping force along the terrain normal)/d(spin)`, N s: the damping pressure `-R (v . N)` grows with the
+    /// spin on the leading arc (`R omega u`), so a vehicle passes the chassis the lift at the wheel's new spin.
+    pub spin_lift: f64,
     /// Mohr-Coulomb shear capacity of the contact, `sum (c + sigma tan phi) A` over the pressed nodes, N.
     pub shear_capacity: f64,
     /// For implicit vertical integration: `-d(F_z)/d(z_c)`, the derivative of the vertical soil force with respect to
@@ -163,6 +178,10 @@ pub struct SoilGrid {
     pool_tiles: Vec<u32>,
     patch_soil: [Option<SoilParams>; PATCHES * PATCHES],
     heights: crate::world::Heightmap,
+    /// Chrono's ray test height above the surface (0.1 m at full scale): how far above it a wheel's rays still hit.
+    test_height: f64,
+    /// Below this speed a body is creeping, m/s (0.05 m/s at full scale, Froude-scaled).
+    creep_speed: f64,
     step: u64,
     exhausted: bool,
 }
@@ -186,6 +205,8 @@ impl Clone for SoilGrid {
             pool_tiles,
             patch_soil: self.patch_soil,
             heights: self.heights.clone(),
+            test_height: self.test_height,
+            creep_speed: self.creep_speed,
             step: self.step,
             exhausted: self.exhausted,
         }
@@ -227,6 +248,8 @@ impl SoilGrid {
             pool_tiles: Vec::with_capacity(if any_soil { TILE_POOL } else { 0 }),
             patch_soil,
             heights: h.clone(),
+            test_height: 0.1 * world.scale,
+            creep_speed: 0.05 * world.scale.sqrt(),
             step: 0,
             exhausted: false,
         }
@@ -265,7 +288,7 @@ impl SoilGrid {
         self.exhausted
     }
 
-    /// Starts a new physics step (shear displacement of nodes not touched in the previous step is reset).
+    /// Starts a new physics step.
     pub fn begin_step(&mut self) {
         self.step += 1;
     }

@@ -9,7 +9,7 @@
 //! `(m + dt C + dt^2 K) (v' - v) = dt (F_z - W - dt K v)`, `z' = z + dt v'`, so it is stable at the vehicle's 4 ms step
 //! although the elastic soil under a wheel is far stiffer than explicit integration of a few hundred kilograms
 //! allows. A towed wheel spins freely (no drive torque; inertia [`WheelRig::inertia`]), its spin integrated
-//! implicitly with [`SoilContact::traction_stiffness`]; at steady state the soil's torque about the axle averages
+//! implicitly with [`SoilContact::spin_stiffness`]; at steady state the soil's torque about the axle averages
 //! to zero. A driven wheel spins at `omega = v / (r (1 - i))`.
 //!
 //! Everything is allocated in [`WheelRig::run`] before the first step (one soil grid); the step loop allocates
@@ -139,7 +139,7 @@ impl WheelRig {
             vz += implicit_dv(&c, self.load, mass, vz, dt);
             z += dt * vz;
             if drive == Drive::Towed {
-                omega += dt * c.torque.y / (self.inertia + dt * r * r * c.traction_stiffness);
+                omega += dt * c.torque.y / (self.inertia + dt * c.spin_stiffness);
             }
             if k >= from {
                 sum.sinkage += r - z;
@@ -202,39 +202,15 @@ fn implicit_dv(c: &SoilContact, load: f64, mass: f64, vz: f64, dt: f64) -> f64 {
 /// Time over which [`WheelRig::static_sinkage`] ramps the load on, s.
 pub const STATIC_RAMP: f64 = 2.0;
 
-/// Slips at which [`predicted_grade_deg`] runs the driven rig.
-pub const GRADE_SLIPS: [f64; 8] = [0.05, 0.1, 0.2, 0.3, 0.45, 0.6, 0.75, 0.9];
-
-/// The steepest grade a vehicle with all wheels driven could climb on `soil`, as the rig predicts it:
-/// `atan(max over slip of DP / W)` (Wong, Theory of Ground Vehicles: a vehicle climbs up to the grade whose
-/// resistance `W sin(alpha)` its drawbar pull balances, with `DP / W` taken as independent of the load's
-/// `cos(alpha)`), in degrees, over [`GRADE_SLIPS`]. Wheel radius `r`, width `b`, load per wheel `load` N, time step
-/// `dt`, node spacing `delta`, `passes` wheels per track ([`WheelRig::passes`]: 2 for a two-axle vehicle, whose
-/// rear wheels run in the front wheels' ruts).
-pub fn predicted_grade_deg(
-    soil: SoilParams,
-    r: f64,
-    b: f64,
-    load: f64,
-    dt: f64,
-    delta: f64,
-    passes: usize,
-) -> f64 {
-    let mut rig = WheelRig::new(soil, r, b, load);
-    rig.dt = dt;
-    rig.spacing = delta;
-    rig.passes = passes;
-    let best = GRADE_SLIPS
-        .iter()
-        .map(|&i| rig.run(Drive::Slip(i)).drawbar_pull / load)
-        .fold(f64::NEG_INFINITY, f64::max);
-    best.atan().to_degrees()
-}
-
 /// Load carried by a rigid wheel (radius `r`, width `b`) pressed statically to sinkage `z0` into Bekker soil: the
 /// pressure-sinkage law `p = (k_c / b + k_phi) z^n` integrated over the whole contact chord (Bekker; Wong, Theory
 /// of Ground Vehicles, the static rigid wheel), by the midpoint rule on 20 000 intervals.
 pub fn bekker_static_load(soil: SoilParams, r: f64, b: f64, z0: f64) -> f64 {
+    static_load(soil, r, b, b, z0)
+}
+
+/// [`bekker_static_load`] over a wheel of width `width` with the pressure-sinkage law's `b` given apart.
+fn static_load(soil: SoilParams, r: f64, width: f64, b: f64, z0: f64) -> f64 {
     let k = soil.k_c / b + soil.k_phi;
     let half = (r * r - (r - z0).powi(2)).max(0.0).sqrt();
     let n = 20_000;
@@ -242,21 +218,54 @@ pub fn bekker_static_load(soil: SoilParams, r: f64, b: f64, z0: f64) -> f64 {
         .map(|i| {
             let x = -half + (i as f64 + 0.5) * 2.0 * half / n as f64;
             let z = z0 - (r - (r * r - x * x).sqrt());
-            b * k * z.max(0.0).powf(soil.n) * 2.0 * half / n as f64
+            width * k * z.max(0.0).powf(soil.n) * 2.0 * half / n as f64
         })
         .sum()
 }
 
 /// The static sinkage under which [`bekker_static_load`] carries `load`, m (bisection to 1e-12 m).
 pub fn bekker_static_sinkage(soil: SoilParams, r: f64, b: f64, load: f64) -> f64 {
+    static_sinkage(soil, r, b, b, load)
+}
+
+fn static_sinkage(soil: SoilParams, r: f64, width: f64, b: f64, load: f64) -> f64 {
     let (mut lo, mut hi) = (0.0, r);
     while hi - lo > 1e-12 {
         let mid = 0.5 * (lo + hi);
-        if bekker_static_load(soil, r, b, mid) < load {
+        if static_load(soil, r, width, b, mid) < load {
             lo = mid;
         } else {
             hi = mid;
         }
     }
     lo
+}
+
+/// Bekker's `b` of a static wheel's contact patch as Chrono's SCM computes it (`2 A / P` of the hull of the nodes
+/// whose rays hit the wheel, up to Chrono's 0.1 m test height above the surface, on a grid of spacing `delta`): the
+/// chord where the rim is less than 0.1 m above the surface, shortened by `delta`, by the width shortened by `delta`
+/// (a rectangle's `L W / (L + W)`); `f64::INFINITY` (no `k_c` term) when the hull has no area. Sinkage `z0`, m.
+pub fn chrono_patch_b(r: f64, width: f64, z0: f64, delta: f64) -> f64 {
+    let above = r - z0 - 0.1;
+    let chord = if above <= 0.0 {
+        2.0 * r
+    } else {
+        2.0 * (r * r - above * above).max(0.0).sqrt()
+    };
+    let (l, w) = (chord - delta, width - delta);
+    if l <= 0.0 || w <= 0.0 {
+        f64::INFINITY
+    } else {
+        l * w / (l + w)
+    }
+}
+
+/// [`bekker_static_sinkage`] with Bekker's `b` of Chrono's contact patch ([`chrono_patch_b`] at the benchmark's
+/// 0.1 m grid; a fixed point in the sinkage, three iterations from the wheel's width).
+pub fn chrono_static_sinkage(soil: SoilParams, r: f64, width: f64, load: f64) -> f64 {
+    let mut z = bekker_static_sinkage(soil, r, width, load);
+    for _ in 0..3 {
+        z = static_sinkage(soil, r, width, chrono_patch_b(r, width, z, 0.1), load);
+    }
+    z
 }

@@ -1,6 +1,7 @@
 //! Building a [`Simulation`] from a vehicle spec (wheel layout, spin groups, stiffnesses, body points, the terrain's
 //! block maxima) and placing it at rest on the ground.
 
+use super::powertrain::Clutch;
 use super::simulation::*;
 use crate::collide::ObstacleSet;
 use crate::soil::SoilGrid;
@@ -119,6 +120,7 @@ impl Simulation {
             }
         }
         let groups = next;
+        let clutches = clutches(spec, &wheels);
         let n = wheels.len() as f64;
         let sprung = total - n * unsprung;
         let i = spec.chassis.inertia;
@@ -194,6 +196,9 @@ impl Simulation {
                         * wheels.iter().filter(|w| w.group == g).count().max(1) as f64
                 })
                 .collect(),
+            group_free: vec![0.0; groups],
+            clutch_torque: vec![0.0; clutches.len()],
+            clutches,
             contacts: vec![WheelContact::default(); wheels.len()],
             ground_forces: vec![Vector3::zeros(); wheels.len()],
             settle_time: 0.0,
@@ -361,4 +366,40 @@ impl Simulation {
             + self.radius
             + OBSTACLE_NEAR_SLACK * self.spec.scale
     }
+}
+
+/// The locking clutches of a clutched driveline: one per driven axle between its wheels, one between the two driven
+/// axles (the spec's validation guarantees two driven axles, no tracks, one wheel a side per axle).
+fn clutches(spec: &VehicleSpec, wheels: &[Wheel]) -> Vec<Clutch> {
+    let Some(limits) = spec.powertrain.locking_limits else {
+        return Vec::new();
+    };
+    if spec.powertrain.differential != Differential::Clutched {
+        return Vec::new();
+    }
+    let axles: Vec<[usize; 2]> = spec
+        .axles
+        .iter()
+        .enumerate()
+        .filter(|(_, a)| a.driven)
+        .map(|(ai, _)| [wheels[2 * ai].group, wheels[2 * ai + 1].group])
+        .collect();
+    let mut out: Vec<Clutch> = axles
+        .iter()
+        .map(|&[l, r]| Clutch {
+            a: [l, l],
+            b: [r, r],
+            members: 1,
+            limit: limits.axle,
+        })
+        .collect();
+    if let [front, rear] = axles[..] {
+        out.push(Clutch {
+            a: front,
+            b: rear,
+            members: 2,
+            limit: limits.central,
+        });
+    }
+    out
 }

@@ -87,10 +87,15 @@ impl Simulation {
                 mu: 0.0,
                 tx,
                 ty,
-                // The soil acts on the spin through the force's component along tx at the rim radius (the soil's
-                // torque about the axle is approximated that way).
+                // The soil acts on the spin through its moment about the axle (Chrono charges the wheel with the
+                // full moment of every node force about the spindle): compaction and damping cost engine torque.
                 soil_force: sc.force,
                 soil_stiffness: sc.traction_stiffness,
+                soil_torque: sc.torque.dot(&axle),
+                spin_stiffness: sc.spin_stiffness,
+                spin_force: sc.spin_force,
+                spin_lift: sc.spin_lift,
+                soil_moment: sc.torque,
                 shear_capacity: sc.shear_capacity,
                 r_eff: self.radius,
             };
@@ -164,6 +169,11 @@ impl Simulation {
             ty,
             soil_force: Vector3::zeros(),
             soil_stiffness: 0.0,
+            soil_torque: 0.0,
+            spin_stiffness: 0.0,
+            spin_force: 0.0,
+            spin_lift: 0.0,
+            soil_moment: Vector3::zeros(),
             shear_capacity: 0.0,
             r_eff: (self.radius - depth).max(0.5 * self.radius),
         }

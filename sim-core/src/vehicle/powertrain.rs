@@ -1,11 +1,27 @@
 //! Steering, powertrain and wheel spin: the steering rate limit and Ackermann angles (phase 2), the automatic
 //! gearbox and the drive torque of each spin group (phase 3), and the implicit spin update with Coulomb brakes
-//! (phase 6). Wheels of a locked driveline share one spin (a spin group); skid-steered vehicles drive their left
-//! (group 0) and right (group 1) sides at throttle -/+ steering.
+//! (phase 6). Wheels of a locked driveline share one spin (a spin group); a clutched driveline's wheels spin each on
+//! their own, joined by torque-limited clutches; skid-steered vehicles drive their left (group 0) and right (group 1)
+//! sides at throttle -/+ steering.
 
 use super::simulation::*;
 use crate::planner::Action;
 use crate::vehicle::spec::SteeringKind;
+
+/// Passes of the clutch solver per step ([`Simulation::lock_clutches`]).
+const CLUTCH_PASSES: usize = 4;
+
+/// A locking clutch of a clutched driveline ([`crate::vehicle::spec::Differential::Clutched`]) between two sets of
+/// spin groups behind an open differential, which splits the clutch's torque equally among each set's members:
+/// an axle's clutch joins its two wheels (one member a side), the central clutch the front and the rear axle (two).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Clutch {
+    pub(super) a: [usize; 2],
+    pub(super) b: [usize; 2],
+    pub(super) members: usize,
+    /// Largest torque it passes, N m at the wheels.
+    pub(super) limit: f64,
+}
 
 /// Steering angles below this (rad) count as straight ahead (no Ackermann correction).
 const STRAIGHT_AHEAD: f64 = 1e-6;
@@ -75,21 +91,31 @@ impl Simulation {
     }
 
     /// Phase 6: each spin group's new spin from its drive torque, the ground's torque at the old spin and its slip
-    /// stiffness (linearly implicit, so stiff friction is stable), then the brakes' Coulomb torque (which stops a
-    /// wheel exactly instead of reversing it). Returns the drive power, W.
+    /// stiffness (linearly implicit, so stiff friction is stable), then the locking clutches of a clutched driveline
+    /// ([`Clutch`]), then the brakes' Coulomb torque (which stops a wheel exactly instead of reversing it). Returns the
+    /// drive power, W.
     pub(super) fn update_spins(&mut self, dt: f64) -> f64 {
         for (before, w) in self.spin_before.iter_mut().zip(&self.wheels) {
             *before = w.spin;
         }
+        for g in 0..self.groups {
+            // The members of a group share one spin; this recovers it from the inertia-weighted sum.
+            let spin = self.group_spin[g] / self.group_inertia[g];
+            let den = self.group_den[g];
+            self.group_free[g] = if den > 0.0 {
+                spin + dt * (self.group_torque[g] + self.group_num[g]) / den
+            } else {
+                spin
+            };
+        }
+        self.lock_clutches(dt);
         let mut power = 0.0;
         for g in 0..self.groups {
             let den = self.group_den[g];
             if den <= 0.0 {
                 continue;
             }
-            // The members of a group share one spin; this recovers it from the inertia-weighted sum.
-            let spin = self.group_spin[g] / self.group_inertia[g];
-            let free = spin + dt * (self.group_torque[g] + self.group_num[g]) / den;
+            let free = self.group_free[g];
             let brake_step = dt * self.group_brake[g] / den;
             let new = if free.abs() <= brake_step {
                 0.0
@@ -104,6 +130,17 @@ impl Simulation {
         power
     }
 
+    /// The clutches' torques on the groups' free spins ([`lock_clutches`]).
+    fn lock_clutches(&mut self, dt: f64) {
+        lock_clutches(
+            &self.clutches,
+            &mut self.clutch_torque,
+            &mut self.group_free,
+            &self.group_den,
+            dt,
+        );
+    }
+
     /// Engine full-load torque at `rpm` (linear in the spec's curve, zero beyond its last point), N m.
     fn torque_curve(&self, rpm: f64) -> f64 {
         let c = &self.spec.powertrain.torque_curve;
@@ -115,5 +152,124 @@ impl Simulation {
             }
         }
         0.0
+    }
+}
+
+/// The clutches' torques on the groups' free spins `free` (each group's spin before the clutches, its effective
+/// inertia over the step `den`, so a torque `T` changes its spin by `dt T / den`): sequential impulses,
+/// [`CLUTCH_PASSES`] passes over the clutches, each clutch's accumulated torque (in `torque`) clamped to its limit. A
+/// clutch that can hold its two sides together locks them; one that cannot slips at its limit.
+fn lock_clutches(clutches: &[Clutch], torque: &mut [f64], free: &mut [f64], den: &[f64], dt: f64) {
+    torque.iter_mut().for_each(|t| *t = 0.0);
+    for _ in 0..CLUTCH_PASSES {
+        for (c, acc) in clutches.iter().zip(torque.iter_mut()) {
+            let n = c.members as f64;
+            let side = |groups: &[usize; 2], free: &[f64]| {
+                let members = &groups[..c.members];
+                let mean = members.iter().map(|&g| free[g]).sum::<f64>() / n;
+                let mobility = members.iter().map(|&g| dt / den[g]).sum::<f64>() / (n * n);
+                (mean, mobility)
+            };
+            let (wa, ma) = side(&c.a, free);
+            let (wb, mb) = side(&c.b, free);
+            if !(ma + mb).is_finite() || ma + mb <= 0.0 {
+                continue;
+            }
+            let total = (*acc + (wb - wa) / (ma + mb)).clamp(-c.limit, c.limit);
+            let delta = total - *acc;
+            *acc = total;
+            for &g in &c.a[..c.members] {
+                free[g] += dt * delta / (n * den[g]);
+            }
+            for &g in &c.b[..c.members] {
+                free[g] -= dt * delta / (n * den[g]);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DT: f64 = 0.004;
+
+    fn axle(limit: f64) -> Clutch {
+        Clutch {
+            a: [0, 0],
+            b: [1, 1],
+            members: 1,
+            limit,
+        }
+    }
+
+    #[test]
+    fn a_clutch_that_can_hold_locks_its_sides_at_their_momentum_weighted_spin() {
+        // Two wheels 1 rad/s apart, effective inertias 2 and 6 kg m^2 (times 1/dt): locking needs
+        // dt T / 2 - (-dt T / 6) = 1, T = 1.5 / dt = 375 N m, within a 1000 N m limit; the common spin conserves
+        // momentum, (2 * 10 + 6 * 11) / 8 = 10.75.
+        let mut free = [10.0, 11.0];
+        let den = [2.0, 6.0];
+        let mut torque = [0.0];
+        lock_clutches(&[axle(1000.0)], &mut torque, &mut free, &den, DT);
+        assert!(
+            (free[0] - 10.75).abs() < 1e-12 && (free[1] - 10.75).abs() < 1e-12,
+            "{free:?}"
+        );
+        assert!((torque[0] - 375.0).abs() < 1e-9, "{torque:?}");
+    }
+
+    #[test]
+    fn a_clutch_that_cannot_hold_slips_at_its_limit() {
+        // The same wheels with Chrono's HMMWV axle clutch, 100 N m: each side's spin moves by dt 100 / den.
+        let mut free = [10.0, 11.0];
+        let den = [2.0, 6.0];
+        let mut torque = [0.0];
+        lock_clutches(&[axle(100.0)], &mut torque, &mut free, &den, DT);
+        assert!(
+            (free[0] - (10.0 + DT * 100.0 / 2.0)).abs() < 1e-12,
+            "{free:?}"
+        );
+        assert!(
+            (free[1] - (11.0 - DT * 100.0 / 6.0)).abs() < 1e-12,
+            "{free:?}"
+        );
+        assert_eq!(torque[0], 100.0);
+    }
+
+    #[test]
+    fn the_central_clutch_splits_its_torque_between_each_axle_s_wheels() {
+        // Front wheels (0, 1) at 10 rad/s, rear (2, 3) at 12, all den 4: locking needs 2 = 2 dt T / 8, T = 2000 N m;
+        // with a 50 N m limit the central clutch slips, each axle's wheels sharing its torque: each front wheel
+        // gains dt 25 / 4, each rear wheel loses as much; the axle clutches have nothing to do.
+        let clutches = [
+            axle(100.0),
+            Clutch {
+                a: [2, 2],
+                b: [3, 3],
+                members: 1,
+                limit: 100.0,
+            },
+            Clutch {
+                a: [0, 1],
+                b: [2, 3],
+                members: 2,
+                limit: 50.0,
+            },
+        ];
+        let mut free = [10.0, 10.0, 12.0, 12.0];
+        let den = [4.0; 4];
+        let mut torque = [0.0; 3];
+        lock_clutches(&clutches, &mut torque, &mut free, &den, DT);
+        let step = DT * 25.0 / 4.0;
+        for (g, want) in [
+            (0, 10.0 + step),
+            (1, 10.0 + step),
+            (2, 12.0 - step),
+            (3, 12.0 - step),
+        ] {
+            assert!((free[g] - want).abs() < 1e-12, "{free:?}");
+        }
+        assert_eq!(torque, [0.0, 0.0, 50.0]);
     }
 }

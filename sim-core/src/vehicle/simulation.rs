@@ -232,6 +232,11 @@ pub struct Simulation {
     pub(super) group_brake: Vec<f64>,
     /// Total spin inertia of each group (constant).
     pub(super) group_inertia: Vec<f64>,
+    /// Each group's spin before clutches and brakes (scratch).
+    pub(super) group_free: Vec<f64>,
+    /// The locking clutches of a clutched driveline (constant) and their torques in this step (scratch).
+    pub(super) clutches: Vec<super::powertrain::Clutch>,
+    pub(super) clutch_torque: Vec<f64>,
     pub(super) contacts: Vec<WheelContact>,
     /// Ground force on each wheel in the last step, world frame (for [`WheelReport`]).
     pub(super) ground_forces: Vec<Vector3<f64>>,
@@ -260,7 +265,17 @@ pub(super) struct WheelContact {
     pub(super) ty: Vector3<f64>,
     /// Force on the wheel from the ground (soil: complete), world.
     pub(super) soil_force: Vector3<f64>,
+    /// The soil's traction stiffness ([`crate::soil::SoilContact::traction_stiffness`]), N s/m.
     pub(super) soil_stiffness: f64,
+    /// The soil's torque on the wheel about its axle (positive along the spin), N m, and its Jacobians
+    /// ([`crate::soil::SoilContact::spin_stiffness`], [`crate::soil::SoilContact::spin_force`],
+    /// [`crate::soil::SoilContact::spin_lift`]).
+    pub(super) soil_torque: f64,
+    pub(super) spin_stiffness: f64,
+    pub(super) spin_force: f64,
+    pub(super) spin_lift: f64,
+    /// The soil's full moment about the wheel's centre, N m (world).
+    pub(super) soil_moment: Vector3<f64>,
     /// The soil's Mohr-Coulomb shear capacity over the contact, N.
     pub(super) shear_capacity: f64,
     pub(super) r_eff: f64,

@@ -47,6 +47,21 @@ pub enum Differential {
     Locked,
     /// Drive torque is split equally; wheels turn freely.
     Open,
+    /// Open differentials locked by friction clutches that pass at most [`Powertrain::locking_limits`]: what a
+    /// "locked" differential is in Chrono's `ChShaftsDriveline4WD` (a `ChShaftsClutch` with a torque limit between
+    /// the differential's outputs). Two driven axles, wheel steering.
+    Clutched,
+}
+
+/// Torque limits of a [`Differential::Clutched`] driveline's locking clutches, N m at the wheels.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LockingLimits {
+    /// Between the two wheels of a driven axle (Chrono's axle clutch joins the axle shafts).
+    pub axle: f64,
+    /// Between the front and the rear driven axle, summed over each axle's wheels (Chrono's central clutch joins the
+    /// front and rear driveshafts: its limit divided by the conical gear's ratio).
+    pub central: f64,
 }
 
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -109,6 +124,9 @@ pub struct Powertrain {
     pub upshift_rpm: f64,
     pub downshift_rpm: f64,
     pub differential: Differential,
+    /// The locking clutches' limits of a [`Differential::Clutched`] driveline (required there, refused elsewhere).
+    #[serde(default)]
+    pub locking_limits: Option<LockingLimits>,
     /// Total brake torque capacity of one wheel, N m.
     pub brake_torque: f64,
 }
@@ -201,6 +219,37 @@ impl VehicleSpec {
             return bad("wheels", "radius, width, inertia and mu must be positive");
         }
         let p = &self.powertrain;
+        match (p.differential, p.locking_limits) {
+            (Differential::Clutched, Some(l)) => {
+                let driven = self.axles.iter().filter(|a| a.driven).count();
+                if !pos(l.axle) || !pos(l.central) {
+                    return bad(
+                        "powertrain.locking_limits",
+                        "axle and central must be positive",
+                    );
+                }
+                if driven != 2 || self.steering.kind == SteeringKind::Skid || self.tracks.is_some()
+                {
+                    return bad(
+                        "powertrain.differential",
+                        "\"clutched\" needs exactly two driven axles and wheel steering",
+                    );
+                }
+            }
+            (Differential::Clutched, None) => {
+                return bad(
+                    "powertrain.locking_limits",
+                    "required with differential = \"clutched\"",
+                );
+            }
+            (_, Some(_)) => {
+                return bad(
+                    "powertrain.locking_limits",
+                    "only with differential = \"clutched\"",
+                );
+            }
+            _ => {}
+        }
         if p.torque_curve.len() < 2 || p.torque_curve.windows(2).any(|w| w[1][0] <= w[0][0]) {
             return bad(
                 "powertrain.torque_curve",

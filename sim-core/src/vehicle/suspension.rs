@@ -34,7 +34,8 @@ impl Simulation {
                     let (vsx, vsy) = self.slip_velocity(&c, spin, &frame.omega_w);
                     let (damping, _) = self.soil_shear_damping(&c, vsx, vsy, frame.dt);
                     ground = c.soil_force
-                        + c.tx * (c.soil_stiffness * c.r_eff * spin_change + damping[0])
+                        + c.tx * (c.spin_force * spin_change + damping[0])
+                        + c.normal * (c.spin_lift * spin_change)
                         + c.ty * damping[1];
                 } else {
                     let w = &self.wheels[k];
@@ -90,6 +91,15 @@ impl Simulation {
             let arm = if c.active { c.point } else { hard_world };
             wrench.torque += (arm - self.pos).cross(&across)
                 + (hard_world - self.pos).cross(&(frame.up * f_strut));
+            if c.active && c.soil {
+                // The soil's force acts over the contact patch, not at `c.point` under the centre: the rest of its
+                // moment about the wheel's centre (on a sunk wheel the pressure's and damping's moment on the
+                // leading arc, which the spin pays as rolling resistance) reaches the chassis too, through the
+                // driveline's reaction to the torque that overcomes it (quasi-steady spin, as the rigid tyre's
+                // force at its contact point).
+                let f = c.soil_force - frame.up * c.soil_force.dot(&frame.up);
+                wrench.torque += c.soil_moment + (c.normal * self.radius).cross(&f);
+            }
         }
     }
 }

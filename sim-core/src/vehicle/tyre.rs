@@ -1,6 +1,7 @@
-//! Phase 5, tyre and soil force trials: the longitudinal ground force on each wheel in contact at the spin of the
-//! previous step and its derivative with respect to the rim speed, summed per spin group for the implicit spin
-//! update. On rigid ground the force comes from the tyre model ([`TyreModel`]); on soil from the soil contact.
+//! Phase 5, tyre and soil force trials: the ground's torque on each wheel in contact at the spin of the previous step
+//! and its derivative with respect to the spin, summed per spin group for the implicit spin update. On rigid ground
+//! the torque is the tyre model's longitudinal force ([`TyreModel`]) at the rim; on soil the soil's moment about the
+//! axle.
 
 use super::simulation::*;
 use super::step::Frame;
@@ -32,15 +33,16 @@ impl Simulation {
                 continue;
             }
             let (vsx, vsy) = self.slip_velocity(&c, w.spin, &frame.omega_w);
-            let (fx0, kx) = if c.soil {
+            if c.soil {
+                // The soil's moment about the axle and its spin Jacobian; the creep damping acts at the rim.
                 let (damping, c_t) = self.soil_shear_damping(&c, vsx, vsy, dt);
-                (c.soil_force.dot(&c.tx) + damping[0], c.soil_stiffness + c_t)
+                self.group_num[g] += c.soil_torque - damping[0] * c.r_eff;
+                self.group_den[g] += dt * (c.spin_stiffness + c_t * c.r_eff * c.r_eff);
             } else {
                 let t = self.tyre_force(w, &c, vsx, vsy, dt);
-                (t.force[0], t.stiffness)
-            };
-            self.group_num[g] -= fx0 * c.r_eff;
-            self.group_den[g] += dt * kx * c.r_eff * c.r_eff;
+                self.group_num[g] -= t.force[0] * c.r_eff;
+                self.group_den[g] += dt * t.stiffness * c.r_eff * c.r_eff;
+            }
         }
     }
 
