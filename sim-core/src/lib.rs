@@ -16,6 +16,7 @@ pub mod collide;
 pub mod control;
 pub mod episode;
 pub mod episode_run;
+pub mod move_off;
 pub mod observe;
 pub mod planner;
 pub mod reward;

@@ -23,7 +23,8 @@ fn characterize_prints_a_datasheet_whose_braking_is_mu_g() {
         String::from_utf8_lossy(&out.stderr)
     );
     let sheets: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let d = &sheets[0];
+    let d = &sheets["datasheets"][0];
+    assert!(sheets["move_off"].is_null());
     assert_eq!(d["vehicle"], "hmmwv");
     assert_eq!(d["surface"], "rigid");
     // Rigid ground at concrete's mean mu 0.85 (below the tyre's 0.9): every wheel locked decelerates at mu g

@@ -1,0 +1,49 @@
+//! Whether a vehicle can move off from a task's start at all: the datasheet's move-off share (issue 29). From the
+//! start pose (facing the goal, settled at rest, as an episode begins), full throttle for 20 s (times
+//! sqrt(scale)) with the steering holding the bearing to the goal; the vehicle moved off if it ends at least 5 m
+//! (times scale) from where it started. No planner does better from a start where this fails on open ground, so
+//! the share of starts it fails on is a floor under every planner's stuck rate that only the vehicle and the
+//! terrain set (sim-core r6 left 91 of the release's 1000 original tasks stuck at their start for every planner).
+
+use crate::episode_run::start_pose;
+use crate::planner::Action;
+use crate::vehicle::{SimOptions, VehicleSpec};
+use crate::world::{Task, World};
+use crate::Simulation;
+
+/// Distance from its start, m at full scale, below which a vehicle did not move off.
+pub const MOVE_OFF_DISTANCE: f64 = 5.0;
+/// How long it tries, s at full scale.
+pub const MOVE_OFF_TIME: f64 = 20.0;
+
+/// How far the vehicle gets from `task`'s start in [`MOVE_OFF_TIME`] at full throttle towards the goal, m.
+/// `dt`: the physics step (default: the vehicle's).
+pub fn move_off_distance(world: &World, task: &Task, spec: &VehicleSpec, dt: Option<f64>) -> f64 {
+    let (x0, y0, yaw) = start_pose(task);
+    let options = SimOptions {
+        dt,
+        ..SimOptions::default()
+    };
+    let mut sim = Simulation::with_options(world, spec, x0, y0, yaw, &options);
+    let start = sim.position();
+    let steps = (MOVE_OFF_TIME * world.scale.sqrt() / sim.dt()).round() as usize;
+    for _ in 0..steps {
+        let s = sim.state();
+        let bearing = (task.goal[1] - s.position[1]).atan2(task.goal[0] - s.position[0]);
+        let error = (bearing - s.yaw + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
+        let steering = (2.0 * error - 0.5 * s.angular_velocity[2]).clamp(-1.0, 1.0);
+        sim.step(&Action {
+            steering,
+            throttle: 1.0,
+            brake: 0.0,
+        });
+    }
+    (sim.position() - start).xy().norm()
+}
+
+/// Whether the vehicle moves off from `task`'s start ([`move_off_distance`] at least [`MOVE_OFF_DISTANCE`] times
+/// the world's scale).
+pub fn moves_off(world: &World, task: &Task, spec: &VehicleSpec, dt: Option<f64>) -> bool {
+    move_off_distance(world, task, spec, dt) >= MOVE_OFF_DISTANCE * world.scale
+}
