@@ -116,16 +116,16 @@ impl SoilGrid {
                 }
                 let h = (w.radius * w.radius - u * u).sqrt();
                 let p = Vector3::new(x, y, w.centre.z - h);
-                let normal = self.surface_normal(x, y);
-                let roll = (fwd - normal * fwd.dot(&normal)).normalize();
+                let (ground, normal) = self.ground.at(&self.heights, j * self.nx + i, x, y);
                 // The rim point over the fixed node falls at `v_z - u v_f / h` (the rim's advance included).
                 let approach = normal.z * (u * vf / h - vz);
                 let hit = Hit {
                     p,
                     v: w.velocity + w.angular_velocity.cross(&(p - w.centre)),
                     normal,
+                    ground,
+                    heading: fwd,
                     approach,
-                    roll,
                     axle: w.axle,
                     bristle,
                     weight,
@@ -186,14 +186,16 @@ impl SoilGrid {
                     continue;
                 }
                 let v = plate.velocity + plate.angular_velocity.cross(&d);
-                let normal = self.surface_normal(x, y);
+                let (_, normal) = self.ground.at(&self.heights, j * self.nx + i, x, y);
+                let p = plate.centre + d;
                 let hit = Hit {
-                    p: plate.centre + d,
+                    p,
                     v,
                     normal,
+                    ground: self.heights.height_bilinear(p.x, p.y),
+                    heading: plate.forward,
                     // The face over a fixed node moves down at `-v . up / up_z`.
                     approach: normal.z * (-v.dot(&plate.up) / plate.up.z),
-                    roll: (plate.forward - normal * plate.forward.dot(&normal)).normalize(),
                     axle: Vector3::zeros(),
                     bristle,
                     weight,

@@ -73,6 +73,7 @@ use nalgebra::Vector3;
 use node::Node;
 
 mod contact;
+mod ground;
 mod node;
 pub mod rig;
 
@@ -178,6 +179,8 @@ pub struct SoilGrid {
     pool_tiles: Vec<u32>,
     patch_soil: [Option<SoilParams>; PATCHES * PATCHES],
     heights: crate::world::Heightmap,
+    /// The undeformed ground at the nodes under bodies (a cache of `heights`).
+    ground: ground::GroundCache,
     /// Chrono's ray test height above the surface (0.1 m at full scale): how far above it a wheel's rays still hit.
     test_height: f64,
     /// Below this speed a body is creeping, m/s (0.05 m/s at full scale, Froude-scaled).
@@ -205,6 +208,7 @@ impl Clone for SoilGrid {
             pool_tiles,
             patch_soil: self.patch_soil,
             heights: self.heights.clone(),
+            ground: self.ground.clone(),
             test_height: self.test_height,
             creep_speed: self.creep_speed,
             step: self.step,
@@ -248,6 +252,7 @@ impl SoilGrid {
             pool_tiles: Vec::with_capacity(if any_soil { TILE_POOL } else { 0 }),
             patch_soil,
             heights: h.clone(),
+            ground: ground::GroundCache::new(any_soil),
             test_height: 0.1 * world.scale,
             creep_speed: 0.05 * world.scale.sqrt(),
             step: 0,

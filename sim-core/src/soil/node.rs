@@ -53,14 +53,16 @@ pub(super) struct Hit {
     /// Unit normal of the undeformed terrain at the node (Chrono's `GetInitNormal`): the pressure acts along it and
     /// the shear in its plane.
     pub(super) normal: Vector3<f64>,
+    /// Height of the undeformed terrain under `p` (Chrono's `GetInitHeight`), m.
+    pub(super) ground: f64,
+    /// Direction of rolling or sliding (wheel: its heading; plate: `forward`); the traction Jacobians are taken
+    /// along its part in the terrain's plane.
+    pub(super) heading: Vector3<f64>,
     /// Speed at which the body's surface above the node moves down into it, along `normal` (m/s; negative while it
     /// moves up): the geometric rate of the node's sinkage, `-dp_z/dt N_z` with `p` the body's surface point over
     /// the fixed node (a rolling rim's advance included). It picks the pressure branch the node moves along and
     /// when, within a step, a contact began.
     pub(super) approach: f64,
-    /// Unit direction of rolling or sliding in the terrain's plane (wheel: its heading; plate: `forward`); the
-    /// traction Jacobians are taken along it.
-    pub(super) roll: Vector3<f64>,
     /// A wheel's unit axle (its spin axis), zero for a plate: the spin Jacobians' lever arms.
     pub(super) axle: Vector3<f64>,
     /// The shear bristle's length over Janosi's `K` for this body ([`bristle_over_janosi`]).
@@ -214,7 +216,7 @@ impl SoilGrid {
     ) {
         let p = hit.p;
         let n = hit.normal;
-        let h0 = self.heights.height_bilinear(p.x, p.y);
+        let h0 = hit.ground;
         // Chrono's sinkage: the node's depth under its initial level times `N_z` (`p_hit_offset`).
         let s = n.z * (h0 - p.z);
         let swept = hit
@@ -342,16 +344,18 @@ impl SoilGrid {
         } else {
             (k0, k0)
         };
+        // The rolling direction in the terrain's plane.
+        let roll = (hit.heading - n * hit.heading.dot(&n)).normalize();
         let rn = rho.norm();
         let c2 = if rn > 1e-12 {
-            (rho.dot(&hit.roll) / rn).powi(2)
+            (rho.dot(&roll) / rn).powi(2)
         } else {
             1.0
         };
         let stiffness = cell * t_slip * (k_par * c2 + k_perp * (1.0 - c2));
         out.traction_stiffness += stiffness;
         // The spin moves the slip along `roll` by `lever` per rad/s (`-h` under a wheel's centre).
-        let lever = hit.axle.cross(&arm).dot(&hit.roll);
+        let lever = hit.axle.cross(&arm).dot(&roll);
         out.spin_force -= stiffness * lever;
         out.spin_stiffness += stiffness * lever * lever;
     }
