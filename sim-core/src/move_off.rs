@@ -1,9 +1,9 @@
 //! Whether a vehicle can move off from a task's start at all: the datasheet's move-off share (issue 29). From the
 //! start pose (facing the goal, settled at rest, as an episode begins), full throttle for 20 s (times
 //! sqrt(scale)) with the steering holding the bearing to the goal; the vehicle moved off if it ends at least 5 m
-//! (times scale) from where it started. No planner does better from a start where this fails on open ground, so
-//! the share of starts it fails on is a floor under every planner's stuck rate that only the vehicle and the
-//! terrain set (sim-core r6 left 91 of the release's 1000 original tasks stuck at their start for every planner).
+//! (times scale) from where it started. The share of starts it fails on is what a planner that heads for the goal
+//! cannot leave, set by the vehicle and the terrain alone (sim-core r6 left 91 of the release's 1000 original tasks
+//! stuck at their start for every planner); a planner that steers elsewhere first may leave some of them.
 
 use crate::episode_run::start_pose;
 use crate::planner::Action;
