@@ -1,28 +1,32 @@
 //! `vb sim characterize`: the datasheet command end to end (the binary, its JSON, its errors).
 
 mod common;
+use std::ffi::OsStr;
 use std::process::Command;
 
-#[test]
-fn characterize_prints_a_datasheet_whose_braking_is_mu_g() {
-    let out = Command::new(common::vb())
-        .args([
-            "sim",
-            "characterize",
-            "--vehicle",
-            "hmmwv",
-            "--surface",
-            "rigid",
-            "--json",
-        ])
-        .output()
-        .unwrap();
+/// Runs `vb` with `args`, which must succeed; returns its standard output.
+fn vb_ok<S: AsRef<OsStr>>(args: impl IntoIterator<Item = S>) -> Vec<u8> {
+    let out = Command::new(common::vb()).args(args).output().unwrap();
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let sheets: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    out.stdout
+}
+
+#[test]
+fn characterize_prints_a_datasheet_whose_braking_is_mu_g() {
+    let out = vb_ok([
+        "sim",
+        "characterize",
+        "--vehicle",
+        "hmmwv",
+        "--surface",
+        "rigid",
+        "--json",
+    ]);
+    let sheets: serde_json::Value = serde_json::from_slice(&out).unwrap();
     let d = &sheets["datasheets"][0];
     assert!(sheets["move_off"].is_null());
     assert_eq!(d["vehicle"], "hmmwv");
@@ -45,11 +49,8 @@ fn characterize_prints_a_datasheet_whose_braking_is_mu_g() {
     );
     assert!(full < half, "radius half {half} full {full}");
     // The table form names every scenario.
-    let out = Command::new(common::vb())
-        .args(["sim", "characterize", "--surface", "rigid"])
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&out.stdout);
+    let out = vb_ok(["sim", "characterize", "--surface", "rigid"]);
+    let text = String::from_utf8_lossy(&out);
     for row in [
         "static sinkage",
         "distance at 20 s",
@@ -88,36 +89,23 @@ fn characterize_counts_the_starts_a_vehicle_cannot_move_off_from() {
     let dir = common::temp_dir("move-off");
     let tasks = dir.join("orig-tasks");
     let maps = std::path::PathBuf::from(release).join("BenchMaps/sampled_maps");
-    let out = Command::new(common::vb())
-        .args(["tasks", "import-verti-bench"])
-        .arg(&maps)
-        .arg("--out")
-        .arg(&tasks)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let out = Command::new(common::vb())
-        .args([
-            "sim",
-            "characterize",
-            "--surface",
-            "rigid",
-            "--json",
-            "--task-dir",
-        ])
-        .arg(&tasks)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    vb_ok([
+        OsStr::new("tasks"),
+        OsStr::new("import-verti-bench"),
+        maps.as_os_str(),
+        OsStr::new("--out"),
+        tasks.as_os_str(),
+    ]);
+    let out = vb_ok([
+        OsStr::new("sim"),
+        OsStr::new("characterize"),
+        OsStr::new("--surface"),
+        OsStr::new("rigid"),
+        OsStr::new("--json"),
+        OsStr::new("--task-dir"),
+        tasks.as_os_str(),
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&out).unwrap();
     assert_eq!(v["datasheets"][0]["surface"], "rigid");
     assert_eq!(v["move_off"]["starts"], 100);
     let stuck: Vec<&str> = v["move_off"]["stuck"]

@@ -8,7 +8,7 @@
 use crate::world::Heightmap;
 use nalgebra::Vector3;
 
-/// Slots of the cache: four wheels press about 300 nodes and a track's shoes about 1000.
+/// Slots of the cache: a step's wheels or track shoes press a few hundred nodes.
 const SLOTS: usize = 4096;
 const EMPTY: usize = usize::MAX;
 
