@@ -143,11 +143,23 @@ pub fn datasheet(spec: &VehicleSpec, setup: &Setup) -> Datasheet {
 }
 
 fn new_sim(world: &World, spec: &VehicleSpec, setup: &Setup, x: f64) -> Simulation {
+    sim_at(world, spec, setup.dt, x * spec.scale, 0.0, 0.0)
+}
+
+/// A settled vehicle at `(x, y)` facing `yaw`, stepping at `dt` (default: the vehicle's).
+pub(crate) fn sim_at(
+    world: &World,
+    spec: &VehicleSpec,
+    dt: Option<f64>,
+    x: f64,
+    y: f64,
+    yaw: f64,
+) -> Simulation {
     let options = SimOptions {
-        dt: setup.dt,
+        dt,
         ..SimOptions::default()
     };
-    Simulation::with_options(world, spec, x * spec.scale, 0.0, 0.0, &options)
+    Simulation::with_options(world, spec, x, y, yaw, &options)
 }
 
 /// Mean sinkage (tyre deflection on rigid ground) of the wheels in contact, m.
@@ -163,13 +175,18 @@ pub fn mean_sinkage(sim: &Simulation) -> f64 {
     }
 }
 
-/// Steering that holds heading 0 (proportional to the yaw error and its rate).
+/// Steering that holds heading 0 ([`steer`]).
 fn hold_heading(sim: &Simulation) -> f64 {
-    let s = sim.state();
-    (-2.0 * s.yaw - 0.5 * s.angular_velocity[2]).clamp(-1.0, 1.0)
+    steer(sim, -sim.state().yaw)
 }
 
-fn act(steering: f64, throttle: f64, brake: f64) -> Action {
+/// Steering proportional to a heading error `error` (rad, the wanted heading less the vehicle's yaw) and damped by
+/// the yaw rate.
+pub(crate) fn steer(sim: &Simulation, error: f64) -> f64 {
+    (2.0 * error - 0.5 * sim.state().angular_velocity[2]).clamp(-1.0, 1.0)
+}
+
+pub(crate) fn act(steering: f64, throttle: f64, brake: f64) -> Action {
     Action {
         steering,
         throttle,
@@ -178,7 +195,11 @@ fn act(steering: f64, throttle: f64, brake: f64) -> Action {
 }
 
 /// Runs `seconds` (scaled by sqrt(scale)) calling `control` before every step.
-fn drive(sim: &mut Simulation, seconds: f64, mut control: impl FnMut(&Simulation) -> Action) {
+pub(crate) fn drive(
+    sim: &mut Simulation,
+    seconds: f64,
+    mut control: impl FnMut(&Simulation) -> Action,
+) {
     let steps = (seconds * sim.spec().scale.sqrt() / sim.dt()).round() as usize;
     for _ in 0..steps {
         let a = control(sim);

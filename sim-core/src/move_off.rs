@@ -5,11 +5,11 @@
 //! cannot leave, set by the vehicle and the terrain alone (sim-core r6 left 91 of the release's 1000 original tasks
 //! stuck at their start for every planner); a planner that steers elsewhere first may leave some of them.
 
+use crate::characterize::{act, drive, sim_at, steer};
 use crate::episode_run::start_pose;
-use crate::planner::Action;
-use crate::vehicle::{SimOptions, VehicleSpec};
+use crate::vehicle::VehicleSpec;
 use crate::world::{Task, World};
-use crate::Simulation;
+use std::f64::consts::{PI, TAU};
 
 /// Distance from its start, m at full scale, below which a vehicle did not move off.
 pub const MOVE_OFF_DISTANCE: f64 = 5.0;
@@ -20,30 +20,22 @@ pub const MOVE_OFF_TIME: f64 = 20.0;
 /// `dt`: the physics step (default: the vehicle's).
 pub fn move_off_distance(world: &World, task: &Task, spec: &VehicleSpec, dt: Option<f64>) -> f64 {
     let (x0, y0, yaw) = start_pose(task);
-    let options = SimOptions {
-        dt,
-        ..SimOptions::default()
-    };
-    let mut sim = Simulation::with_options(world, spec, x0, y0, yaw, &options);
+    let mut sim = sim_at(world, spec, dt, x0, y0, yaw);
     let start = sim.position();
-    let steps = (MOVE_OFF_TIME * world.scale.sqrt() / sim.dt()).round() as usize;
-    for _ in 0..steps {
+    drive(&mut sim, MOVE_OFF_TIME, |sim| {
         let s = sim.state();
         let bearing = (task.goal[1] - s.position[1]).atan2(task.goal[0] - s.position[0]);
-        let error = (bearing - s.yaw + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-            - std::f64::consts::PI;
-        let steering = (2.0 * error - 0.5 * s.angular_velocity[2]).clamp(-1.0, 1.0);
-        sim.step(&Action {
-            steering,
-            throttle: 1.0,
-            brake: 0.0,
-        });
-    }
+        act(
+            steer(sim, (bearing - s.yaw + PI).rem_euclid(TAU) - PI),
+            1.0,
+            0.0,
+        )
+    });
     (sim.position() - start).xy().norm()
 }
 
 /// Whether the vehicle moves off from `task`'s start ([`move_off_distance`] at least [`MOVE_OFF_DISTANCE`] times
-/// the world's scale).
+/// the vehicle's scale).
 pub fn moves_off(world: &World, task: &Task, spec: &VehicleSpec, dt: Option<f64>) -> bool {
-    move_off_distance(world, task, spec, dt) >= MOVE_OFF_DISTANCE * world.scale
+    move_off_distance(world, task, spec, dt) >= MOVE_OFF_DISTANCE * spec.scale
 }

@@ -10,7 +10,9 @@
 //!   [`charts`], SVG charts of the breakdowns (an auto-escaping template).
 //! - [`compare`]: paired comparison of two evaluations (difference in success rate with a 95% interval, exact
 //!   McNemar test).
+//! - [`move_off`]: from how many of a task set's starts a vehicle cannot move off at all.
 
+pub mod move_off;
 pub mod run;
 
 // The results' types and files live in the `results` crate (shared with the service); re-exported here so local

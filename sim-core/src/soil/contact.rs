@@ -192,6 +192,7 @@ impl SoilGrid {
                     p,
                     v,
                     normal,
+                    // Under the face point, which rounds a little away from the node (r6's value, kept bit for bit).
                     ground: self.heights.height_bilinear(p.x, p.y),
                     heading: plate.forward,
                     // The face over a fixed node moves down at `-v . up / up_z`.

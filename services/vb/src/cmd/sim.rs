@@ -120,30 +120,32 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
                 .into_iter()
                 .map(|ground| datasheet(&spec, &Setup { ground, dt }))
                 .collect();
-            let stuck = match &task_dir {
-                Some(dir) => Some(stuck_starts(dir, &spec, dt)?),
+            let move_off = match &task_dir {
+                Some(dir) => Some(eval::move_off::move_off(
+                    &tasks::TaskSet::load(dir)?,
+                    &spec,
+                    dt,
+                )?),
                 None => None,
             };
             if json {
                 println!(
                     "{}",
-                    serde_json::to_string_pretty(&serde_json::json!({
-                        "datasheets": sheets,
-                        "move_off": stuck.as_ref().map(|(n, ids)| serde_json::json!({
-                            "starts": n, "stuck": ids,
-                        })),
-                    }))?
+                    serde_json::to_string_pretty(
+                        &serde_json::json!({ "datasheets": sheets, "move_off": move_off })
+                    )?
                 );
             } else {
                 print!("{}", sim_core::characterize::table(&sheets));
-                if let (Some((n, ids)), Some(dir)) = (&stuck, &task_dir) {
+                if let (Some(m), Some(dir)) = (&move_off, &task_dir) {
                     println!(
-                        "move-off from the {n} starts of {}: stuck (under 5 m in 20 s at full throttle towards the goal) at {} ({:.1}%){}{}",
+                        "move-off from the {} starts of {}: stuck (under 5 m in 20 s at full throttle towards the goal) at {} ({:.1}%){}{}",
+                        m.starts,
                         dir.display(),
-                        ids.len(),
-                        100.0 * ids.len() as f64 / (*n).max(1) as f64,
-                        if ids.is_empty() { "" } else { ": " },
-                        ids.join(" ")
+                        m.stuck.len(),
+                        100.0 * m.stuck_share(),
+                        if m.stuck.is_empty() { "" } else { ": " },
+                        m.stuck.join(" ")
                     );
                 }
             }
@@ -155,28 +157,4 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-/// The move-off check from every start of the task set in `dir`: (starts, ids of the tasks the vehicle cannot move
-/// off from), in task order, the tasks run in parallel.
-fn stuck_starts(
-    dir: &std::path::Path,
-    spec: &sim_core::vehicle::VehicleSpec,
-    dt: Option<f64>,
-) -> anyhow::Result<(usize, Vec<String>)> {
-    use rayon::prelude::*;
-    let set = tasks::TaskSet::load(dir)?;
-    let mut jobs = Vec::new();
-    for id in set.world_ids() {
-        let world = std::sync::Arc::new(set.world(id, spec.scale)?);
-        for task in set.tasks(id, spec.scale)? {
-            jobs.push((world.clone(), task));
-        }
-    }
-    let stuck: Vec<String> = jobs
-        .par_iter()
-        .filter(|(world, task)| !sim_core::move_off::moves_off(world, task, spec, dt))
-        .map(|(_, task)| task.id())
-        .collect();
-    Ok((jobs.len(), stuck))
 }
