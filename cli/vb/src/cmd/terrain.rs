@@ -58,7 +58,7 @@ pub enum TerrainCmd {
     Eval {
         #[arg(long)]
         data: PathBuf,
-        /// Weights file (default: the committed tasks/swae/weights/swae-v4.safetensors).
+        /// Weights file (default: the committed swae/weights/swae-v4.safetensors).
         #[arg(long)]
         weights: Option<PathBuf>,
         /// Generated samples to compare.

@@ -158,7 +158,7 @@ fn a_surface_counterfactual_changes_only_the_ground() {
 fn the_v3_weights_still_regenerate_set_v3() {
     // Set v3 (SWAE v3's stationary texture at 11.32 m; results of 2026-11-24) left the repository when v4 replaced
     // it; its version hash covers every world file, so `vb tasks generate --weights
-    // tasks/swae/weights/swae-v3.safetensors --full-scale 11.32` rebuilds it byte for byte: the v3 weights have no
+    // swae/weights/swae-v3.safetensors --full-scale 11.32` rebuilds it byte for byte: the v3 weights have no
     // `detail.amplitude`, so their texture is drawn exactly as before.
     let weights = Path::new(env!("CARGO_MANIFEST_DIR")).join("weights/swae-v3.safetensors");
     let src = SwaeSource::from_file(&weights, swae::source::V3_FULL_SCALE_HEIGHT).unwrap();

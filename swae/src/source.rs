@@ -16,11 +16,11 @@ use std::path::Path;
 use tasks::generate::HeightSource;
 use tasks::TasksError;
 
-/// The committed weights (`tasks/swae/weights/swae-v4.safetensors`: v3's linear skip and refiner with the
+/// The committed weights (`swae/weights/swae-v4.safetensors`: v3's linear skip and refiner with the
 /// scale-mixture observation model of BENCHMARKS.md "SWAE v4", refitted by `vb terrain fit-detail`), compiled in.
 pub const DEFAULT_WEIGHTS: &[u8] = include_bytes!("../weights/swae-v4.safetensors");
 /// Where [`DEFAULT_WEIGHTS`] came from (relative to the workspace root), for messages.
-pub const DEFAULT_WEIGHTS_PATH: &str = "tasks/swae/weights/swae-v4.safetensors";
+pub const DEFAULT_WEIGHTS_PATH: &str = "swae/weights/swae-v4.safetensors";
 
 /// Height, m, of a decoded value of +1 at the high level (the original used 16 m for gray 255).
 ///

@@ -48,7 +48,7 @@ fn every_state_and_outcome_literal_in_the_queries_is_a_named_value() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let mut states = 0;
     let mut outcomes = 0;
-    for dir in ["services/store/src", "services/coordinator/src"] {
+    for dir in ["services/vb-store/src", "services/vb-coordinator/src"] {
         for entry in std::fs::read_dir(root.join(dir)).unwrap() {
             let path = entry.unwrap().path();
             if path.extension().is_none_or(|e| e != "rs") {

@@ -8,7 +8,7 @@ fn main() -> anyhow::Result<()> {
     let a: Vec<String> = std::env::args().skip(1).collect();
     // The committed weights (DEFAULT_WEIGHTS_PATH is relative to the workspace root).
     let weights = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
+        .join("..")
         .join(swae::source::DEFAULT_WEIGHTS_PATH);
     let src = || swae::SwaeSource::from_file(&weights, swae::source::FULL_SCALE_HEIGHT);
     match a.first().map(String::as_str) {

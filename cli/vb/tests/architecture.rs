@@ -127,9 +127,9 @@ fn deps_of(crate_dir: &str) -> Vec<String> {
 #[test]
 fn only_the_coordinator_writes_the_store_and_workers_never_touch_it() {
     for dir in [
-        "services/worker",
-        "services/submit",
-        "examples/planner-rust",
+        "services/vb-worker",
+        "cli/vb-submit",
+        "examples/example-planner",
     ] {
         let deps = deps_of(dir);
         for forbidden in ["sqlx", "vb-store", "vb-coordinator"] {
@@ -141,7 +141,7 @@ fn only_the_coordinator_writes_the_store_and_workers_never_touch_it() {
     }
     // The leaderboard holds only a `Reader` (it has no way to write).
     let mut files = Vec::new();
-    rust_files(&repo_root().join("services/leaderboard/src"), &mut files);
+    rust_files(&repo_root().join("services/vb-leaderboard/src"), &mut files);
     for f in files {
         let text = std::fs::read_to_string(&f).unwrap();
         for needle in [
@@ -166,12 +166,12 @@ fn protobuf_types_stay_at_the_service_edge() {
     for dir in [
         "sim-core",
         "tasks",
-        "tasks/swae",
-        "services/baselines",
-        "services/eval",
-        "services/viz",
-        "services/store",
-        "services/leaderboard",
+        "swae",
+        "planners/baselines",
+        "eval",
+        "viz",
+        "services/vb-store",
+        "services/vb-leaderboard",
     ] {
         let deps = deps_of(dir);
         for forbidden in ["vb-proto", "tonic", "prost"] {
@@ -182,7 +182,7 @@ fn protobuf_types_stay_at_the_service_edge() {
         }
     }
     // The example planner is the shape a user copies: it depends on the protocol only, not on our service code.
-    let deps = deps_of("examples/planner-rust");
+    let deps = deps_of("examples/example-planner");
     for d in &deps {
         assert!(
             !d.starts_with("vb-") || d == "vb-proto",
@@ -207,11 +207,11 @@ fn tasks_do_not_depend_on_the_terrain_model_and_generation_avoids_candle() {
         );
     }
     for file in ["decoder.rs", "source.rs"] {
-        let text = std::fs::read_to_string(repo_root().join("tasks/swae/src").join(file)).unwrap();
+        let text = std::fs::read_to_string(repo_root().join("swae/src").join(file)).unwrap();
         for used in ["candle_core", "candle_nn", "rayon"] {
             assert!(
                 !text.contains(used),
-                "tasks/swae/src/{file} must not use {used}"
+                "swae/src/{file} must not use {used}"
             );
         }
     }

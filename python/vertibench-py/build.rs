@@ -10,9 +10,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "vertibench/v1/sim.proto",
     ];
     for f in &files {
-        println!("cargo:rerun-if-changed=../proto/{f}");
+        println!("cargo:rerun-if-changed=../../services/vb-proto/{f}");
     }
-    let fds = protox::compile(files, ["../proto"])?;
+    let fds = protox::compile(files, ["../../services/vb-proto"])?;
     let out = std::path::PathBuf::from(std::env::var("OUT_DIR")?).join("vertibench.fds");
     std::fs::write(out, fds.encode_to_vec())?;
     Ok(())
