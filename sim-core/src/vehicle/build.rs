@@ -311,7 +311,7 @@ impl Simulation {
     /// Returns the settling time, s.
     pub fn settle(&mut self) -> f64 {
         let (x, y) = (self.pos.x, self.pos.y);
-        let brake = crate::planner::Action {
+        let brake = super::action::Action {
             steering: 0.0,
             throttle: 0.0,
             brake: 1.0,

@@ -22,6 +22,7 @@
 //! (accessors, state copies), `step` (the step as a pipeline of phases, listed there), and one module per phase:
 //! `powertrain`, `contact`, `tyre`, `suspension`, `body`, `integrate`.
 
+mod action;
 mod body;
 mod build;
 mod contact;
@@ -34,6 +35,7 @@ mod step;
 mod suspension;
 mod tyre;
 
+pub use action::{Action, VehicleInfo, VehicleState};
 pub use simulation::{
     default_dt, SimOptions, Simulation, StateCopyError, StepInfo, WheelReport, SETTLED_FOR,
     SETTLED_SPEED, SETTLE_MAX,

@@ -5,7 +5,7 @@
 //! sides at throttle -/+ steering.
 
 use super::simulation::*;
-use crate::planner::Action;
+use super::action::Action;
 use crate::vehicle::spec::SteeringKind;
 
 /// Passes of the clutch solver per step ([`Simulation::lock_clutches`]).

@@ -2,7 +2,7 @@
 //! simulation's state (model-based planners) and overwriting the chassis with an observation.
 
 use super::simulation::*;
-use crate::planner::VehicleState;
+use super::action::VehicleState;
 use crate::soil::SoilGrid;
 use crate::vehicle::spec::VehicleSpec;
 use nalgebra::{UnitQuaternion, Vector3};

@@ -12,7 +12,7 @@
 //! 9. `integrate::integrate`: semi-implicit Euler on the chassis.
 
 use super::simulation::*;
-use crate::planner::Action;
+use super::action::Action;
 use nalgebra::Vector3;
 
 /// What every phase of one step reads: the step and the chassis frame at its start.

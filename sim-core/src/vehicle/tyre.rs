@@ -5,7 +5,7 @@
 
 use super::simulation::*;
 use super::step::Frame;
-use crate::planner::Action;
+use super::action::Action;
 use crate::vehicle::spec::TyreModel;
 use nalgebra::Vector3;
 
