@@ -26,7 +26,7 @@ pub mod terrain_stats;
 pub use contracts::trajectory;
 pub mod vehicle;
 
-pub use episode_run::EpisodeRun;
+pub use episode_run::{EpisodeRun, Transition};
 pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
 
 /// Identifies the physics that produced a result: the crate version and a revision bumped with every change that
