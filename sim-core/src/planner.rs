@@ -8,9 +8,9 @@
 use crate::world::{Task, World};
 use serde::{Deserialize, Serialize};
 
+use crate::vehicle::VehicleSpec;
 /// The vehicle's controls and what it reports live with the vehicle ([`crate::vehicle`]); planners see them here.
 pub use crate::vehicle::{Action, VehicleInfo, VehicleState};
-use crate::vehicle::VehicleSpec;
 
 /// What the planner receives at every control step.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

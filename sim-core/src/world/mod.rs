@@ -19,7 +19,8 @@ mod surface;
 
 pub use heightmap::Heightmap;
 pub use surface::{
-    ElevationLevel, ObstacleDensity, Patch, Semantic, SemanticsKind, SoilParams, Surface, RIGID_RESTITUTION,
+    ElevationLevel, ObstacleDensity, Patch, Semantic, SemanticsKind, SoilParams, Surface,
+    RIGID_RESTITUTION,
 };
 
 use serde::{Deserialize, Serialize};
