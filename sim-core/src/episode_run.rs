@@ -13,6 +13,7 @@ use crate::reward::{is_time_limit, RewardTerms, RewardWeights};
 use crate::vehicle::{Simulation, VehicleSpec};
 use crate::world::{Task, World};
 use nalgebra::Vector3;
+use std::sync::Arc;
 
 /// Running mean / variance / max (Welford).
 #[derive(Clone, Copy, Debug, Default)]
@@ -137,9 +138,22 @@ pub struct EpisodeRun {
 impl EpisodeRun {
     /// Places the vehicle at the task's start facing the goal, settled at rest, with a control rate of 20 Hz
     /// until [`EpisodeRun::set_control_rate`] says otherwise.
+    /// The run copies `world` once into the `Arc` its simulation shares ([`EpisodeRun::new_shared`] takes a shared
+    /// one); clones of the run share it.
     pub fn new(world: &World, task: &Task, vehicle: &VehicleSpec, cfg: &EpisodeConfig) -> Self {
+        EpisodeRun::new_shared(Arc::new(world.clone()), task, vehicle, cfg)
+    }
+
+    /// [`EpisodeRun::new`] in a shared world (no copy of it).
+    pub fn new_shared(
+        world: Arc<World>,
+        task: &Task,
+        vehicle: &VehicleSpec,
+        cfg: &EpisodeConfig,
+    ) -> Self {
         let (x0, y0, yaw) = start_pose(task);
-        let sim = Simulation::new(world, vehicle, x0, y0, yaw);
+        let sim = Simulation::new_shared(world, vehicle, x0, y0, yaw);
+        let world = sim.world();
         let dt = sim.dt();
         let scale = world.scale;
         let record_every = cfg

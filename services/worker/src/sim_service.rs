@@ -43,7 +43,8 @@ impl SimEpisode {
 
     /// Starts the episode over: the vehicle settled at rest at the start.
     fn reset(&mut self) -> pb::StepResponse {
-        let mut run = EpisodeRun::new(&self.world, &self.task, &self.vehicle, &self.cfg);
+        let mut run =
+            EpisodeRun::new_shared(self.world.clone(), &self.task, &self.vehicle, &self.cfg);
         run.set_control_rate(self.control_rate)
             .expect("the control rate was checked at creation");
         let resp = pb::StepResponse {

@@ -31,24 +31,22 @@ pub(super) fn force_trials(
     action: &Action,
 ) {
     let dt = frame.dt;
-    for k in 0..p.wheels.len() {
-        let c = contacts[k];
-        let w = &s.wheels[k];
-        let g = p.wheels[k].group;
+    for ((c, w), wp) in contacts.iter().zip(&s.wheels).zip(&p.wheels) {
+        let g = wp.group;
         groups.den[g] += p.wheel_inertia;
         groups.spin[g] += w.spin * p.wheel_inertia;
         groups.brake[g] += p.spec.powertrain.brake_torque * action.brake.clamp(0.0, 1.0);
         if !c.active {
             continue;
         }
-        let (vsx, vsy) = slip_velocity(s, &c, w.spin, &frame.omega_w);
+        let (vsx, vsy) = slip_velocity(s, c, w.spin, &frame.omega_w);
         if c.soil {
             // The soil's moment about the axle and its spin Jacobian; the creep damping acts at the rim.
-            let (damping, c_t) = p.soil_shear_damping(&c, vsx, vsy, dt);
+            let (damping, c_t) = p.soil_shear_damping(c, vsx, vsy, dt);
             groups.num[g] += c.soil_torque - damping[0] * c.r_eff;
             groups.den[g] += dt * (c.spin_stiffness + c_t * c.r_eff * c.r_eff);
         } else {
-            let t = p.tyre_force(w, &c, vsx, vsy, dt);
+            let t = p.tyre_force(w, c, vsx, vsy, dt);
             groups.num[g] -= t.force[0] * c.r_eff;
             groups.den[g] += dt * t.stiffness * c.r_eff * c.r_eff;
         }
