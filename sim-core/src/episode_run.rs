@@ -15,35 +15,6 @@ use crate::world::{Task, World};
 use nalgebra::Vector3;
 use std::sync::Arc;
 
-/// Running mean / variance / max (Welford).
-#[derive(Clone, Copy, Debug, Default)]
-struct Running {
-    n: f64,
-    mean: f64,
-    m2: f64,
-    max: f64,
-}
-
-impl Running {
-    fn push(&mut self, v: f64) {
-        if self.n == 0.0 {
-            self.max = v;
-        }
-        self.n += 1.0;
-        let d = v - self.mean;
-        self.mean += d / self.n;
-        self.m2 += d * (v - self.mean);
-        self.max = self.max.max(v);
-    }
-    fn stats(&self) -> SignalStats {
-        SignalStats {
-            mean: self.mean,
-            var: if self.n > 0.0 { self.m2 / self.n } else { 0.0 },
-            max: self.max,
-        }
-    }
-}
-
 /// How an episode ended, before the rollover rule classified a failed trial (`reason` is machine-readable, e.g.
 /// `timeout`, `off_map`, `invalid_action`).
 #[derive(Clone, Debug, PartialEq)]
