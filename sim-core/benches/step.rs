@@ -52,7 +52,7 @@ fn bench(c: &mut Criterion) {
         c.bench_function(&format!("step_{name}"), |b| {
             b.iter(|| {
                 if sim.position().x > 50.0 || sim.position().y.abs() > 50.0 {
-                    sim.copy_state_from(&start, f64::INFINITY).unwrap();
+                    sim.set_dynamics(start.dynamics(), f64::INFINITY).unwrap();
                 }
                 black_box(sim.step(black_box(&drive)))
             })

@@ -118,3 +118,32 @@ pub struct EpisodeResult {
     pub metrics: EpisodeMetrics,
     pub trajectory: Vec<TrajectorySample>,
 }
+
+/// Running mean / variance / max (Welford).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Running {
+    n: f64,
+    mean: f64,
+    m2: f64,
+    pub(crate) max: f64,
+}
+
+impl Running {
+    pub(crate) fn push(&mut self, v: f64) {
+        if self.n == 0.0 {
+            self.max = v;
+        }
+        self.n += 1.0;
+        let d = v - self.mean;
+        self.mean += d / self.n;
+        self.m2 += d * (v - self.mean);
+        self.max = self.max.max(v);
+    }
+    pub(crate) fn stats(&self) -> SignalStats {
+        SignalStats {
+            mean: self.mean,
+            var: if self.n > 0.0 { self.m2 / self.n } else { 0.0 },
+            max: self.max,
+        }
+    }
+}

@@ -3,43 +3,17 @@
 //! the same rules (start, action checks, termination, failure classification, metrics).
 //!
 //! The cycle is: [`EpisodeRun::observation`] → [`EpisodeRun::control`] (the action for the next control period) →
-//! [`EpisodeRun::advance`] (physics up to the next control step, or to the end) → ..., and [`EpisodeRun::finish`]
-//! once [`EpisodeRun::end`] is set. Nothing in the cycle allocates.
+//! [`EpisodeRun::advance`] (physics up to the next control step, or to the end; it returns the period's
+//! [`Transition`]: reward terms, terminated, truncated) → ..., and [`EpisodeRun::finish`] once [`EpisodeRun::end`]
+//! is set. Nothing in the cycle allocates.
 
 use crate::episode::*;
 use crate::planner::{Action, Observation, VehicleState};
+use crate::reward::{is_time_limit, RewardTerms, RewardWeights};
 use crate::vehicle::{Simulation, VehicleSpec};
 use crate::world::{Task, World};
 use nalgebra::Vector3;
-
-/// Running mean / variance / max (Welford).
-#[derive(Clone, Copy, Debug, Default)]
-struct Running {
-    n: f64,
-    mean: f64,
-    m2: f64,
-    max: f64,
-}
-
-impl Running {
-    fn push(&mut self, v: f64) {
-        if self.n == 0.0 {
-            self.max = v;
-        }
-        self.n += 1.0;
-        let d = v - self.mean;
-        self.mean += d / self.n;
-        self.m2 += d * (v - self.mean);
-        self.max = self.max.max(v);
-    }
-    fn stats(&self) -> SignalStats {
-        SignalStats {
-            mean: self.mean,
-            var: if self.n > 0.0 { self.m2 / self.n } else { 0.0 },
-            max: self.max,
-        }
-    }
-}
+use std::sync::Arc;
 
 /// How an episode ended, before the rollover rule classified a failed trial (`reason` is machine-readable, e.g.
 /// `timeout`, `off_map`, `invalid_action`).
@@ -57,6 +31,23 @@ impl EpisodeEnd {
             reason,
             detail: detail.into(),
         }
+    }
+}
+
+/// What one control period ([`EpisodeRun::advance`]) produced, in gymnasium's terms: the reward's terms under the
+/// run's [`RewardWeights`] ([`crate::reward`]), and whether the episode ended on it, `truncated` at the time limit
+/// ([`is_time_limit`]), `terminated` any other way.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Transition {
+    pub reward: RewardTerms,
+    pub terminated: bool,
+    pub truncated: bool,
+}
+
+impl Transition {
+    /// Whether the episode has ended (terminated or truncated).
+    pub fn ended(&self) -> bool {
+        self.terminated || self.truncated
     }
 }
 
@@ -82,6 +73,12 @@ pub struct EpisodeRun {
     cfg: EpisodeConfig,
     goal: [f64; 2],
     goal_radius: f64,
+    /// The world's scale (the reward's progress is in metres at full scale).
+    scale: f64,
+    /// The weights of [`Transition::reward`] ([`EpisodeRun::set_reward_weights`]).
+    weights: RewardWeights,
+    /// Goal distance at the end of the last control period (or at the start), m.
+    prev_distance: f64,
     half: [f64; 2],
     control_every: u64,
     record_every: Option<u64>,
@@ -112,9 +109,22 @@ pub struct EpisodeRun {
 impl EpisodeRun {
     /// Places the vehicle at the task's start facing the goal, settled at rest, with a control rate of 20 Hz
     /// until [`EpisodeRun::set_control_rate`] says otherwise.
+    /// The run copies `world` once into the `Arc` its simulation shares ([`EpisodeRun::new_shared`] takes a shared
+    /// one); clones of the run share it.
     pub fn new(world: &World, task: &Task, vehicle: &VehicleSpec, cfg: &EpisodeConfig) -> Self {
+        EpisodeRun::new_shared(Arc::new(world.clone()), task, vehicle, cfg)
+    }
+
+    /// [`EpisodeRun::new`] in a shared world (no copy of it).
+    pub fn new_shared(
+        world: Arc<World>,
+        task: &Task,
+        vehicle: &VehicleSpec,
+        cfg: &EpisodeConfig,
+    ) -> Self {
         let (x0, y0, yaw) = start_pose(task);
-        let sim = Simulation::new(world, vehicle, x0, y0, yaw);
+        let sim = Simulation::new_shared(world, vehicle, x0, y0, yaw);
+        let world = sim.world();
         let dt = sim.dt();
         let scale = world.scale;
         let record_every = cfg
@@ -129,7 +139,11 @@ impl EpisodeRun {
         };
         let ring_len = (window / STUCK_SAMPLE_DT).round() as usize + 1;
         let last_pos = sim.position();
+        let prev_distance = (last_pos.x - task.goal[0]).hypot(last_pos.y - task.goal[1]);
         EpisodeRun {
+            scale,
+            weights: RewardWeights::default(),
+            prev_distance,
             control_every: control_every(20.0, dt),
             record_every,
             trajectory: Vec::with_capacity(capacity),
@@ -174,6 +188,17 @@ impl EpisodeRun {
         }
         self.control_every = control_every(rate_hz, self.sim.dt());
         Ok(())
+    }
+
+    /// Sets the weights of the reward terms that [`EpisodeRun::advance`] reports (default
+    /// [`RewardWeights::default`]).
+    pub fn set_reward_weights(&mut self, weights: RewardWeights) {
+        self.weights = weights;
+    }
+
+    /// The weights of the reward terms.
+    pub fn reward_weights(&self) -> &RewardWeights {
+        &self.weights
     }
 
     /// Simulated seconds between two actions.
@@ -232,16 +257,45 @@ impl EpisodeRun {
             .get_or_insert_with(|| EpisodeEnd::new(outcome, reason, detail))
     }
 
-    /// Runs the physics with the current action up to the next control step, or until the episode ends; returns
-    /// whether it has ended.
-    pub fn advance(&mut self) -> bool {
+    /// Runs the physics with the current action up to the next control step, or until the episode ends, and
+    /// returns what the period produced ([`Transition`]): the reward's terms since the last call (or the start),
+    /// from the goal distances before and after, the attitude at its end and, on the period that ended the
+    /// episode, the terminal term of its outcome after the rollover rule. An episode that has ended (by this
+    /// period, an invalid action or [`EpisodeRun::stop`]) runs no physics; its transition says how it ended.
+    pub fn advance(&mut self) -> Transition {
         while self.end.is_none() {
             self.physics_step();
             if self.step.is_multiple_of(self.control_every) {
                 break;
             }
         }
-        self.end.is_some()
+        let before = self.prev_distance;
+        let after = self.goal_distance();
+        self.prev_distance = after;
+        let s = self.sim.state();
+        let end = self.end.as_ref().map(|e| {
+            let outcome = if self.rolled_over(e.outcome, e.reason) {
+                Outcome::Rollover
+            } else {
+                e.outcome
+            };
+            (e, outcome)
+        });
+        let reward = self.weights.terms(
+            before,
+            after,
+            s.roll,
+            s.pitch,
+            self.cfg.rollover_deg,
+            self.scale,
+            end,
+        );
+        let truncated = self.end.as_ref().is_some_and(is_time_limit);
+        Transition {
+            reward,
+            terminated: self.end.is_some() && !truncated,
+            truncated,
+        }
     }
 
     fn physics_step(&mut self) {
@@ -379,8 +433,7 @@ impl EpisodeRun {
             reason,
             detail,
         } = end;
-        let failed = matches!(outcome, Outcome::Stuck | Outcome::Timeout) && reason != "cancelled";
-        if !failed {
+        if !self.rolled_over(outcome, reason) {
             return (outcome, reason, detail);
         }
         let what = if detail.is_empty() {
@@ -388,23 +441,29 @@ impl EpisodeRun {
         } else {
             format!("{reason}: {detail}")
         };
+        let detail = if self.cfg.rollover == RolloverRule::AtFailure {
+            let end_roll = self.sim.state().roll.to_degrees().abs();
+            format!("|roll| = {end_roll:.1} deg at the end of a failed trial ({what})")
+        } else {
+            let (roll_max, pitch_max) = (self.roll_abs.max, self.pitch_abs.max);
+            format!(
+                "max |roll| {roll_max:.1} deg, max |pitch| {pitch_max:.1} deg during a failed trial ({what})"
+            )
+        };
+        (Outcome::Rollover, "rollover", detail)
+    }
+
+    /// Whether the rollover rule makes an end of `outcome` for `reason` a rollover: a failed trial (stuck or timed
+    /// out, not cancelled) whose final roll (or maximum roll or pitch, under the release's rule) exceeds the
+    /// threshold.
+    fn rolled_over(&self, outcome: Outcome, reason: &str) -> bool {
+        let failed = matches!(outcome, Outcome::Stuck | Outcome::Timeout) && reason != "cancelled";
         let thr = self.cfg.rollover_deg;
-        let end_roll = self.sim.state().roll.to_degrees().abs();
-        let (roll_max, pitch_max) = (self.roll_abs.max, self.pitch_abs.max);
-        match self.cfg.rollover {
-            RolloverRule::AtFailure if end_roll > thr => (
-                Outcome::Rollover,
-                "rollover",
-                format!("|roll| = {end_roll:.1} deg at the end of a failed trial ({what})"),
-            ),
-            RolloverRule::MaxDuringFailure if roll_max.max(pitch_max) > thr => (
-                Outcome::Rollover,
-                "rollover",
-                format!(
-                    "max |roll| {roll_max:.1} deg, max |pitch| {pitch_max:.1} deg during a failed trial ({what})"
-                ),
-            ),
-            _ => (outcome, reason, detail),
-        }
+        failed
+            && match self.cfg.rollover {
+                RolloverRule::AtFailure => self.sim.state().roll.to_degrees().abs() > thr,
+                RolloverRule::MaxDuringFailure => self.roll_abs.max.max(self.pitch_abs.max) > thr,
+                RolloverRule::Immediate => false,
+            }
     }
 }

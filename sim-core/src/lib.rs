@@ -26,7 +26,7 @@ pub mod terrain_stats;
 pub use contracts::trajectory;
 pub mod vehicle;
 
-pub use episode_run::EpisodeRun;
+pub use episode_run::{EpisodeRun, Transition};
 pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
 
 /// Identifies the physics that produced a result: the crate version and a revision bumped with every change that
@@ -42,5 +42,5 @@ pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
 /// inside its contact, a node's shear accrues from when the rim reached it, and the soil's vertical stiffness takes
 /// each node on the branch the rim moves it along (converged in the step at speed).
 pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r7");
-pub use vehicle::{Simulation, VehicleSpec};
+pub use vehicle::{Action, Simulation, VehicleSpec};
 pub mod world;

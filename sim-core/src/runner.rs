@@ -98,7 +98,7 @@ pub fn run_episode_observed(
             );
             break;
         }
-        if run.advance() {
+        if run.advance().ended() {
             break;
         }
     }

@@ -1,4 +1,4 @@
-//! `Simulation::copy_state_from`: a copy continues bit-identically to its source (rigid ground, soil with memory,
+//! `Simulation::set_dynamics` (another simulation's `dynamics()`): a copy continues bit-identically to its source (rigid ground, soil with memory,
 //! obstacles), a limited soil radius copies only the ruts near the vehicle, and mismatched sources are refused.
 
 mod common;
@@ -60,7 +60,7 @@ fn a_copy_steps_bit_identically_to_its_source_on_rigid_ground_soil_and_obstacles
             src.step(&drive);
         }
         assert!(src.soil().touched_tiles() > 0, "{name}: drove into the mud");
-        copy.copy_state_from(&src, f64::INFINITY).unwrap();
+        copy.set_dynamics(src.dynamics(), f64::INFINITY).unwrap();
         assert_eq!(bits(&copy), bits(&src));
         assert_eq!(copy.soil().touched_tiles(), src.soil().touched_tiles());
         assert!(!copy.soil().exhausted());
@@ -84,7 +84,7 @@ fn a_limited_soil_radius_copies_only_the_ruts_near_the_vehicle_and_a_second_copy
     let p = src.position();
     assert!(p.x > 7.5, "drove {p:?}");
     let mut copy = Simulation::new(&w, &spec, 3.0, 0.0, 0.0);
-    copy.copy_state_from(&src, 1.5).unwrap();
+    copy.set_dynamics(src.dynamics(), 1.5).unwrap();
     assert!(copy.soil().touched_tiles() < src.soil().touched_tiles());
     assert!(copy.soil().touched_tiles() > 0);
     // The ruts near the start are not copied; those under the vehicle are (the rolling terrain steers it off
@@ -98,9 +98,9 @@ fn a_limited_soil_radius_copies_only_the_ruts_near_the_vehicle_and_a_second_copy
     assert_eq!(ruts(&copy, 4.0, 0.0), 0.0);
     assert_eq!(ruts(&copy, p.x - 1.0, p.y), ruts(&src, p.x - 1.0, p.y));
     assert!(ruts(&copy, p.x - 1.0, p.y) > 0.0);
-    copy.copy_state_from(&src, f64::INFINITY).unwrap();
+    copy.set_dynamics(src.dynamics(), f64::INFINITY).unwrap();
     assert_eq!(copy.soil().touched_tiles(), src.soil().touched_tiles());
-    copy.copy_state_from(&src, 0.0).unwrap();
+    copy.set_dynamics(src.dynamics(), 0.0).unwrap();
     assert!(copy.soil().touched_tiles() <= 4);
 }
 
@@ -112,14 +112,14 @@ fn copies_between_different_vehicles_or_worlds_are_refused() {
     let src = Simulation::new(&w, &hmmwv, 0.0, 0.0, 0.0);
     let mut other = Simulation::new(&w, &m113, 0.0, 0.0, 0.0);
     assert!(matches!(
-        other.copy_state_from(&src, f64::INFINITY),
+        other.set_dynamics(src.dynamics(), f64::INFINITY),
         Err(StateCopyError::Vehicle { .. })
     ));
     let mut fewer = w.clone();
     fewer.obstacles.clear();
     let mut other = Simulation::new(&fewer, &hmmwv, 0.0, 0.0, 0.0);
     assert_eq!(
-        other.copy_state_from(&src, f64::INFINITY),
+        other.set_dynamics(src.dynamics(), f64::INFINITY),
         Err(StateCopyError::World)
     );
 }

@@ -17,7 +17,7 @@
 //! the rollouts exactly as in execution. Sample 0 is the shifted plan itself, samples 1-3 are hard left, hard
 //! right (at 0.6 of the nominal speed) and backing up straight; the rest add Gaussian noise to the plan. Each
 //! rollout copies the shadow's state (chassis, wheels, obstacle near list, soil memory near the vehicle) into one
-//! preallocated rollout simulation (`Simulation::copy_state_from`) and steps it at the simulator's own time step.
+//! preallocated rollout simulation (`Simulation::set_dynamics` with the shadow's `Simulation::dynamics`) and steps it at the simulator's own time step.
 //!
 //! Cost per control step, averaged over the horizon:
 //! `10 (D(x_t) - D(x_0)) / (v H) + 2 (d / d0)^2 + 2 (roll / 30 deg)^2 + (pitch / 30 deg)^2`, where `D` is the cost-to-go (the shortest distance to the goal on
@@ -263,7 +263,7 @@ impl Mppi6 {
         let (Some(shadow), Some(mut sim)) = (self.shadow.as_ref(), self.rollout.take()) else {
             return Err(PlannerError::Other("act before reset".into()));
         };
-        let copied = sim.copy_state_from(shadow, soil_radius);
+        let copied = sim.set_dynamics(shadow.dynamics(), soil_radius);
         let cost = copied.map(|()| self.score(&mut sim, &knots, n, period, spacing));
         self.rollout = Some(sim);
         cost.map_err(|e| PlannerError::Other(e.to_string()))

@@ -8,7 +8,7 @@ use rand_chacha::ChaCha8Rng;
 use sim_core::episode::{EpisodeMetrics, Outcome};
 use sim_core::observe::CropSpec;
 use sim_core::planner::Action;
-use sim_core::reward::{is_time_limit, RewardWeights};
+use sim_core::reward::RewardWeights;
 use sim_core::EpisodeRun;
 
 /// How an environment that ended comes back (gymnasium's `AutoresetMode`).
@@ -64,7 +64,6 @@ pub struct Slot {
     draws: usize,
     pub task: usize,
     run: Option<EpisodeRun>,
-    prev_distance: f64,
     pub needs_reset: bool,
     pub obs: ObsBuf,
     pub final_obs: ObsBuf,
@@ -89,7 +88,6 @@ impl Slot {
             draws: 0,
             task: 0,
             run: None,
-            prev_distance: 0.0,
             needs_reset: true,
             obs: ObsBuf::new(crop),
             final_obs: ObsBuf::new(crop),
@@ -115,7 +113,7 @@ impl Slot {
         let mut run = src.start(self.task);
         run.set_control_rate(set.control_rate_hz)
             .expect("the control rate was checked when the environments were made");
-        self.prev_distance = run.goal_distance();
+        run.set_reward_weights(set.weights);
         self.obs
             .write(&run.state(), &lw.world, t.goal, set.crop.as_ref());
         self.run = Some(run);
@@ -139,28 +137,19 @@ impl Slot {
             return Ok(());
         }
         let run = self.run.as_mut().expect("a running episode");
-        if run.control(action).is_ok() {
-            run.advance();
-        }
+        // An invalid action ends the episode: `advance` then runs no physics and reports that end.
+        let _ = run.control(action);
+        let step = run.advance();
         let (lw, t) = src.get(self.task);
-        let d = run.goal_distance();
-        let s = run.state();
-        self.obs.write(&s, &lw.world, t.goal, set.crop.as_ref());
-        let (before, cfg) = (self.prev_distance, &src.episode);
-        self.prev_distance = d;
-        let terms = |end| {
-            set.weights
-                .terms(before, d, s.roll, s.pitch, cfg.rollover_deg, src.scale, end)
-                .as_array()
-        };
-        let Some(end) = run.end().cloned() else {
-            self.out.terms = terms(None);
+        self.obs
+            .write(&run.state(), &lw.world, t.goal, set.crop.as_ref());
+        self.out.terms = step.reward.as_array();
+        if !step.ended() {
             return Ok(());
-        };
+        }
         let r = run.finish();
-        self.out.terms = terms(Some((&end, r.outcome)));
-        self.out.truncated = is_time_limit(&end);
-        self.out.terminated = !self.out.truncated;
+        self.out.truncated = step.truncated;
+        self.out.terminated = step.terminated;
         self.out.ended = Some(Box::new(Ended {
             task: self.task,
             outcome: r.outcome,

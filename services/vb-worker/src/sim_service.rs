@@ -13,7 +13,6 @@ use crate::convert;
 use sim_core::episode::EpisodeConfig;
 use sim_core::observe::CropSpec;
 use sim_core::planner::Action;
-use sim_core::reward::{is_time_limit, RewardWeights};
 use sim_core::vehicle::VehicleSpec;
 use sim_core::world::{Task, World};
 use sim_core::EpisodeRun;
@@ -44,7 +43,8 @@ impl SimEpisode {
 
     /// Starts the episode over: the vehicle settled at rest at the start.
     fn reset(&mut self) -> pb::StepResponse {
-        let mut run = EpisodeRun::new(&self.world, &self.task, &self.vehicle, &self.cfg);
+        let mut run =
+            EpisodeRun::new_shared(self.world.clone(), &self.task, &self.vehicle, &self.cfg);
         run.set_control_rate(self.control_rate)
             .expect("the control rate was checked at creation");
         let resp = pb::StepResponse {
@@ -70,42 +70,25 @@ impl SimEpisode {
                 "the episode has ended: call Reset to start again",
             ));
         }
-        let before = run.goal_distance();
-        if run.control(action).is_ok() {
-            run.advance();
-        }
-        let s = run.state();
-        let (after, scale) = (run.goal_distance(), self.world.scale);
-        let terms = |end| {
-            RewardWeights::default().terms(
-                before,
-                after,
-                s.roll,
-                s.pitch,
-                self.cfg.rollover_deg,
-                scale,
-                end,
-            )
-        };
+        // An invalid action ends the episode: `advance` then runs no physics and reports that end.
+        let _ = run.control(action);
+        let step = run.advance();
         let mut resp = pb::StepResponse {
             observation: Some(self.observation(&run)),
+            terminated: step.terminated,
+            truncated: step.truncated,
             ..Default::default()
         };
-        let r = match run.end().cloned() {
-            None => terms(None),
-            Some(end) => {
-                let result = run.finish();
-                resp.truncated = is_time_limit(&end);
-                resp.terminated = !resp.truncated;
-                let outcome = result.outcome.as_str();
-                resp.outcome = if result.reason == outcome {
-                    outcome.to_string()
-                } else {
-                    format!("{outcome}:{}", result.reason)
-                };
-                terms(Some((&end, result.outcome)))
-            }
-        };
+        if step.ended() {
+            let result = run.finish();
+            let outcome = result.outcome.as_str();
+            resp.outcome = if result.reason == outcome {
+                outcome.to_string()
+            } else {
+                format!("{outcome}:{}", result.reason)
+            };
+        }
+        let r = step.reward;
         resp.reward = Some(pb::RewardTerms {
             progress: r.progress,
             roll_penalty: r.roll,

@@ -118,7 +118,24 @@ fn bound(o: &Obstacle) -> f64 {
 /// Maximum number of obstacles kept in the near list.
 pub const MAX_NEAR: usize = 32;
 
-/// The obstacles of a world with a near list for the broad phase.
+/// The obstacles near a point, found by [`ObstacleSet::refresh`]: ids in id order, at most [`MAX_NEAR`]. It is
+/// kept by whoever moves (a vehicle's dynamic state holds its own), so one [`ObstacleSet`] serves any number of
+/// them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NearList {
+    ids: [usize; MAX_NEAR],
+    len: usize,
+}
+
+impl NearList {
+    /// Ids of the obstacles in the list.
+    pub fn ids(&self) -> &[usize] {
+        &self.ids[..self.len]
+    }
+}
+
+/// The obstacles of a world with a near list for the broad phase (its own, for the methods without a list
+/// argument; [`NearList`]).
 #[derive(Clone, Debug)]
 pub struct ObstacleSet {
     obstacles: Vec<Obstacle>,
@@ -126,8 +143,7 @@ pub struct ObstacleSet {
     yaw_sin_cos: Vec<(f64, f64)>,
     /// Horizontal bounding radius of each obstacle.
     bounds: Vec<f64>,
-    near: [usize; MAX_NEAR],
-    near_len: usize,
+    near: NearList,
     grid: ObstacleGrid,
     /// Candidate buffer of the broad phase (one slot per obstacle, allocated once).
     scratch: Vec<u32>,
@@ -139,8 +155,7 @@ impl ObstacleSet {
             obstacles: obstacles.to_vec(),
             yaw_sin_cos: obstacles.iter().map(|o| o.yaw.sin_cos()).collect(),
             bounds: obstacles.iter().map(bound).collect(),
-            near: [0; MAX_NEAR],
-            near_len: 0,
+            near: NearList::default(),
             grid: ObstacleGrid::new(
                 &obstacles.iter().map(|o| (o.x, o.y)).collect::<Vec<_>>(),
                 &obstacles.iter().map(bound).collect::<Vec<_>>(),
@@ -156,35 +171,39 @@ impl ObstacleSet {
     /// Keeps the obstacles whose bounding circle comes within `radius` of `(x, y)`: at most [`MAX_NEAR`], the lowest
     /// ids first (the list is in id order, so results do not depend on the grid's layout).
     pub fn refresh_near(&mut self, x: f64, y: f64, radius: f64) {
-        self.near_len = 0;
+        let mut near = self.near;
+        self.refresh(&mut near, x, y, radius);
+        self.near = near;
+    }
+
+    /// [`ObstacleSet::refresh_near`] into a list kept by the caller (`&mut self`: the broad phase's scratch).
+    pub fn refresh(&mut self, near: &mut NearList, x: f64, y: f64, radius: f64) {
+        near.len = 0;
         let n = self.grid.candidates(x, y, radius, &mut self.scratch);
         let found = &mut self.scratch[..n];
         found.sort_unstable();
         for &i in found.iter() {
             let o = &self.obstacles[i as usize];
-            if (o.x - x).hypot(o.y - y) <= radius + self.bounds[i as usize]
-                && self.near_len < MAX_NEAR
-            {
-                self.near[self.near_len] = i as usize;
-                self.near_len += 1;
+            if (o.x - x).hypot(o.y - y) <= radius + self.bounds[i as usize] && near.len < MAX_NEAR {
+                near.ids[near.len] = i as usize;
+                near.len += 1;
             }
         }
     }
 
-    /// Takes `other`'s near list (same obstacles assumed: the caller checks the counts).
-    pub fn copy_near_from(&mut self, other: &ObstacleSet) {
-        self.near = other.near;
-        self.near_len = other.near_len;
-    }
-
     /// Ids of the obstacles in the near list.
     pub fn near(&self) -> &[usize] {
-        &self.near[..self.near_len]
+        self.near.ids()
     }
 
     /// Whether any near obstacle comes within `radius` of `(x, y)` (a quick test before many point queries).
     pub fn any_within(&self, x: f64, y: f64, radius: f64) -> bool {
-        self.near[..self.near_len].iter().any(|&i| {
+        self.any_within_in(&self.near, x, y, radius)
+    }
+
+    /// [`ObstacleSet::any_within`] among the obstacles of `near`.
+    pub fn any_within_in(&self, near: &NearList, x: f64, y: f64, radius: f64) -> bool {
+        near.ids().iter().any(|&i| {
             let o = &self.obstacles[i];
             (o.x - x).hypot(o.y - y) <= radius + self.bounds[i]
         })
@@ -194,7 +213,7 @@ impl ObstacleSet {
     /// written into `out`; returns how many (at most `out.len()`, further contacts are dropped).
     pub fn box_contacts(&self, b: &OrientedBox, out: &mut [ObstacleContact]) -> usize {
         let mut n = 0;
-        for &i in &self.near[..self.near_len] {
+        for &i in self.near.ids() {
             if n == out.len() {
                 break;
             }
@@ -209,8 +228,18 @@ impl ObstacleSet {
 
     /// Deepest contact of a sphere with the near obstacles.
     pub fn sphere_contact(&self, c: &Vector3<f64>, r: f64) -> Option<ObstacleContact> {
+        self.sphere_contact_in(&self.near, c, r)
+    }
+
+    /// [`ObstacleSet::sphere_contact`] among the obstacles of `near`.
+    pub fn sphere_contact_in(
+        &self,
+        near: &NearList,
+        c: &Vector3<f64>,
+        r: f64,
+    ) -> Option<ObstacleContact> {
         let mut best: Option<ObstacleContact> = None;
-        for &i in &self.near[..self.near_len] {
+        for &i in near.ids() {
             if let Some((depth, normal)) =
                 sphere_obstacle_with(&self.obstacles[i], self.yaw_sin_cos[i], c, r)
             {

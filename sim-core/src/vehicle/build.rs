@@ -1,24 +1,53 @@
 //! Building a [`Simulation`] from a vehicle spec (wheel layout, spin groups, stiffnesses, body points, the terrain's
 //! block maxima) and placing it at rest on the ground.
 
+use super::action::Action;
+use super::dynamics::{DynamicsState, Origin, WheelState};
+use super::params::{VehicleParams, WheelParams};
 use super::powertrain::Clutch;
+use super::scratch::StepScratch;
 use super::simulation::*;
-use crate::collide::ObstacleSet;
+use crate::collide::{NearList, ObstacleSet};
 use crate::soil::SoilGrid;
 use crate::vehicle::spec::{Differential, SteeringKind, VehicleSpec};
 use crate::world::World;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use std::sync::Arc;
 
 impl Simulation {
-    /// Places the vehicle in `world` at `(x, y)` with heading `yaw`, resting on the ground.
+    /// Places the vehicle in `world` at `(x, y)` with heading `yaw`, resting on the ground. Copies the world once
+    /// (into the `Arc` the simulation shares); [`Simulation::new_shared`] takes a shared world.
     pub fn new(world: &World, spec: &VehicleSpec, x: f64, y: f64, yaw: f64) -> Simulation {
         Simulation::with_options(world, spec, x, y, yaw, &SimOptions::default())
+    }
+
+    /// [`Simulation::new`] in a shared world (no copy of it).
+    pub fn new_shared(
+        world: Arc<World>,
+        spec: &VehicleSpec,
+        x: f64,
+        y: f64,
+        yaw: f64,
+    ) -> Simulation {
+        Simulation::with_options_shared(world, spec, x, y, yaw, &SimOptions::default())
     }
 
     /// [`Simulation::new`] with a chosen time step and gravity (convergence studies, tilt tables). A step that is
     /// not finite and positive falls back to [`default_dt`].
     pub fn with_options(
         world: &World,
+        spec: &VehicleSpec,
+        x: f64,
+        y: f64,
+        yaw: f64,
+        options: &SimOptions,
+    ) -> Simulation {
+        Simulation::with_options_shared(Arc::new(world.clone()), spec, x, y, yaw, options)
+    }
+
+    /// [`Simulation::with_options`] in a shared world (no copy of it).
+    pub fn with_options_shared(
+        world: Arc<World>,
         spec: &VehicleSpec,
         x: f64,
         y: f64,
@@ -89,7 +118,7 @@ impl Simulation {
                 } else {
                     0.0
                 };
-                wheels.push(Wheel {
+                wheels.push(WheelParams {
                     hard: Vector3::new(*px, side * a.track / 2.0, -spec.chassis.com_height),
                     side,
                     steer_factor,
@@ -100,14 +129,6 @@ impl Simulation {
                     damper: a.damper,
                     travel: a.travel,
                     static_compression: (per_wheel_load - unsprung * G).max(0.0) / a.spring,
-                    compression: 0.0,
-                    compression_rate: 0.0,
-                    spin: 0.0,
-                    bristle: [0.0; 2],
-                    steer_angle: 0.0,
-                    deflection: 0.0,
-                    from_soil: false,
-                    rut_offset: 0.0,
                 });
             }
         }
@@ -158,17 +179,39 @@ impl Simulation {
                 }
             }
         }
-        let mut sim = Simulation {
+        let group_inertia = (0..groups)
+            .map(|g| {
+                spec.wheels.inertia * wheels.iter().filter(|w| w.group == g).count().max(1) as f64
+            })
+            .collect();
+        let scratch = StepScratch::new(groups, clutches.len(), wheels.len());
+        let state = DynamicsState {
+            time: 0.0,
+            pos: Vector3::zeros(),
+            rot: UnitQuaternion::identity(),
+            vel: Vector3::zeros(),
+            omega: Vector3::zeros(),
+            gear: 0,
+            steering: 0.0,
+            accel_prev: Vector3::zeros(),
+            steps: 0,
+            wheels: vec![WheelState::default(); wheels.len()],
+            near: NearList::default(),
+            soil: SoilGrid::new(&world),
+            settle_time: 0.0,
+            origin: Origin {
+                vehicle: spec.name.clone(),
+                grid: (hm.nx, hm.ny, hm.cell),
+                obstacles: world.obstacles.len(),
+            },
+        };
+        let params = VehicleParams {
             block_max,
             blocks_x,
-            world_patches: world.clone(),
-            soil: SoilGrid::new(world),
-            obstacles: ObstacleSet::new(&world.obstacles),
             spec: spec.clone(),
             dt,
             mass: sprung,
             total_mass: total,
-            gravity: Vector3::from(options.gravity),
             inertia,
             inertia_inv: inertia.try_inverse().unwrap_or_else(Matrix3::identity),
             unsprung,
@@ -185,34 +228,17 @@ impl Simulation {
             body_c: 2.0 * BODY_DAMPING_RATIO * (body_k * total / 4.0).sqrt(),
             obstacle_k: total * G / (OBSTACLE_CONTACT_DEFLECTION * scale),
             groups,
-            group_torque: vec![0.0; groups],
-            group_num: vec![0.0; groups],
-            group_den: vec![0.0; groups],
-            group_spin: vec![0.0; groups],
-            group_brake: vec![0.0; groups],
-            group_inertia: (0..groups)
-                .map(|g| {
-                    spec.wheels.inertia
-                        * wheels.iter().filter(|w| w.group == g).count().max(1) as f64
-                })
-                .collect(),
-            group_free: vec![0.0; groups],
-            clutch_torque: vec![0.0; clutches.len()],
+            group_inertia,
             clutches,
-            contacts: vec![WheelContact::default(); wheels.len()],
-            ground_forces: vec![Vector3::zeros(); wheels.len()],
-            settle_time: 0.0,
-            spin_before: vec![0.0; wheels.len()],
             wheels,
-            time: 0.0,
-            pos: Vector3::zeros(),
-            rot: UnitQuaternion::identity(),
-            vel: Vector3::zeros(),
-            omega: Vector3::zeros(),
-            gear: 0,
-            steering: 0.0,
-            accel_prev: Vector3::zeros(),
-            steps: 0,
+        };
+        let mut sim = Simulation {
+            params,
+            obstacles: ObstacleSet::new(&world.obstacles),
+            world,
+            gravity: Vector3::from(options.gravity),
+            state,
+            scratch,
         };
         sim.place(x, y, yaw);
         sim
@@ -224,14 +250,14 @@ impl Simulation {
     /// ground, and the vehicle then settles with its brakes on ([`Simulation::settle`]), as
     /// the release drops its vehicle onto the ground. Time and step count start at zero afterwards.
     pub fn place(&mut self, x: f64, y: f64, yaw: f64) {
-        let h = &self.world_patches.heightmap;
         let (centre_z, rot) = self.footprint_plane(x, y, yaw);
-        self.rot = rot;
+        let (p, s, h) = (&self.params, &mut self.state, &self.world.heightmap);
+        s.rot = rot;
         let (up, fwd) = (rot * Vector3::z(), rot * Vector3::x());
         // The wheels hang at full droop (springs unloaded: the weight is ramped up in `settle`) and the lowest rim
         // sample of all just touches the ground.
-        self.pos = Vector3::new(x, y, centre_z) + up * (self.radius + self.spec.chassis.com_height);
-        for wh in &mut self.wheels {
+        s.pos = Vector3::new(x, y, centre_z) + up * (p.radius + p.spec.chassis.com_height);
+        for wh in &mut s.wheels {
             wh.compression = 0.0;
             wh.compression_rate = 0.0;
             wh.spin = 0.0;
@@ -242,27 +268,26 @@ impl Simulation {
         }
         let axle = up.cross(&fwd);
         let mut raise = f64::NEG_INFINITY;
-        for wh in &self.wheels {
-            let centre = self.pos + self.rot * wh.centre_offset();
+        for (wp, wh) in p.wheels.iter().zip(&s.wheels) {
+            let centre = s.pos + s.rot * wp.centre_offset(wh.compression);
             for &(sin, cos) in &RIM_SIN_COS {
                 for lat in RIM_LATERAL {
-                    let p = centre
-                        + (fwd * sin - up * cos) * self.radius
-                        + axle * (lat * 0.5 * self.width);
-                    raise = raise.max((h.height_bilinear(p.x, p.y) - p.z) * cos);
+                    let q =
+                        centre + (fwd * sin - up * cos) * p.radius + axle * (lat * 0.5 * p.width);
+                    raise = raise.max((h.height_bilinear(q.x, q.y) - q.z) * cos);
                 }
             }
         }
         if raise.is_finite() {
-            self.pos += up * raise;
+            s.pos += up * raise;
         }
-        self.vel = Vector3::zeros();
-        self.omega = Vector3::zeros();
-        self.gear = 0;
-        self.steering = 0.0;
-        self.accel_prev = Vector3::zeros();
-        self.soil.reset();
-        self.obstacles.refresh_near(x, y, self.reach());
+        s.vel = Vector3::zeros();
+        s.omega = Vector3::zeros();
+        s.gear = 0;
+        s.steering = 0.0;
+        s.accel_prev = Vector3::zeros();
+        s.soil.reset();
+        self.obstacles.refresh(&mut s.near, x, y, p.reach());
         self.settle();
     }
 
@@ -270,9 +295,9 @@ impl Simulation {
     /// wheelbase plus a wheel diameter by the track plus a tyre width, heading `yaw`): the plane's height at `(x, y)`
     /// and the orientation whose up axis is the plane's normal and whose forward axis points along `yaw`.
     pub fn footprint_plane(&self, x: f64, y: f64, yaw: f64) -> (f64, UnitQuaternion<f64>) {
-        let h = &self.world_patches.heightmap;
-        let half_l = 0.5 * self.spec.wheelbase() + self.radius;
-        let half_w = 0.5 * (self.spec.track() + self.width);
+        let (p, h) = (&self.params, &self.world.heightmap);
+        let half_l = 0.5 * p.spec.wheelbase() + p.radius;
+        let half_w = 0.5 * (p.spec.track() + p.width);
         let (c, s) = (yaw.cos(), yaw.sin());
         let (mut sum, mut su, mut sv, mut suu, mut svv) = (0.0, 0.0, 0.0, 0.0, 0.0);
         // Sample k of FOOTPRINT_SAMPLES at -1 .. 1 across the footprint.
@@ -310,67 +335,60 @@ impl Simulation {
     /// (angular velocity cleared every step), so it sinks vertically and tilts quasi-statically onto the ground. Then time and step count are set back to zero, so an episode starts at rest.
     /// Returns the settling time, s.
     pub fn settle(&mut self) -> f64 {
-        let (x, y) = (self.pos.x, self.pos.y);
-        let brake = crate::planner::Action {
+        let (x, y) = (self.state.pos.x, self.state.pos.y);
+        let brake = Action {
             steering: 0.0,
             throttle: 0.0,
             brake: 1.0,
         };
         // Froude similitude: times and speeds scale with sqrt(scale).
-        let time_scale = self.spec.scale.sqrt();
+        let time_scale = self.params.spec.scale.sqrt();
         let mut still = 0.0;
-        self.time = 0.0;
-        self.steps = 0;
+        self.state.time = 0.0;
+        self.state.steps = 0;
         let gravity = self.gravity;
         let ramp = LOAD_RAMP * time_scale;
-        while self.time < SETTLE_MAX * time_scale
-            && (still < SETTLED_FOR * time_scale || self.time < ramp)
+        while self.state.time < SETTLE_MAX * time_scale
+            && (still < SETTLED_FOR * time_scale || self.state.time < ramp)
         {
             // Smoothly (zero rate at both ends), so the ramp's end excites no rocking.
-            let t = (self.time / ramp).min(1.0);
-            self.gravity = gravity * (t * t * (3.0 - 2.0 * t));
-            self.step(&brake);
+            let t = (self.state.time / ramp).min(1.0);
+            self.step_under(gravity * (t * t * (3.0 - 2.0 * t)), &brake);
             // Held as a crane holds a load: the chassis does not move horizontally, and its angular velocity is
             // cleared every step, so it only tilts quasi-statically (one step's rotation at a time) onto the wheels'
             // support. A vehicle placed where it cannot stand (a slope steeper than its friction or tipping angle)
             // is put down there and slides or tips in the episode, not before it.
-            self.pos.x = x;
-            self.pos.y = y;
-            self.vel.x = 0.0;
-            self.vel.y = 0.0;
-            self.omega = Vector3::zeros();
+            let s = &mut self.state;
+            s.pos.x = x;
+            s.pos.y = y;
+            s.vel.x = 0.0;
+            s.vel.y = 0.0;
+            s.omega = Vector3::zeros();
             // Held horizontally and in rotation, the chassis can only move vertically; the wheels along their struts.
-            let moving = self.vel.z.abs().max(
-                self.wheels
+            let moving = s.vel.z.abs().max(
+                s.wheels
                     .iter()
                     .map(|w| w.compression_rate.abs())
                     .fold(0.0, f64::max),
             );
             still = if moving < SETTLED_SPEED * time_scale {
-                still + self.dt
+                still + self.params.dt
             } else {
                 0.0
             };
         }
-        self.gravity = gravity;
-        self.settle_time = self.time;
-        self.time = 0.0;
-        self.steps = 0;
-        self.gear = 0;
-        self.settle_time
-    }
-
-    /// Radius of the obstacle near list around the chassis.
-    pub(super) fn reach(&self) -> f64 {
-        0.5 * self.spec.chassis.size[0].hypot(self.spec.chassis.size[1])
-            + self.radius
-            + OBSTACLE_NEAR_SLACK * self.spec.scale
+        let s = &mut self.state;
+        s.settle_time = s.time;
+        s.time = 0.0;
+        s.steps = 0;
+        s.gear = 0;
+        s.settle_time
     }
 }
 
 /// The locking clutches of a clutched driveline: one per driven axle between its wheels, one between the two driven
 /// axles (the spec's validation guarantees two driven axles, no tracks, one wheel a side per axle).
-fn clutches(spec: &VehicleSpec, wheels: &[Wheel]) -> Vec<Clutch> {
+fn clutches(spec: &VehicleSpec, wheels: &[WheelParams]) -> Vec<Clutch> {
     let Some(limits) = spec.powertrain.locking_limits else {
         return Vec::new();
     };

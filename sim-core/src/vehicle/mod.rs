@@ -18,22 +18,30 @@
 //!   bottoming out, rollover);
 //! - obstacles: body points and wheel spheres against rocks and trees ([`crate::collide`]).
 //!
-//! Modules: `simulation` (the data and named constants), `build` (construction and placing), `state`
-//! (accessors, state copies), `step` (the step as a pipeline of phases, listed there), and one module per phase:
-//! `powertrain`, `contact`, `tyre`, `suspension`, `body`, `integrate`.
+//! Modules: `action` (the controls and what the vehicle reports), `simulation` ([`Simulation`] and the named
+//! constants) and its parts: `params` (the vehicle's parameters, fixed at build), `dynamics` (the dynamic state,
+//! [`DynamicsState`], read and set whole), `scratch` (the step's buffers); `build` (construction and placing),
+//! `access` (accessors), `step` (the step as a pipeline of phases that take what they read and write, listed
+//! there), and one module per phase: `powertrain`, `contact`, `tyre`, `suspension`, `body`, `integrate`.
 
+mod access;
+mod action;
 mod body;
 mod build;
 mod contact;
+mod dynamics;
 mod integrate;
+mod params;
 mod powertrain;
+mod scratch;
 mod simulation;
 pub mod spec;
-mod state;
 mod step;
 mod suspension;
 mod tyre;
 
+pub use action::{Action, VehicleInfo, VehicleState};
+pub use dynamics::DynamicsState;
 pub use simulation::{
     default_dt, SimOptions, Simulation, StateCopyError, StepInfo, WheelReport, SETTLED_FOR,
     SETTLED_SPEED, SETTLE_MAX,

@@ -4,11 +4,13 @@
 //! their own, joined by torque-limited clutches; skid-steered vehicles drive their left (group 0) and right (group 1)
 //! sides at throttle -/+ steering.
 
-use super::simulation::*;
-use crate::planner::Action;
+use super::action::Action;
+use super::dynamics::DynamicsState;
+use super::params::VehicleParams;
+use super::scratch::{GroupSums, StepScratch};
 use crate::vehicle::spec::SteeringKind;
 
-/// Passes of the clutch solver per step ([`Simulation::lock_clutches`]).
+/// Passes of the clutch solver per step ([`lock_clutches`]).
 const CLUTCH_PASSES: usize = 4;
 
 /// A locking clutch of a clutched driveline ([`crate::vehicle::spec::Differential::Clutched`]) between two sets of
@@ -26,121 +28,131 @@ pub(super) struct Clutch {
 /// Steering angles below this (rad) count as straight ahead (no Ackermann correction).
 const STRAIGHT_AHEAD: f64 = 1e-6;
 
-impl Simulation {
-    /// Phase 2: steering with its rate limit, then each steered wheel's Ackermann angle.
-    pub(super) fn steer(&mut self, action: &Action) {
-        let max_delta = self.spec.steering.rate * self.dt;
-        self.steering +=
-            (action.steering.clamp(-1.0, 1.0) - self.steering).clamp(-max_delta, max_delta);
-        let wheelbase = self.spec.wheelbase().max(1e-6);
-        let delta = self.steering * self.spec.steering.max_angle;
-        for w in &mut self.wheels {
-            w.steer_angle = if w.steered && delta.abs() > STRAIGHT_AHEAD {
-                let r = wheelbase / delta.tan();
-                let li = w.steer_factor * wheelbase;
-                (li / (r - w.side * w.hard.y.abs())).atan()
-            } else {
-                0.0
-            };
-        }
-    }
-
-    /// Phase 3: the automatic gearbox shifts on the mean wheel speed, the engine's full-load torque at that speed
-    /// times the throttle is split over the driven wheels' spin groups. Clears the spin groups' accumulators.
-    pub(super) fn drive_torque(&mut self, action: &Action) {
-        let pt = &self.spec.powertrain;
-        let driven_spin =
-            self.wheels.iter().map(|w| w.spin.abs()).sum::<f64>() / self.wheels.len().max(1) as f64;
-        let reverse = action.throttle < 0.0;
-        let ratio = if reverse {
-            pt.reverse_gear.abs()
+/// Phase 2: steering with its rate limit, then each steered wheel's Ackermann angle.
+pub(super) fn steer(p: &VehicleParams, s: &mut DynamicsState, action: &Action) {
+    let max_delta = p.spec.steering.rate * p.dt;
+    s.steering += (action.steering.clamp(-1.0, 1.0) - s.steering).clamp(-max_delta, max_delta);
+    let wheelbase = p.spec.wheelbase().max(1e-6);
+    let delta = s.steering * p.spec.steering.max_angle;
+    for (wp, w) in p.wheels.iter().zip(&mut s.wheels) {
+        w.steer_angle = if wp.steered && delta.abs() > STRAIGHT_AHEAD {
+            let r = wheelbase / delta.tan();
+            let li = wp.steer_factor * wheelbase;
+            (li / (r - wp.side * wp.hard.y.abs())).atan()
         } else {
-            pt.gears[self.gear]
-        } * pt.final_drive;
-        let rpm = driven_spin / ratio * 60.0 / std::f64::consts::TAU;
-        if !reverse {
-            if rpm > pt.upshift_rpm && self.gear + 1 < pt.gears.len() {
-                self.gear += 1;
-            } else if rpm < pt.downshift_rpm && self.gear > 0 {
-                self.gear -= 1;
-            }
-        }
-        let motor_torque = self.torque_curve(rpm);
-        let wheel_torque_total = motor_torque / ratio;
-        for g in 0..self.groups {
-            self.group_torque[g] = 0.0;
-            self.group_num[g] = 0.0;
-            self.group_den[g] = 0.0;
-            self.group_brake[g] = 0.0;
-            self.group_spin[g] = 0.0;
-        }
-        let n_driven = self.wheels.iter().filter(|w| w.driven).count().max(1) as f64;
-        if self.spec.steering.kind == SteeringKind::Skid {
-            let s = self.steering;
-            let (ul, ur) = (
-                (action.throttle - s).clamp(-1.0, 1.0),
-                (action.throttle + s).clamp(-1.0, 1.0),
-            );
-            self.group_torque[0] = ul * wheel_torque_total / 2.0;
-            self.group_torque[1] = ur * wheel_torque_total / 2.0;
-        } else {
-            for w in self.wheels.iter().filter(|w| w.driven) {
-                self.group_torque[w.group] += action.throttle * wheel_torque_total / n_driven;
-            }
+            0.0
+        };
+    }
+}
+
+/// Phase 3: the automatic gearbox shifts on the mean wheel speed, the engine's full-load torque at that speed
+/// times the throttle is split over the driven wheels' spin groups. Clears the spin groups' accumulators.
+pub(super) fn drive_torque(
+    p: &VehicleParams,
+    s: &mut DynamicsState,
+    groups: &mut GroupSums,
+    action: &Action,
+) {
+    let pt = &p.spec.powertrain;
+    let driven_spin =
+        s.wheels.iter().map(|w| w.spin.abs()).sum::<f64>() / s.wheels.len().max(1) as f64;
+    let reverse = action.throttle < 0.0;
+    let ratio = if reverse {
+        pt.reverse_gear.abs()
+    } else {
+        pt.gears[s.gear]
+    } * pt.final_drive;
+    let rpm = driven_spin / ratio * 60.0 / std::f64::consts::TAU;
+    if !reverse {
+        if rpm > pt.upshift_rpm && s.gear + 1 < pt.gears.len() {
+            s.gear += 1;
+        } else if rpm < pt.downshift_rpm && s.gear > 0 {
+            s.gear -= 1;
         }
     }
-
-    /// Phase 6: each spin group's new spin from its drive torque, the ground's torque at the old spin and its slip
-    /// stiffness (linearly implicit, so stiff friction is stable), then the locking clutches of a clutched driveline
-    /// ([`Clutch`]), then the brakes' Coulomb torque (which stops a wheel exactly instead of reversing it). Returns the
-    /// drive power, W.
-    pub(super) fn update_spins(&mut self, dt: f64) -> f64 {
-        for (before, w) in self.spin_before.iter_mut().zip(&self.wheels) {
-            *before = w.spin;
-        }
-        for g in 0..self.groups {
-            // The members of a group share one spin; this recovers it from the inertia-weighted sum.
-            let spin = self.group_spin[g] / self.group_inertia[g];
-            let den = self.group_den[g];
-            self.group_free[g] = if den > 0.0 {
-                spin + dt * (self.group_torque[g] + self.group_num[g]) / den
-            } else {
-                spin
-            };
-        }
-        self.lock_clutches(dt);
-        let mut power = 0.0;
-        for g in 0..self.groups {
-            let den = self.group_den[g];
-            if den <= 0.0 {
-                continue;
-            }
-            let free = self.group_free[g];
-            let brake_step = dt * self.group_brake[g] / den;
-            let new = if free.abs() <= brake_step {
-                0.0
-            } else {
-                free - free.signum() * brake_step
-            };
-            power += self.group_torque[g] * new;
-            for w in self.wheels.iter_mut().filter(|w| w.group == g) {
-                w.spin = new;
-            }
-        }
-        power
+    let motor_torque = p.torque_curve(rpm);
+    let wheel_torque_total = motor_torque / ratio;
+    for g in 0..p.groups {
+        groups.torque[g] = 0.0;
+        groups.num[g] = 0.0;
+        groups.den[g] = 0.0;
+        groups.brake[g] = 0.0;
+        groups.spin[g] = 0.0;
     }
-
-    /// The clutches' torques on the groups' free spins ([`lock_clutches`]).
-    fn lock_clutches(&mut self, dt: f64) {
-        lock_clutches(
-            &self.clutches,
-            &mut self.clutch_torque,
-            &mut self.group_free,
-            &self.group_den,
-            dt,
+    let n_driven = p.wheels.iter().filter(|w| w.driven).count().max(1) as f64;
+    if p.spec.steering.kind == SteeringKind::Skid {
+        let st = s.steering;
+        let (ul, ur) = (
+            (action.throttle - st).clamp(-1.0, 1.0),
+            (action.throttle + st).clamp(-1.0, 1.0),
         );
+        groups.torque[0] = ul * wheel_torque_total / 2.0;
+        groups.torque[1] = ur * wheel_torque_total / 2.0;
+    } else {
+        for w in p.wheels.iter().filter(|w| w.driven) {
+            groups.torque[w.group] += action.throttle * wheel_torque_total / n_driven;
+        }
     }
+}
 
+/// Phase 6: each spin group's new spin from its drive torque, the ground's torque at the old spin and its slip
+/// stiffness (linearly implicit, so stiff friction is stable), then the locking clutches of a clutched driveline
+/// ([`Clutch`]), then the brakes' Coulomb torque (which stops a wheel exactly instead of reversing it). Returns the
+/// drive power, W.
+pub(super) fn update_spins(
+    p: &VehicleParams,
+    s: &mut DynamicsState,
+    scratch: &mut StepScratch,
+    dt: f64,
+) -> f64 {
+    for (before, w) in scratch.spin_before.iter_mut().zip(&s.wheels) {
+        *before = w.spin;
+    }
+    let groups = &mut scratch.groups;
+    for g in 0..p.groups {
+        // The members of a group share one spin; this recovers it from the inertia-weighted sum.
+        let spin = groups.spin[g] / p.group_inertia[g];
+        let den = groups.den[g];
+        groups.free[g] = if den > 0.0 {
+            spin + dt * (groups.torque[g] + groups.num[g]) / den
+        } else {
+            spin
+        };
+    }
+    lock_clutches(
+        &p.clutches,
+        &mut scratch.clutch_torque,
+        &mut groups.free,
+        &groups.den,
+        dt,
+    );
+    let mut power = 0.0;
+    for g in 0..p.groups {
+        let den = groups.den[g];
+        if den <= 0.0 {
+            continue;
+        }
+        let free = groups.free[g];
+        let brake_step = dt * groups.brake[g] / den;
+        let new = if free.abs() <= brake_step {
+            0.0
+        } else {
+            free - free.signum() * brake_step
+        };
+        power += groups.torque[g] * new;
+        for (_, w) in p
+            .wheels
+            .iter()
+            .zip(&mut s.wheels)
+            .filter(|(wp, _)| wp.group == g)
+        {
+            w.spin = new;
+        }
+    }
+    power
+}
+
+impl VehicleParams {
     /// Engine full-load torque at `rpm` (linear in the spec's curve, zero beyond its last point), N m.
     fn torque_curve(&self, rpm: f64) -> f64 {
         let c = &self.spec.powertrain.torque_curve;

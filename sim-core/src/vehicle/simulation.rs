@@ -1,11 +1,14 @@
-//! The vehicle model's data: [`Simulation`] (parameters, state and the step's preallocated scratch), its wheels
-//! and contacts, and the named constants of the model. Building it is in `build.rs`, the step in `step.rs`.
+//! [`Simulation`], what it reports ([`StepInfo`], [`WheelReport`]), its options, and the named constants of the
+//! model. Its parts: the parameters (`params.rs`), the dynamic state (`dynamics.rs`), the step's scratch
+//! (`scratch.rs`). Building it is in `build.rs`, the step in `step.rs`.
 
+use super::dynamics::DynamicsState;
+use super::params::VehicleParams;
+use super::scratch::StepScratch;
 use crate::collide::ObstacleSet;
-use crate::soil::SoilGrid;
-use crate::vehicle::spec::VehicleSpec;
 use crate::world::World;
-use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use nalgebra::Vector3;
+use std::sync::Arc;
 
 pub(super) const G: f64 = 9.81;
 /// Rim sample angles (rad) and lateral offsets (fraction of the half width) of the wheel contact.
@@ -79,49 +82,6 @@ pub(super) const BUMP_STOP_STIFFNESS: f64 = 20.0;
 /// covers 2.4 m).
 pub(super) const OBSTACLE_REFRESH_STEPS: u64 = 20;
 
-#[derive(Clone, Debug)]
-pub(super) struct Wheel {
-    /// Hard point (wheel centre at static ride height) in the chassis frame.
-    pub(super) hard: Vector3<f64>,
-    /// +1 left, -1 right.
-    pub(super) side: f64,
-    pub(super) steer_factor: f64,
-    pub(super) steered: bool,
-    /// Whether the powertrain drives this contact (all contacts of a tracked vehicle are driven).
-    pub(super) driven: bool,
-    pub(super) group: usize,
-    pub(super) spring: f64,
-    pub(super) damper: f64,
-    pub(super) travel: f64,
-    /// Compression at static ride height (spring preload reference), m.
-    pub(super) static_compression: f64,
-    pub(super) compression: f64,
-    pub(super) compression_rate: f64,
-    pub(super) spin: f64,
-    pub(super) bristle: [f64; 2],
-    pub(super) steer_angle: f64,
-    /// Tyre deflection of the previous step (for damping).
-    pub(super) deflection: f64,
-    /// The wheel's last contact was soil: at its next rigid contact it may sit in a rut below the rigid surface.
-    pub(super) from_soil: bool,
-    /// How far below the rigid surface the ground under this wheel still is while it climbs out of a soil rut onto
-    /// a rigid patch (m; see `wheel_contact`). Zero otherwise.
-    pub(super) rut_offset: f64,
-}
-
-impl Wheel {
-    /// The wheel centre in the chassis frame: the hard point moved along the chassis up axis by the compression
-    /// relative to the static one.
-    pub(super) fn centre_offset(&self) -> Vector3<f64> {
-        self.hard
-            + Vector3::new(
-                0.0,
-                0.0,
-                self.compression - self.static_compression.min(self.travel),
-            )
-    }
-}
-
 /// What one step produced (for metrics).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct StepInfo {
@@ -170,7 +130,7 @@ impl Default for SimOptions {
     }
 }
 
-/// Why [`Simulation::copy_state_from`] refused a source.
+/// Why [`Simulation::set_dynamics`] refused a state.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum StateCopyError {
     #[error("cannot copy the state of a {src} into a {dst}: different vehicles")]
@@ -179,106 +139,24 @@ pub enum StateCopyError {
     World,
 }
 
-/// A vehicle driving in a world.
+/// A vehicle driving in a world: the vehicle's parameters ([`VehicleParams`], fixed at build), the world it drives
+/// in (shared, not copied), the obstacles' broad phase, gravity, the dynamic state ([`DynamicsState`], what a step
+/// changes) and the step's scratch ([`StepScratch`]). The step (`step.rs`) is a function of these parts.
+///
+/// The world is an `Arc<World>` rather than a `&World`: a borrow would put a lifetime on `Simulation` and so on
+/// [`crate::EpisodeRun`], which the Python SDK's environments and the gRPC service keep across calls (they need
+/// `'static`); a shared world lets every simulation and clone of one world (MPPI-6's shadow and rollout models,
+/// an environment's episodes) hold it without copying it ([`Simulation::new_shared`]).
 #[derive(Clone, Debug)]
 pub struct Simulation {
-    pub(super) spec: VehicleSpec,
-    pub(super) world_patches: World,
-    pub(super) soil: SoilGrid,
+    pub(super) params: VehicleParams,
+    pub(super) world: Arc<World>,
+    /// The world's obstacles and their broad phase (its near list is in the state).
     pub(super) obstacles: ObstacleSet,
-    pub(super) dt: f64,
-    /// Sprung mass (chassis), kg.
-    pub(super) mass: f64,
-    /// Total mass (chassis and wheels), kg.
-    pub(super) total_mass: f64,
     /// Gravity, world frame, m/s^2 (default `(0, 0, -G)`; tilted for tilt-table scenarios).
     pub(super) gravity: Vector3<f64>,
-    pub(super) inertia: Matrix3<f64>,
-    pub(super) inertia_inv: Matrix3<f64>,
-    pub(super) unsprung: f64,
-    pub(super) radius: f64,
-    pub(super) width: f64,
-    pub(super) wheel_inertia: f64,
-    pub(super) tyre_mu: f64,
-    pub(super) bristle_k: f64,
-    pub(super) bristle_c: f64,
-    pub(super) tyre_k: f64,
-    pub(super) tyre_c: f64,
-    pub(super) body_points: Vec<Vector3<f64>>,
-    pub(super) body_k: f64,
-    pub(super) body_c: f64,
-    pub(super) obstacle_k: f64,
-    pub(super) wheels: Vec<Wheel>,
-    pub(super) groups: usize,
-    /// Highest terrain (plus one cell of slack) over 4 x 4-sample blocks: a body point above it cannot touch.
-    pub(super) block_max: Vec<f64>,
-    pub(super) blocks_x: usize,
-    // state
-    pub(super) time: f64,
-    pub(super) pos: Vector3<f64>,
-    pub(super) rot: UnitQuaternion<f64>,
-    pub(super) vel: Vector3<f64>,
-    /// Angular velocity in the chassis frame.
-    pub(super) omega: Vector3<f64>,
-    pub(super) gear: usize,
-    pub(super) steering: f64,
-    pub(super) accel_prev: Vector3<f64>,
-    pub(super) steps: u64,
-    // scratch (preallocated; no allocation in the step loop)
-    pub(super) group_torque: Vec<f64>,
-    pub(super) group_num: Vec<f64>,
-    pub(super) group_den: Vec<f64>,
-    pub(super) group_spin: Vec<f64>,
-    pub(super) group_brake: Vec<f64>,
-    /// Total spin inertia of each group (constant).
-    pub(super) group_inertia: Vec<f64>,
-    /// Each group's spin before clutches and brakes (scratch).
-    pub(super) group_free: Vec<f64>,
-    /// The locking clutches of a clutched driveline (constant) and their torques in this step (scratch).
-    pub(super) clutches: Vec<super::powertrain::Clutch>,
-    pub(super) clutch_torque: Vec<f64>,
-    pub(super) contacts: Vec<WheelContact>,
-    /// Ground force on each wheel in the last step, world frame (for [`WheelReport`]).
-    pub(super) ground_forces: Vec<Vector3<f64>>,
-    /// Each wheel's spin before this step's spin update (scratch).
-    pub(super) spin_before: Vec<f64>,
-    /// How long the last [`Simulation::settle`] took, s.
-    pub(super) settle_time: f64,
-}
-
-#[derive(Clone, Copy, Debug, Default)]
-pub(super) struct WheelContact {
-    pub(super) active: bool,
-    pub(super) soil: bool,
-    pub(super) point: Vector3<f64>,
-    pub(super) normal: Vector3<f64>,
-    /// Normal force magnitude (tyre deflection force), N.
-    pub(super) load: f64,
-    /// Stiffness and damping of the contact force along `normal` with respect to the wheel centre's motion along
-    /// it (tyre deflection or soil), N/m and N s/m: the Jacobian of the wheel's implicit vertical update.
-    pub(super) k_normal: f64,
-    pub(super) c_normal: f64,
-    /// Sinkage below the undeformed soil surface (soil) or tyre deflection (rigid ground), m.
-    pub(super) sinkage: f64,
-    pub(super) mu: f64,
-    pub(super) tx: Vector3<f64>,
-    pub(super) ty: Vector3<f64>,
-    /// Force on the wheel from the ground (soil: complete), world.
-    pub(super) soil_force: Vector3<f64>,
-    /// The soil's traction stiffness ([`crate::soil::SoilContact::traction_stiffness`]), N s/m.
-    pub(super) soil_stiffness: f64,
-    /// The soil's torque on the wheel about its axle (positive along the spin), N m, and its Jacobians
-    /// ([`crate::soil::SoilContact::spin_stiffness`], [`crate::soil::SoilContact::spin_force`],
-    /// [`crate::soil::SoilContact::spin_lift`]).
-    pub(super) soil_torque: f64,
-    pub(super) spin_stiffness: f64,
-    pub(super) spin_force: f64,
-    pub(super) spin_lift: f64,
-    /// The soil's full moment about the wheel's centre, N m (world).
-    pub(super) soil_moment: Vector3<f64>,
-    /// The soil's Mohr-Coulomb shear capacity over the contact, N.
-    pub(super) shear_capacity: f64,
-    pub(super) r_eff: f64,
+    pub(super) state: DynamicsState,
+    pub(super) scratch: StepScratch,
 }
 
 /// Fixed physics step for a vehicle scale: 4 ms at full scale (Chrono: 5 ms), scaled by sqrt(scale) (Froude similitude keeps the

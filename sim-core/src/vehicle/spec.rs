@@ -1,7 +1,7 @@
 //! Vehicle specifications: the data files in `sim-core/vehicles/*.toml` (units SI: m, kg, s, N, rad unless a key
 //! says otherwise). Parsing a string is not IO: the built-in catalogue is compiled in with `include_str!`.
 
-use crate::planner::VehicleInfo;
+use super::action::VehicleInfo;
 use serde::Deserialize;
 
 /// Errors of the vehicle catalogue.

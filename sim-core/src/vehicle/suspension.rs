@@ -3,103 +3,112 @@
 //! stop, unsprung mass; linearly implicit in its stiff terms), and what reaches the chassis: the strut force at the hard point and the ground force's
 //! components across the strut.
 
+use super::dynamics::DynamicsState;
+use super::params::VehicleParams;
+use super::scratch::StepScratch;
 use super::simulation::*;
 use super::step::{Frame, Wrench};
+use super::tyre::slip_velocity;
 use nalgebra::Vector3;
 
-impl Simulation {
-    /// Phase 7: see the module docs.
-    pub(super) fn wheel_forces(&mut self, frame: &Frame, wrench: &mut Wrench) {
-        // Apply contact forces with the new spins.
-        for k in 0..self.wheels.len() {
-            let c = self.contacts[k];
-            // The wheel centre, as `Wheel::centre_offset` but summed in another order (kept: changing it would move
-            // every r3 trajectory by rounding).
-            let hard_world = self.pos
-                + self.rot
-                    * (self.wheels[k].hard
-                        - Vector3::new(
-                            0.0,
-                            0.0,
-                            self.wheels[k].static_compression.min(self.wheels[k].travel),
-                        )
-                        + Vector3::new(0.0, 0.0, self.wheels[k].compression));
-            let mut ground = Vector3::zeros();
-            if c.active {
-                if c.soil {
-                    // The soil's force at the new spin, linearised as in the implicit spin update (the wheel felt
-                    // this reaction; the chassis must get the same force, or momentum leaks between them).
-                    let spin = self.wheels[k].spin;
-                    let spin_change = spin - self.spin_before[k];
-                    let (vsx, vsy) = self.slip_velocity(&c, spin, &frame.omega_w);
-                    let (damping, _) = self.soil_shear_damping(&c, vsx, vsy, frame.dt);
-                    ground = c.soil_force
-                        + c.tx * (c.spin_force * spin_change + damping[0])
-                        + c.normal * (c.spin_lift * spin_change)
-                        + c.ty * damping[1];
-                } else {
-                    let w = &self.wheels[k];
-                    let (vsx, vsy) = self.slip_velocity(&c, w.spin, &frame.omega_w);
-                    let t = self.tyre_force(w, &c, vsx, vsy, frame.dt);
-                    self.wheels[k].bristle = t.bristle;
-                    let f = t.force;
-                    ground = c.normal * c.load + c.tx * f[0] + c.ty * f[1];
-                }
-            }
-            self.ground_forces[k] = ground;
-            // Wheel vertical DOF along the chassis up axis, linearly implicit in the stiff terms (tyre or soil
-            // contact, spring, damper, bump stop), so the soil's elastic stiffness is stable at the vehicle's step.
-            let a_rel = self.accel_prev;
-            let gvec = self.gravity * self.unsprung;
-            let along = (ground + gvec - self.unsprung * a_rel).dot(&frame.up);
-            let n_up = c.normal.dot(&frame.up);
-            let wm = &mut self.wheels[k];
-            let (k_ground, c_ground) = if c.active {
-                // The soil's stiffness takes each pressed node on the branch the wheel moves it along (its soft
-                // plastic tangent where the rim moves into it, its stiff elastic line where the rim rests or moves
-                // away: `SoilContact::normal_stiffness`); the tyre has one stiffness.
-                (c.k_normal * n_up * n_up, c.c_normal * n_up * n_up)
+/// Phase 7: see the module docs. Reads this step's contacts and spins before the update from `scratch`, writes
+/// the ground forces there.
+pub(super) fn wheel_forces(
+    p: &VehicleParams,
+    s: &mut DynamicsState,
+    scratch: &mut StepScratch,
+    frame: &Frame,
+    wrench: &mut Wrench,
+) {
+    // Apply contact forces with the new spins.
+    for k in 0..p.wheels.len() {
+        let c = scratch.contacts[k];
+        // The wheel centre, as `WheelParams::centre_offset` but summed in another order (kept: changing it would move
+        // every r3 trajectory by rounding).
+        let hard_world = s.pos
+            + s.rot
+                * (p.wheels[k].hard
+                    - Vector3::new(
+                        0.0,
+                        0.0,
+                        p.wheels[k].static_compression.min(p.wheels[k].travel),
+                    )
+                    + Vector3::new(0.0, 0.0, s.wheels[k].compression));
+        let mut ground = Vector3::zeros();
+        if c.active {
+            if c.soil {
+                // The soil's force at the new spin, linearised as in the implicit spin update (the wheel felt
+                // this reaction; the chassis must get the same force, or momentum leaks between them).
+                let spin = s.wheels[k].spin;
+                let spin_change = spin - scratch.spin_before[k];
+                let (vsx, vsy) = slip_velocity(s, &c, spin, &frame.omega_w);
+                let (damping, _) = p.soil_shear_damping(&c, vsx, vsy, frame.dt);
+                ground = c.soil_force
+                    + c.tx * (c.spin_force * spin_change + damping[0])
+                    + c.normal * (c.spin_lift * spin_change)
+                    + c.ty * damping[1];
             } else {
-                (0.0, 0.0)
-            };
-            let f_spring = wm.spring * wm.compression + wm.damper * wm.compression_rate;
-            let (bump, k_bump) = if wm.compression > wm.travel {
-                (
-                    BUMP_STOP_STIFFNESS * wm.spring * (wm.compression - wm.travel)
-                        + wm.damper * wm.compression_rate.max(0.0),
-                    BUMP_STOP_STIFFNESS * wm.spring,
-                )
-            } else {
-                (0.0, 0.0)
-            };
-            let f_strut = (f_spring + bump).max(0.0);
-            let stiffness = k_ground + wm.spring + k_bump;
-            let damping = c_ground + wm.damper;
-            let dt = frame.dt;
-            let v = wm.compression_rate;
-            wm.compression_rate += dt * (along - f_strut - dt * stiffness * v)
-                / (self.unsprung + dt * damping + dt * dt * stiffness);
-            wm.compression += wm.compression_rate * dt;
-            if wm.compression < 0.0 {
-                wm.compression = 0.0;
-                wm.compression_rate = wm.compression_rate.max(0.0);
+                let w = &s.wheels[k];
+                let (vsx, vsy) = slip_velocity(s, &c, w.spin, &frame.omega_w);
+                let t = p.tyre_force(w, &c, vsx, vsy, frame.dt);
+                s.wheels[k].bristle = t.bristle;
+                let f = t.force;
+                ground = c.normal * c.load + c.tx * f[0] + c.ty * f[1];
             }
-            // Chassis: strut force at the hard point plus the ground force components across the strut.
-            let across = ground + gvec - frame.up * (ground + gvec).dot(&frame.up);
-            let f_chassis = frame.up * f_strut + across;
-            wrench.force += f_chassis;
-            let arm = if c.active { c.point } else { hard_world };
-            wrench.torque += (arm - self.pos).cross(&across)
-                + (hard_world - self.pos).cross(&(frame.up * f_strut));
-            if c.active && c.soil {
-                // The soil's force acts over the contact patch, not at `c.point` under the centre: the rest of its
-                // moment about the wheel's centre (on a sunk wheel the pressure's and damping's moment on the
-                // leading arc, which the spin pays as rolling resistance) reaches the chassis too, through the
-                // driveline's reaction to the torque that overcomes it (quasi-steady spin, as the rigid tyre's
-                // force at its contact point).
-                let f = c.soil_force - frame.up * c.soil_force.dot(&frame.up);
-                wrench.torque += c.soil_moment + (c.normal * self.radius).cross(&f);
-            }
+        }
+        scratch.ground_forces[k] = ground;
+        // Wheel vertical DOF along the chassis up axis, linearly implicit in the stiff terms (tyre or soil
+        // contact, spring, damper, bump stop), so the soil's elastic stiffness is stable at the vehicle's step.
+        let a_rel = s.accel_prev;
+        let gvec = frame.gravity * p.unsprung;
+        let along = (ground + gvec - p.unsprung * a_rel).dot(&frame.up);
+        let n_up = c.normal.dot(&frame.up);
+        let (wp, wm) = (&p.wheels[k], &mut s.wheels[k]);
+        let (k_ground, c_ground) = if c.active {
+            // The soil's stiffness takes each pressed node on the branch the wheel moves it along (its soft
+            // plastic tangent where the rim moves into it, its stiff elastic line where the rim rests or moves
+            // away: `SoilContact::normal_stiffness`); the tyre has one stiffness.
+            (c.k_normal * n_up * n_up, c.c_normal * n_up * n_up)
+        } else {
+            (0.0, 0.0)
+        };
+        let f_spring = wp.spring * wm.compression + wp.damper * wm.compression_rate;
+        let (bump, k_bump) = if wm.compression > wp.travel {
+            (
+                BUMP_STOP_STIFFNESS * wp.spring * (wm.compression - wp.travel)
+                    + wp.damper * wm.compression_rate.max(0.0),
+                BUMP_STOP_STIFFNESS * wp.spring,
+            )
+        } else {
+            (0.0, 0.0)
+        };
+        let f_strut = (f_spring + bump).max(0.0);
+        let stiffness = k_ground + wp.spring + k_bump;
+        let damping = c_ground + wp.damper;
+        let dt = frame.dt;
+        let v = wm.compression_rate;
+        wm.compression_rate += dt * (along - f_strut - dt * stiffness * v)
+            / (p.unsprung + dt * damping + dt * dt * stiffness);
+        wm.compression += wm.compression_rate * dt;
+        if wm.compression < 0.0 {
+            wm.compression = 0.0;
+            wm.compression_rate = wm.compression_rate.max(0.0);
+        }
+        // Chassis: strut force at the hard point plus the ground force components across the strut.
+        let across = ground + gvec - frame.up * (ground + gvec).dot(&frame.up);
+        let f_chassis = frame.up * f_strut + across;
+        wrench.force += f_chassis;
+        let arm = if c.active { c.point } else { hard_world };
+        wrench.torque +=
+            (arm - s.pos).cross(&across) + (hard_world - s.pos).cross(&(frame.up * f_strut));
+        if c.active && c.soil {
+            // The soil's force acts over the contact patch, not at `c.point` under the centre: the rest of its
+            // moment about the wheel's centre (on a sunk wheel the pressure's and damping's moment on the
+            // leading arc, which the spin pays as rolling resistance) reaches the chassis too, through the
+            // driveline's reaction to the torque that overcomes it (quasi-steady spin, as the rigid tyre's
+            // force at its contact point).
+            let f = c.soil_force - frame.up * c.soil_force.dot(&frame.up);
+            wrench.torque += c.soil_moment + (c.normal * p.radius).cross(&f);
         }
     }
 }

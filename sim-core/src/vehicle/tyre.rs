@@ -3,9 +3,12 @@
 //! the torque is the tyre model's longitudinal force ([`TyreModel`]) at the rim; on soil the soil's moment about the
 //! axle.
 
+use super::action::Action;
+use super::dynamics::{DynamicsState, WheelState};
+use super::params::VehicleParams;
+use super::scratch::{GroupSums, WheelContact};
 use super::simulation::*;
 use super::step::Frame;
-use crate::planner::Action;
 use crate::vehicle::spec::TyreModel;
 use nalgebra::Vector3;
 
@@ -18,46 +21,51 @@ pub(super) struct TyreForce {
     pub bristle: [f64; 2],
 }
 
-impl Simulation {
-    /// Phase 5: see the module docs. Also sums each group's spin inertia, momentum and brake torque.
-    pub(super) fn force_trials(&mut self, frame: &Frame, action: &Action) {
-        let dt = frame.dt;
-        for k in 0..self.wheels.len() {
-            let c = self.contacts[k];
-            let w = &self.wheels[k];
-            let g = w.group;
-            self.group_den[g] += self.wheel_inertia;
-            self.group_spin[g] += w.spin * self.wheel_inertia;
-            self.group_brake[g] += self.spec.powertrain.brake_torque * action.brake.clamp(0.0, 1.0);
-            if !c.active {
-                continue;
-            }
-            let (vsx, vsy) = self.slip_velocity(&c, w.spin, &frame.omega_w);
-            if c.soil {
-                // The soil's moment about the axle and its spin Jacobian; the creep damping acts at the rim.
-                let (damping, c_t) = self.soil_shear_damping(&c, vsx, vsy, dt);
-                self.group_num[g] += c.soil_torque - damping[0] * c.r_eff;
-                self.group_den[g] += dt * (c.spin_stiffness + c_t * c.r_eff * c.r_eff);
-            } else {
-                let t = self.tyre_force(w, &c, vsx, vsy, dt);
-                self.group_num[g] -= t.force[0] * c.r_eff;
-                self.group_den[g] += dt * t.stiffness * c.r_eff * c.r_eff;
-            }
+/// Phase 5: see the module docs. Also sums each group's spin inertia, momentum and brake torque into `groups`.
+pub(super) fn force_trials(
+    p: &VehicleParams,
+    s: &DynamicsState,
+    contacts: &[WheelContact],
+    groups: &mut GroupSums,
+    frame: &Frame,
+    action: &Action,
+) {
+    let dt = frame.dt;
+    for ((c, w), wp) in contacts.iter().zip(&s.wheels).zip(&p.wheels) {
+        let g = wp.group;
+        groups.den[g] += p.wheel_inertia;
+        groups.spin[g] += w.spin * p.wheel_inertia;
+        groups.brake[g] += p.spec.powertrain.brake_torque * action.brake.clamp(0.0, 1.0);
+        if !c.active {
+            continue;
+        }
+        let (vsx, vsy) = slip_velocity(s, c, w.spin, &frame.omega_w);
+        if c.soil {
+            // The soil's moment about the axle and its spin Jacobian; the creep damping acts at the rim.
+            let (damping, c_t) = p.soil_shear_damping(c, vsx, vsy, dt);
+            groups.num[g] += c.soil_torque - damping[0] * c.r_eff;
+            groups.den[g] += dt * (c.spin_stiffness + c_t * c.r_eff * c.r_eff);
+        } else {
+            let t = p.tyre_force(w, c, vsx, vsy, dt);
+            groups.num[g] -= t.force[0] * c.r_eff;
+            groups.den[g] += dt * t.stiffness * c.r_eff * c.r_eff;
         }
     }
+}
 
-    /// Slip velocity of a wheel spinning at `spin` at its contact `c`, in the contact frame: the ground point's
-    /// velocity less the rim speed along `tx`, and across it along `ty`.
-    pub(super) fn slip_velocity(
-        &self,
-        c: &WheelContact,
-        spin: f64,
-        omega_w: &Vector3<f64>,
-    ) -> (f64, f64) {
-        let v_p = self.vel + omega_w.cross(&(c.point - self.pos));
-        (v_p.dot(&c.tx) - spin * c.r_eff, v_p.dot(&c.ty))
-    }
+/// Slip velocity of a wheel spinning at `spin` at its contact `c`, in the contact frame: the ground point's
+/// velocity (the chassis moving as `s` says) less the rim speed along `tx`, and across it along `ty`.
+pub(super) fn slip_velocity(
+    s: &DynamicsState,
+    c: &WheelContact,
+    spin: f64,
+    omega_w: &Vector3<f64>,
+) -> (f64, f64) {
+    let v_p = s.vel + omega_w.cross(&(c.point - s.pos));
+    (v_p.dot(&c.tx) - spin * c.r_eff, v_p.dot(&c.ty))
+}
 
+impl VehicleParams {
     /// Damping of the soil's elastic shear, as the rigid tyre's bristle damping (LuGre's sigma_1): the pressed
     /// nodes' shear acts as a bristle of stiffness `k = traction_stiffness / dt` (Janosi's initial slope
     /// `tau_max / K` over the contact); its slip velocity `(vsx, vsy)` is damped at [`BRISTLE_DAMPING_RATIO`] of
@@ -96,7 +104,7 @@ impl Simulation {
     /// Tyre friction on rigid ground for slip velocities `(vsx, vsy)`: see [`TyreForce`].
     pub(super) fn tyre_force(
         &self,
-        w: &Wheel,
+        w: &WheelState,
         c: &WheelContact,
         vsx: f64,
         vsy: f64,
