@@ -1,5 +1,6 @@
-//! Values that cross crates, with one string form each: how an episode ended ([`Outcome`], and
-//! [`RecordedOutcome`] as the service records it), under which rules ([`Rules`]), its metrics
+//! Values that cross crates, with one string form each: a world's factors ([`ElevationLevel`],
+//! [`SemanticsKind`], [`ObstacleDensity`]), how an episode ended ([`Outcome`], [`EndReason`], and
+//! [`RecordedOutcome`] as the service records it), how a submission gives its planner ([`PlannerKind`]), under which rules ([`Rules`]), its metrics
 //! ([`EpisodeMetrics`]), a task's id ([`TaskId`], `wNNN-tK`), the states of the service's episodes and submissions
 //! ([`EpisodeState`], [`SubmissionState`]), the trajectory codec ([`trajectory`]), and the checks of user-given
 //! names and image references ([`input`]).
@@ -7,85 +8,37 @@
 //! A leaf crate (serde and thiserror only): the simulator produces these values and re-exports them; the service,
 //! the store, the leaderboard and `vb-submit` read them without linking the simulator.
 
+#[macro_use]
+mod named;
 pub mod input;
 mod state;
 mod task_id;
 pub mod trajectory;
+mod vocab;
 
-pub use state::{EpisodeState, RecordedOutcome, SubmissionState, UnknownName};
+pub use named::UnknownName;
+pub use state::{EpisodeState, RecordedOutcome, SubmissionState};
 pub use task_id::{TaskId, TaskIdError};
+pub use vocab::{ElevationLevel, EndReason, ObstacleDensity, Outcome, PlannerKind, SemanticsKind};
 
 use serde::{Deserialize, Serialize};
 
-/// Which named set of rules an episode configuration follows (results carry it: runs under different rules are
-/// different runs).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Rules {
-    /// The paper's definitions (sim-core's `EpisodeConfig::default`).
-    #[default]
-    Paper,
-    /// The original release's (`EpisodeConfig::release`).
-    Release,
-    /// Anything else (a changed time limit, goal radius, ...).
-    Custom,
-}
-
-impl Rules {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Paper => "paper",
-            Self::Release => "release",
-            Self::Custom => "custom",
-        }
+named!(
+    /// Which named set of rules an episode configuration follows (results carry it: runs under different rules
+    /// are different runs).
+    Rules, "rules", {
+        /// The paper's definitions (sim-core's `EpisodeConfig::default`).
+        Paper = "paper",
+        /// The original release's (`EpisodeConfig::release`).
+        Release = "release",
+        /// Anything else (a changed time limit, goal radius, ...).
+        Custom = "custom",
     }
+);
 
-    /// The rules named by [`Rules::as_str`].
-    pub fn parse(s: &str) -> Option<Rules> {
-        [Self::Paper, Self::Release, Self::Custom]
-            .into_iter()
-            .find(|r| r.as_str() == s)
-    }
-}
-
-/// How an episode ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Outcome {
-    Success,
-    Rollover,
-    Stuck,
-    Timeout,
-    OffMap,
-    /// The planner failed (crash, timeout, NaN or out-of-range action); see the episode's `reason`.
-    PlannerFailure,
-}
-
-impl Outcome {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Success => "success",
-            Self::Rollover => "rollover",
-            Self::Stuck => "stuck",
-            Self::Timeout => "timeout",
-            Self::OffMap => "off_map",
-            Self::PlannerFailure => "planner_failure",
-        }
-    }
-
-    /// Every outcome, in this order.
-    pub const ALL: [Outcome; 6] = [
-        Self::Success,
-        Self::Rollover,
-        Self::Stuck,
-        Self::Timeout,
-        Self::OffMap,
-        Self::PlannerFailure,
-    ];
-
-    /// The outcome named by [`Outcome::as_str`].
-    pub fn parse(s: &str) -> Option<Outcome> {
-        Self::ALL.into_iter().find(|o| o.as_str() == s)
+impl Default for Rules {
+    fn default() -> Self {
+        Self::Paper
     }
 }
 
@@ -97,8 +50,9 @@ pub struct SignalStats {
     pub max: f64,
 }
 
-/// Metrics of one episode.
+/// Metrics of one episode. A metric missing from stored JSON reads as zero (rows written before it existed).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct EpisodeMetrics {
     /// Simulated time at the end of the episode, s (the traversal time when successful).
     pub time: f64,

@@ -1,54 +1,8 @@
 //! States of the service's episodes and submissions, and an episode's outcome as the service records it: each with
 //! one string form (what the store holds and the APIs show), written by `as_str` and read by `parse`.
 
-use crate::Outcome;
+use crate::{Outcome, UnknownName};
 use serde::{Deserialize, Serialize};
-
-/// A name that is not one of a type's string forms.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("unknown {what} `{name}`")]
-pub struct UnknownName {
-    pub what: &'static str,
-    pub name: String,
-}
-
-macro_rules! named {
-    ($(#[$m:meta])* $t:ident, $what:literal, { $($(#[$vm:meta])* $v:ident = $s:literal),+ $(,)? }) => {
-        $(#[$m])*
-        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-        #[serde(rename_all = "snake_case")]
-        pub enum $t {
-            $($(#[$vm])* $v),+
-        }
-
-        impl $t {
-            /// Every value, in declaration order.
-            pub const ALL: &'static [$t] = &[$($t::$v),+];
-
-            /// The one string form.
-            pub fn as_str(self) -> &'static str {
-                match self {
-                    $($t::$v => $s),+
-                }
-            }
-
-            /// The value named by [`Self::as_str`].
-            pub fn parse(s: &str) -> Result<$t, UnknownName> {
-                Self::ALL
-                    .iter()
-                    .copied()
-                    .find(|v| v.as_str() == s)
-                    .ok_or_else(|| UnknownName { what: $what, name: s.to_string() })
-            }
-        }
-
-        impl std::fmt::Display for $t {
-            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-                f.write_str(self.as_str())
-            }
-        }
-    };
-}
 
 named!(
     /// Where one episode of a submission is.
@@ -104,12 +58,7 @@ impl RecordedOutcome {
         if s == "error" {
             return Ok(Self::InfrastructureError);
         }
-        Outcome::parse(s)
-            .map(Self::Episode)
-            .ok_or_else(|| UnknownName {
-                what: "outcome",
-                name: s.to_string(),
-            })
+        Outcome::parse(s).map(Self::Episode)
     }
 
     /// The episode failed because of the planner or the infrastructure, not by how it drove.
@@ -118,6 +67,13 @@ impl RecordedOutcome {
             self,
             Self::InfrastructureError | Self::Episode(Outcome::PlannerFailure)
         )
+    }
+}
+
+impl std::str::FromStr for RecordedOutcome {
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<RecordedOutcome, UnknownName> {
+        RecordedOutcome::parse(s)
     }
 }
 
@@ -147,7 +103,7 @@ mod tests {
         for &s in SubmissionState::ALL {
             assert_eq!(SubmissionState::parse(s.as_str()), Ok(s));
         }
-        for o in Outcome::ALL {
+        for &o in Outcome::ALL {
             let r = RecordedOutcome::Episode(o);
             assert_eq!(RecordedOutcome::parse(r.as_str()), Ok(r));
         }

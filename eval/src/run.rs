@@ -1,7 +1,7 @@
 //! Running the episodes of an evaluation, resumably.
 
 use crate::{io_err, EpisodeRow, EvalError};
-use contracts::TaskId;
+use contracts::{RecordedOutcome, TaskId};
 use rayon::prelude::*;
 use sim_core::episode::EpisodeConfig;
 use sim_core::planner::Planner;
@@ -123,11 +123,11 @@ pub fn run_with(
             });
         }
     }
-    let done: BTreeSet<String> = rows.iter().map(|r| r.task_id.clone()).collect();
+    let done: BTreeSet<TaskId> = rows.iter().map(|r| r.task_id).collect();
     let todo: Vec<(u32, u32)> = selected
         .iter()
         .copied()
-        .filter(|&(w, t)| !done.contains(&TaskId::new(w, t).to_string()))
+        .filter(|&(w, t)| !done.contains(&TaskId::new(w, t)))
         .collect();
     let file = std::fs::OpenOptions::new()
         .create(true)
@@ -157,12 +157,12 @@ pub fn run_with(
                 return Ok(None);
             }
             let row = EpisodeRow {
-                task_id: task.id(),
+                task_id: TaskId::new(w, t),
                 world_id: w,
                 task_index: t,
-                level: world.level.as_str().into(),
-                semantics: world.semantics.as_str().into(),
-                density: world.density.as_str().into(),
+                level: world.level,
+                semantics: world.semantics,
+                density: world.density,
                 terrain: set.world_meta(w)?.terrain,
                 planner: cfg.planner.clone(),
                 vehicle: vehicle.name.clone(),
@@ -171,7 +171,7 @@ pub fn run_with(
                 task_set_version: set.version().into(),
                 sim_version: SIM_VERSION.into(),
                 rules: cfg.episode.rules(),
-                outcome: r.outcome.as_str().into(),
+                outcome: RecordedOutcome::Episode(r.outcome),
                 reason: r.reason,
                 detail: r.detail,
                 metrics: r.metrics,
@@ -194,10 +194,7 @@ pub fn run_with(
     for r in new_rows {
         rows.extend(r?);
     }
-    let keep: BTreeSet<String> = selected
-        .iter()
-        .map(|&(w, t)| TaskId::new(w, t).to_string())
-        .collect();
+    let keep: BTreeSet<TaskId> = selected.iter().map(|&(w, t)| TaskId::new(w, t)).collect();
     rows.retain(|r| keep.contains(&r.task_id));
     rows.sort_by_key(|r| (r.world_id, r.task_index));
     Ok(rows)

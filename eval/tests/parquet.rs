@@ -21,12 +21,12 @@ fn row(task: u32, outcome: &str, time: f64) -> EpisodeRow {
     metrics.pitch_abs.max = 29.87654321;
     metrics.steering_tv = 0.123456;
     EpisodeRow {
-        task_id: format!("w017-t{task}"),
+        task_id: contracts::TaskId::new(17, task as u32),
         world_id: 17,
         task_index: task,
-        level: "high".into(),
-        semantics: "mixed".into(),
-        density: "dense".into(),
+        level: "high".parse().unwrap(),
+        semantics: "mixed".parse().unwrap(),
+        density: "dense".parse().unwrap(),
         // Odd tasks come from a set without terrain groups: a null terrain.
         terrain: task.is_multiple_of(2).then_some(6),
         planner: "mppi6".into(),
@@ -36,8 +36,8 @@ fn row(task: u32, outcome: &str, time: f64) -> EpisodeRow {
         task_set_version: "v1-abc".into(),
         sim_version: "sim-core 0.1.0".into(),
         rules: Default::default(),
-        outcome: outcome.into(),
-        reason: outcome.into(),
+        outcome: outcome.parse().unwrap(),
+        reason: outcome.parse().unwrap(),
         detail: String::new(),
         metrics,
         wall_time_s: 0.25 * time,
@@ -95,7 +95,7 @@ fn parquet_rows_equal_the_csv_rows_with_null_traversal_times_for_failures() {
                 Field::Null => {
                     assert_eq!(cell, "", "empty CSV field for a null");
                     match name.as_str() {
-                        "traversal_time_s" => assert_ne!(rows[i].outcome, "success"),
+                        "traversal_time_s" => assert!(!rows[i].is_success()),
                         "terrain" => assert_eq!(rows[i].terrain, None),
                         other => panic!("unexpected null in {other}"),
                     }
@@ -108,7 +108,7 @@ fn parquet_rows_equal_the_csv_rows_with_null_traversal_times_for_failures() {
             .find(|(n, _)| n.as_str() == "traversal_time_s")
             .map(|(_, f)| f.clone())
             .unwrap();
-        if rows[i].outcome == "success" {
+        if rows[i].is_success() {
             assert_eq!(tt, Field::Double(rows[i].metrics.time), "full precision");
         } else {
             assert_eq!(tt, Field::Null);

@@ -5,12 +5,12 @@ use sim_core::episode::EpisodeMetrics;
 
 fn row(task: &str, level: &str, semantics: &str, density: &str) -> EpisodeRow {
     EpisodeRow {
-        task_id: task.into(),
+        task_id: task.parse().unwrap(),
         world_id: 1,
         task_index: 0,
-        level: level.into(),
-        semantics: semantics.into(),
-        density: density.into(),
+        level: level.parse().unwrap(),
+        semantics: semantics.parse().unwrap(),
+        density: density.parse().unwrap(),
         terrain: None,
         planner: "p".into(),
         vehicle: "hmmwv".into(),
@@ -19,8 +19,8 @@ fn row(task: &str, level: &str, semantics: &str, density: &str) -> EpisodeRow {
         task_set_version: "v".into(),
         sim_version: "s".into(),
         rules: Default::default(),
-        outcome: "success".into(),
-        reason: "success".into(),
+        outcome: "success".parse().unwrap(),
+        reason: "success".parse().unwrap(),
         detail: String::new(),
         metrics: EpisodeMetrics::default(),
         wall_time_s: 0.1,

@@ -50,14 +50,12 @@ pub fn binomial_two_sided(k: usize, n: usize) -> f64 {
 
 /// Compares rows of A and B on the tasks both contain.
 pub fn compare(a: &[EpisodeRow], b: &[EpisodeRow]) -> Comparison {
-    let bm: BTreeMap<&str, bool> = b
-        .iter()
-        .map(|r| (r.task_id.as_str(), r.outcome == "success"))
-        .collect();
-    paired(a.iter().filter_map(|r| {
-        bm.get(r.task_id.as_str())
-            .map(|&ok_b| (r.outcome == "success", ok_b))
-    }))
+    let bm: BTreeMap<contracts::TaskId, bool> =
+        b.iter().map(|r| (r.task_id, r.is_success())).collect();
+    paired(
+        a.iter()
+            .filter_map(|r| bm.get(&r.task_id).map(|&ok_b| (r.is_success(), ok_b))),
+    )
 }
 
 /// A note when A and B ran on different task sets: tasks are paired by id, which is what a surface counterfactual

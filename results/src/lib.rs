@@ -14,7 +14,10 @@ pub mod parquet_file;
 pub mod report;
 pub mod summary;
 
-use contracts::{EpisodeMetrics, Rules};
+use contracts::{
+    ElevationLevel, EndReason, EpisodeMetrics, ObstacleDensity, Outcome, RecordedOutcome, Rules,
+    SemanticsKind, TaskId,
+};
 use serde::{Deserialize, Serialize};
 
 /// Errors writing results; each names the file.
@@ -35,12 +38,12 @@ pub(crate) fn io_err(path: &std::path::Path, e: impl std::fmt::Display) -> Resul
 /// One finished episode: task factors, outcome, every metric and what makes it reproducible.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EpisodeRow {
-    pub task_id: String,
+    pub task_id: TaskId,
     pub world_id: u32,
     pub task_index: u32,
-    pub level: String,
-    pub semantics: String,
-    pub density: String,
+    pub level: ElevationLevel,
+    pub semantics: SemanticsKind,
+    pub density: ObstacleDensity,
     /// Terrain group of the world: worlds of one group share heights and patches and differ only in obstacle
     /// density (nested layouts). `None` for sets without groups (imported worlds).
     #[serde(default)]
@@ -54,11 +57,19 @@ pub struct EpisodeRow {
     /// The episode rules (`--release-rules`: release); older rows without it followed the paper's.
     #[serde(default)]
     pub rules: Rules,
-    pub outcome: String,
-    pub reason: String,
+    /// The episode's outcome, or the service's infrastructure error (`error`).
+    pub outcome: RecordedOutcome,
+    pub reason: EndReason,
     pub detail: String,
     pub metrics: EpisodeMetrics,
     pub wall_time_s: f64,
+}
+
+impl EpisodeRow {
+    /// Whether the episode reached its goal.
+    pub fn is_success(&self) -> bool {
+        self.outcome == RecordedOutcome::Episode(Outcome::Success)
+    }
 }
 
 #[cfg(test)]
@@ -66,13 +77,14 @@ impl EpisodeRow {
     /// A PID episode with the HMMWV on a low, rigid, sparse world of task set `v`, for unit tests to override field
     /// by field.
     pub(crate) fn for_test(task_id: &str, outcome: &str) -> Self {
+        let outcome = RecordedOutcome::parse(outcome).unwrap();
         EpisodeRow {
-            task_id: task_id.into(),
+            task_id: task_id.parse().unwrap(),
             world_id: 1,
             task_index: 0,
-            level: "low".into(),
-            semantics: "rigid".into(),
-            density: "sparse".into(),
+            level: ElevationLevel::Low,
+            semantics: SemanticsKind::Rigid,
+            density: ObstacleDensity::Sparse,
             terrain: None,
             planner: "pid".into(),
             vehicle: "hmmwv".into(),
@@ -81,8 +93,8 @@ impl EpisodeRow {
             task_set_version: "v".into(),
             sim_version: "s".into(),
             rules: Default::default(),
-            outcome: outcome.into(),
-            reason: String::new(),
+            outcome,
+            reason: EndReason::parse(outcome.as_str()).unwrap_or(EndReason::Infrastructure),
             detail: String::new(),
             metrics: EpisodeMetrics::default(),
             wall_time_s: 0.1,
@@ -104,29 +116,46 @@ pub struct RunFacts {
     pub rules: Rules,
 }
 
+/// One finished episode's own values, as the service keeps them; [`RunFacts::row`] adds what the run shares.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EpisodeValues {
+    pub task_id: TaskId,
+    pub level: ElevationLevel,
+    pub semantics: SemanticsKind,
+    pub density: ObstacleDensity,
+    pub terrain: Option<u32>,
+    pub sim_version: Option<String>,
+    pub outcome: RecordedOutcome,
+    pub reason: EndReason,
+    pub detail: String,
+    pub metrics: EpisodeMetrics,
+    pub wall_time_s: f64,
+}
+
 impl RunFacts {
-    /// A row of this run with the episode's own values still empty (to be filled in by struct update).
-    pub fn row(&self) -> EpisodeRow {
+    /// The row of one of this run's episodes: the one place a stored episode (the store's record, the results
+    /// API's row) becomes an evaluation row. An episode without its own simulator version ran on the run's.
+    pub fn row(&self, e: EpisodeValues) -> EpisodeRow {
         EpisodeRow {
-            task_id: String::new(),
-            world_id: 0,
-            task_index: 0,
-            level: String::new(),
-            semantics: String::new(),
-            density: String::new(),
-            terrain: None,
+            task_id: e.task_id,
+            world_id: e.task_id.world,
+            task_index: e.task_id.index,
+            level: e.level,
+            semantics: e.semantics,
+            density: e.density,
+            terrain: e.terrain,
             planner: self.planner.clone(),
             vehicle: self.vehicle.clone(),
             scale: self.scale,
             seed: self.seed,
             task_set_version: self.task_set_version.clone(),
-            sim_version: self.sim_version.clone(),
+            sim_version: e.sim_version.unwrap_or_else(|| self.sim_version.clone()),
             rules: self.rules,
-            outcome: String::new(),
-            reason: String::new(),
-            detail: String::new(),
-            metrics: EpisodeMetrics::default(),
-            wall_time_s: 0.0,
+            outcome: e.outcome,
+            reason: e.reason,
+            detail: e.detail,
+            metrics: e.metrics,
+            wall_time_s: e.wall_time_s,
         }
     }
 

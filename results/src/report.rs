@@ -5,6 +5,7 @@ use crate::summary::{Aggregate, Summary};
 use crate::EpisodeRow;
 #[cfg(feature = "parquet")]
 use crate::{io_err, ResultsError};
+use contracts::{ElevationLevel, ObstacleDensity, SemanticsKind};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 #[cfg(feature = "parquet")]
@@ -56,12 +57,12 @@ pub fn episode_columns(rows: &[EpisodeRow]) -> Vec<Column> {
         }
     }
     vec![
-        text("task_id", rows, |r| r.task_id.clone()),
+        text("task_id", rows, |r| r.task_id.to_string()),
         int("world_id", rows, |r| r.world_id.into()),
         int("task_index", rows, |r| r.task_index.into()),
-        text("level", rows, |r| r.level.clone()),
-        text("semantics", rows, |r| r.semantics.clone()),
-        text("density", rows, |r| r.density.clone()),
+        text("level", rows, |r| r.level.to_string()),
+        text("semantics", rows, |r| r.semantics.to_string()),
+        text("density", rows, |r| r.density.to_string()),
         Column {
             name: "terrain",
             values: ColumnValues::OptInt(rows.iter().map(|r| r.terrain.map(i64::from)).collect()),
@@ -76,14 +77,14 @@ pub fn episode_columns(rows: &[EpisodeRow]) -> Vec<Column> {
         int("seed", rows, |r| r.seed as i64),
         text("task_set_version", rows, |r| r.task_set_version.clone()),
         text("sim_version", rows, |r| r.sim_version.clone()),
-        text("outcome", rows, |r| r.outcome.clone()),
-        text("reason", rows, |r| r.reason.clone()),
+        text("outcome", rows, |r| r.outcome.as_str().to_string()),
+        text("reason", rows, |r| r.reason.to_string()),
         float("time_s", 3, rows, |r| r.metrics.time),
         Column {
             name: "traversal_time_s",
             values: ColumnValues::OptFloat(
                 rows.iter()
-                    .map(|r| (r.outcome == "success").then_some(r.metrics.time))
+                    .map(|r| (r.is_success()).then_some(r.metrics.time))
                     .collect(),
                 3,
             ),
@@ -221,9 +222,19 @@ pub fn summary_text(s: &Summary) -> String {
 }
 
 /// The levels of each factor in their natural order (tables and charts list them so, not alphabetically).
-pub const LEVELS: [&str; 3] = ["low", "medium", "high"];
-pub const SEMANTICS: [&str; 3] = ["rigid", "deformable", "mixed"];
-pub const DENSITIES: [&str; 3] = ["sparse", "medium", "dense"];
+/// The factors' values in the order reports list them (their declaration order in `contracts`).
+pub const LEVELS: [&str; 3] = {
+    use ElevationLevel::*;
+    [Low.as_str(), Medium.as_str(), High.as_str()]
+};
+pub const SEMANTICS: [&str; 3] = {
+    use SemanticsKind::*;
+    [Rigid.as_str(), Deformable.as_str(), Mixed.as_str()]
+};
+pub const DENSITIES: [&str; 3] = {
+    use ObstacleDensity::*;
+    [Sparse.as_str(), Medium.as_str(), Dense.as_str()]
+};
 
 /// The entries of `map` in `order`, then any others alphabetically.
 pub fn in_order<'a, V>(map: &'a BTreeMap<String, V>, order: &[&str]) -> Vec<(&'a String, &'a V)> {

@@ -2,6 +2,7 @@
 
 use crate::compare::{paired, Comparison};
 use crate::EpisodeRow;
+use contracts::{Outcome, RecordedOutcome};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -37,6 +38,13 @@ pub struct Aggregate {
     pub timeout_pct: f64,
     pub off_map_pct: f64,
     pub planner_failure_pct: f64,
+    /// Episodes their caller stopped (absent from files when none was: summaries before it had no such field).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub cancelled_pct: f64,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 fn mean_var(v: &[f64]) -> (f64, f64) {
@@ -54,9 +62,15 @@ fn mean_var(v: &[f64]) -> (f64, f64) {
 pub fn aggregate<'a>(rows: impl IntoIterator<Item = &'a EpisodeRow>) -> Aggregate {
     let rows: Vec<&EpisodeRow> = rows.into_iter().collect();
     let n = rows.len();
-    let pct =
-        |o: &str| 100.0 * rows.iter().filter(|r| r.outcome == o).count() as f64 / n.max(1) as f64;
-    let succ: Vec<&&EpisodeRow> = rows.iter().filter(|r| r.outcome == "success").collect();
+    let pct = |o: Outcome| {
+        100.0
+            * rows
+                .iter()
+                .filter(|r| r.outcome == RecordedOutcome::Episode(o))
+                .count() as f64
+            / n.max(1) as f64
+    };
+    let succ: Vec<&&EpisodeRow> = rows.iter().filter(|r| r.is_success()).collect();
     let (tm, tv) = mean_var(&succ.iter().map(|r| r.metrics.time).collect::<Vec<_>>());
     let (rm, rv) = mean_var(
         &rows
@@ -80,11 +94,12 @@ pub fn aggregate<'a>(rows: impl IntoIterator<Item = &'a EpisodeRow>) -> Aggregat
         roll_var: rv,
         pitch_mean: pm,
         pitch_var: pv,
-        rollover_pct: pct("rollover"),
-        stuck_pct: pct("stuck"),
-        timeout_pct: pct("timeout"),
-        off_map_pct: pct("off_map"),
-        planner_failure_pct: pct("planner_failure"),
+        rollover_pct: pct(Outcome::Rollover),
+        stuck_pct: pct(Outcome::Stuck),
+        timeout_pct: pct(Outcome::Timeout),
+        off_map_pct: pct(Outcome::OffMap),
+        planner_failure_pct: pct(Outcome::PlannerFailure),
+        cancelled_pct: pct(Outcome::Cancelled),
     }
 }
 
@@ -106,7 +121,7 @@ pub fn semantics_level_adjusted(rows: &[EpisodeRow]) -> BTreeMap<String, f64> {
         let c = cells
             .entry((r.semantics.as_str(), r.level.as_str()))
             .or_default();
-        c.0 += usize::from(r.outcome == "success");
+        c.0 += usize::from(r.is_success());
         c.1 += 1;
     }
     let levels: BTreeSet<&str> = rows.iter().map(|r| r.level.as_str()).collect();
@@ -129,10 +144,7 @@ pub fn density_matched(rows: &[EpisodeRow]) -> Vec<DensityContrast> {
     let mut by: BTreeMap<(u32, u32, &str), bool> = BTreeMap::new();
     for r in rows {
         if let Some(t) = r.terrain {
-            by.insert(
-                (t, r.task_index, r.density.as_str()),
-                r.outcome == "success",
-            );
+            by.insert((t, r.task_index, r.density.as_str()), r.is_success());
         }
     }
     [
@@ -221,9 +233,9 @@ pub fn summarise(rows: &[EpisodeRow]) -> Summary {
         sim_version: first.map(|r| r.sim_version.clone()).unwrap_or_default(),
         rules: first.map(|r| r.rules).unwrap_or_default(),
         overall: aggregate(rows),
-        by_level: by(|r| &r.level),
-        by_semantics: by(|r| &r.semantics),
-        by_density: by(|r| &r.density),
+        by_level: by(|r| r.level.as_str()),
+        by_semantics: by(|r| r.semantics.as_str()),
+        by_density: by(|r| r.density.as_str()),
         semantics_level_adjusted: semantics_level_adjusted(rows),
         density_matched: density_matched(rows),
         episode_wall_s: rows.iter().map(|r| r.wall_time_s).sum(),
@@ -249,8 +261,8 @@ mod tests {
     #[test]
     fn aggregates_count_outcomes_and_time_successes_only() {
         let row = |outcome: &str, time: f64, level: &str| EpisodeRow {
-            level: level.into(),
-            reason: outcome.into(),
+            level: level.parse().unwrap(),
+            reason: outcome.parse().unwrap(),
             metrics: contracts::EpisodeMetrics {
                 time,
                 ..Default::default()
@@ -277,12 +289,12 @@ mod tests {
         for (sem, low_ok, low_n) in [("rigid", 3, 3), ("mixed", 1, 1)] {
             for k in 0..low_n {
                 let mut r = row(if k < low_ok { "success" } else { "stuck" }, 1.0, "low");
-                r.semantics = sem.into();
+                r.semantics = sem.parse().unwrap();
                 rows.push(r);
             }
             for k in 0..4 {
                 let mut r = row(if k < 1 { "success" } else { "stuck" }, 1.0, "high");
-                r.semantics = sem.into();
+                r.semantics = sem.parse().unwrap();
                 rows.push(r);
             }
         }
@@ -315,15 +327,22 @@ mod tests {
 
     #[test]
     fn density_contrasts_pair_tasks_of_one_terrain_group() {
-        let row = |terrain: u32, index: u32, density: &str, ok: bool| EpisodeRow {
-            world_id: terrain,
-            task_index: index,
-            density: density.into(),
-            terrain: Some(terrain),
-            ..EpisodeRow::for_test(
-                &format!("w{terrain:03}{density}-t{index}"),
-                if ok { "success" } else { "stuck" },
-            )
+        // One world per (terrain group, density), as the task set nests them.
+        let row = |terrain: u32, index: u32, density: &str, ok: bool| {
+            let d = ["sparse", "medium", "dense"]
+                .iter()
+                .position(|x| *x == density);
+            let world = terrain * 10 + d.unwrap() as u32;
+            EpisodeRow {
+                world_id: world,
+                task_index: index,
+                density: density.parse().unwrap(),
+                terrain: Some(terrain),
+                ..EpisodeRow::for_test(
+                    &format!("w{world:03}-t{index}"),
+                    if ok { "success" } else { "stuck" },
+                )
+            }
         };
         let mut rows = Vec::new();
         // Group 1: all succeed sparse; task 0 fails dense. Group 2: task 1 succeeds only at medium density.

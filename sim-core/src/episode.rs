@@ -6,7 +6,7 @@
 use serde::{Deserialize, Serialize};
 
 // Shared with every crate that reads results (the service, the evaluator's reports) without the simulator.
-pub use contracts::{EpisodeMetrics, Outcome, Rules, SignalStats, TrajectorySample};
+pub use contracts::{EndReason, EpisodeMetrics, Outcome, Rules, SignalStats, TrajectorySample};
 
 /// How "stuck" is decided.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -110,9 +110,8 @@ impl EpisodeConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EpisodeResult {
     pub outcome: Outcome,
-    /// Machine-readable reason (`success`, `rollover`, `stuck`, `timeout`, `off_map`, `planner_timeout`,
-    /// `planner_crash`, `invalid_action`, ...).
-    pub reason: String,
+    /// Why it ended, finer than `outcome` (the planner's failures told apart).
+    pub reason: EndReason,
     /// Human-readable detail (e.g. the planner's error message).
     pub detail: String,
     pub metrics: EpisodeMetrics,

@@ -20,12 +20,12 @@ use std::sync::Arc;
 #[derive(Clone, Debug, PartialEq)]
 pub struct EpisodeEnd {
     pub outcome: Outcome,
-    pub reason: &'static str,
+    pub reason: EndReason,
     pub detail: String,
 }
 
 impl EpisodeEnd {
-    fn new(outcome: Outcome, reason: &'static str, detail: impl Into<String>) -> EpisodeEnd {
+    fn new(outcome: Outcome, reason: EndReason, detail: impl Into<String>) -> EpisodeEnd {
         EpisodeEnd {
             outcome,
             reason,
@@ -238,7 +238,7 @@ impl EpisodeRun {
     /// planner failure with reason `invalid_action`.
     pub fn control(&mut self, action: Action) -> Result<(), &EpisodeEnd> {
         if let Err(msg) = action.validate() {
-            return Err(self.stop(Outcome::PlannerFailure, "invalid_action", msg));
+            return Err(self.stop(Outcome::PlannerFailure, EndReason::InvalidAction, msg));
         }
         self.action = action;
         if self.step > 0 {
@@ -252,7 +252,7 @@ impl EpisodeRun {
     }
 
     /// Ends the episode from outside (a planner failure, a cancellation); an episode that has ended keeps its end.
-    pub fn stop(&mut self, outcome: Outcome, reason: &'static str, detail: String) -> &EpisodeEnd {
+    pub fn stop(&mut self, outcome: Outcome, reason: EndReason, detail: String) -> &EpisodeEnd {
         self.end
             .get_or_insert_with(|| EpisodeEnd::new(outcome, reason, detail))
     }
@@ -274,7 +274,7 @@ impl EpisodeRun {
         self.prev_distance = after;
         let s = self.sim.state();
         let end = self.end.as_ref().map(|e| {
-            let outcome = if self.rolled_over(e.outcome, e.reason) {
+            let outcome = if self.rolled_over(e.outcome) {
                 Outcome::Rollover
             } else {
                 e.outcome
@@ -345,26 +345,26 @@ impl EpisodeRun {
         if !(pos.x.is_finite() && pos.y.is_finite() && pos.z.is_finite()) {
             return Some(EpisodeEnd::new(
                 Rollover,
-                "numerical_failure",
+                EndReason::NumericalFailure,
                 "the simulation diverged",
             ));
         }
         if (pos.x - self.goal[0]).hypot(pos.y - self.goal[1]) < self.goal_radius {
-            return Some(EpisodeEnd::new(Success, "success", ""));
+            return Some(EpisodeEnd::new(Success, EndReason::Success, ""));
         }
         if self.cfg.rollover == RolloverRule::Immediate && r.abs() > self.cfg.rollover_deg {
             let d = format!("|roll| = {:.1} deg", r.abs());
-            return Some(EpisodeEnd::new(Rollover, "rollover", d));
+            return Some(EpisodeEnd::new(Rollover, EndReason::Rollover, d));
         }
         // Body z-axis in the world (R = Rz(yaw) Ry(pitch) Rx(roll)): its vertical component is cos(pitch) cos(roll).
         let up_z = s.pitch.cos() * s.roll.cos();
         if up_z < 0.0 {
             let tilt = up_z.acos().to_degrees();
             let d = format!("overturned: chassis tilted {tilt:.0} deg (roll {r:.0}, pitch {p:.0})");
-            return Some(EpisodeEnd::new(Rollover, "rollover", d));
+            return Some(EpisodeEnd::new(Rollover, EndReason::Rollover, d));
         }
         if pos.x.abs() > self.half[0] || pos.y.abs() > self.half[1] {
-            return Some(EpisodeEnd::new(OffMap, "off_map", ""));
+            return Some(EpisodeEnd::new(OffMap, EndReason::OffMap, ""));
         }
         if self.step.is_multiple_of(self.sample_every) {
             let len = self.ring.len();
@@ -377,7 +377,7 @@ impl EpisodeRun {
                         "moved less than {:.2} m in {} s",
                         self.stuck_distance, self.window
                     );
-                    return Some(EpisodeEnd::new(Stuck, "stuck", d));
+                    return Some(EpisodeEnd::new(Stuck, EndReason::Stuck, d));
                 }
             }
         }
@@ -386,11 +386,11 @@ impl EpisodeRun {
                 self.slow_since = s.time;
             } else if s.time - self.slow_since >= self.window {
                 let d = format!("speed below {} m/s for {} s", self.stuck_speed, self.window);
-                return Some(EpisodeEnd::new(Stuck, "stuck", d));
+                return Some(EpisodeEnd::new(Stuck, EndReason::Stuck, d));
             }
         }
         if s.time >= self.cfg.max_time {
-            return Some(EpisodeEnd::new(Timeout, "timeout", ""));
+            return Some(EpisodeEnd::new(Timeout, EndReason::Timeout, ""));
         }
         None
     }
@@ -399,7 +399,11 @@ impl EpisodeRun {
     /// episode that has not ended is reported as cancelled.
     pub fn finish(&mut self) -> EpisodeResult {
         let end = self.end.clone().unwrap_or_else(|| {
-            EpisodeEnd::new(Outcome::Timeout, "cancelled", "cancelled by the caller")
+            EpisodeEnd::new(
+                Outcome::Cancelled,
+                EndReason::Cancelled,
+                "cancelled by the caller",
+            )
         });
         let (outcome, reason, detail) = self.classify(end);
         let m = &mut self.metrics;
@@ -418,7 +422,7 @@ impl EpisodeRun {
         m.steering_var = st.var;
         EpisodeResult {
             outcome,
-            reason: reason.into(),
+            reason,
             detail,
             metrics: m.clone(),
             trajectory: std::mem::take(&mut self.trajectory),
@@ -427,13 +431,13 @@ impl EpisodeRun {
 
     /// Applies the rollover rule to a failed trial: a stuck or timed-out episode whose roll (final, or maximum roll
     /// or pitch under the release's rule) exceeds the threshold is a rollover; everything else is unchanged.
-    fn classify(&self, end: EpisodeEnd) -> (Outcome, &'static str, String) {
+    fn classify(&self, end: EpisodeEnd) -> (Outcome, EndReason, String) {
         let EpisodeEnd {
             outcome,
             reason,
             detail,
         } = end;
-        if !self.rolled_over(outcome, reason) {
+        if !self.rolled_over(outcome) {
             return (outcome, reason, detail);
         }
         let what = if detail.is_empty() {
@@ -450,14 +454,14 @@ impl EpisodeRun {
                 "max |roll| {roll_max:.1} deg, max |pitch| {pitch_max:.1} deg during a failed trial ({what})"
             )
         };
-        (Outcome::Rollover, "rollover", detail)
+        (Outcome::Rollover, EndReason::Rollover, detail)
     }
 
     /// Whether the rollover rule makes an end of `outcome` for `reason` a rollover: a failed trial (stuck or timed
     /// out, not cancelled) whose final roll (or maximum roll or pitch, under the release's rule) exceeds the
     /// threshold.
-    fn rolled_over(&self, outcome: Outcome, reason: &str) -> bool {
-        let failed = matches!(outcome, Outcome::Stuck | Outcome::Timeout) && reason != "cancelled";
+    fn rolled_over(&self, outcome: Outcome) -> bool {
+        let failed = matches!(outcome, Outcome::Stuck | Outcome::Timeout);
         let thr = self.cfg.rollover_deg;
         failed
             && match self.cfg.rollover {

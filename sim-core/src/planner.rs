@@ -6,6 +6,7 @@
 //! that failure reason and nothing else is affected.
 
 use crate::world::{Task, World};
+use contracts::EndReason;
 use serde::{Deserialize, Serialize};
 
 use crate::vehicle::VehicleSpec;
@@ -46,12 +47,12 @@ pub enum PlannerError {
 
 impl PlannerError {
     /// Stable machine-readable failure reason.
-    pub fn reason(&self) -> &'static str {
+    pub fn reason(&self) -> EndReason {
         match self {
-            Self::Timeout(_) => "planner_timeout",
-            Self::Crashed(_) => "planner_crash",
-            Self::Protocol(_) => "planner_protocol",
-            Self::Other(_) => "planner_error",
+            Self::Timeout(_) => EndReason::PlannerTimeout,
+            Self::Crashed(_) => EndReason::PlannerCrash,
+            Self::Protocol(_) => EndReason::PlannerProtocol,
+            Self::Other(_) => EndReason::PlannerError,
         }
     }
 }

@@ -56,7 +56,7 @@ impl RewardTerms {
 
 /// Whether an end is the time limit (truncation) rather than an end of the task (termination).
 pub fn is_time_limit(end: &EpisodeEnd) -> bool {
-    end.reason == "timeout"
+    end.reason.is_time_limit()
 }
 
 impl RewardWeights {
@@ -93,6 +93,7 @@ impl RewardWeights {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::episode::EndReason;
 
     #[test]
     fn terms_have_their_documented_signs_and_sizes() {
@@ -107,7 +108,7 @@ mod tests {
             reason,
             detail: String::new(),
         };
-        let t = end("timeout");
+        let t = end(EndReason::Timeout);
         assert_eq!(
             w.terms(1.0, 1.0, 0.0, 0.0, 30.0, 1.0, Some((&t, Outcome::Timeout)))
                 .terminal,
@@ -119,13 +120,13 @@ mod tests {
                 .terminal,
             0.0
         );
-        let s = end("stuck");
+        let s = end(EndReason::Stuck);
         assert_eq!(
             w.terms(1.0, 1.0, 0.0, 0.0, 30.0, 1.0, Some((&s, Outcome::Stuck)))
                 .terminal,
             -10.0
         );
-        let ok = end("success");
+        let ok = end(EndReason::Success);
         assert_eq!(
             w.terms(1.0, 1.0, 0.0, 0.0, 30.0, 1.0, Some((&ok, Outcome::Success)))
                 .terminal,

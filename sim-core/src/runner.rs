@@ -8,7 +8,7 @@
 //! [`RolloverRule`](crate::episode::RolloverRule): by default, the paper's "more than 30 degrees of roll at the end
 //! of a failed trial". The rules live in [`EpisodeRun`], which the Python SDK's environments step as well.
 
-use crate::episode::{EpisodeConfig, EpisodeMetrics, EpisodeResult, Outcome};
+use crate::episode::{EndReason, EpisodeConfig, EpisodeMetrics, EpisodeResult, Outcome};
 use crate::episode_run::EpisodeRun;
 use crate::planner::{Action, Planner, PlannerContext, VehicleState};
 use crate::vehicle::VehicleSpec;
@@ -44,10 +44,10 @@ pub fn run_episode(
 }
 
 /// A planner that failed before the first step: no metrics, no trajectory.
-fn failed_at_start(reason: &str, detail: String) -> EpisodeResult {
+fn failed_at_start(reason: EndReason, detail: String) -> EpisodeResult {
     EpisodeResult {
         outcome: Outcome::PlannerFailure,
-        reason: reason.into(),
+        reason,
         detail,
         metrics: EpisodeMetrics::default(),
         trajectory: Vec::new(),
@@ -76,7 +76,7 @@ pub fn run_episode_observed(
         return failed_at_start(e.reason(), e.to_string());
     }
     if let Err(detail) = run.set_control_rate(planner.control_rate_hz()) {
-        return failed_at_start("planner_error", detail);
+        return failed_at_start(EndReason::PlannerError, detail);
     }
     loop {
         let obs = run.observation();
@@ -92,8 +92,8 @@ pub fn run_episode_observed(
         }
         if observer.on_control_step(&obs.state, &action).is_break() {
             run.stop(
-                Outcome::Timeout,
-                "cancelled",
+                Outcome::Cancelled,
+                EndReason::Cancelled,
                 "cancelled by the caller".into(),
             );
             break;

@@ -108,7 +108,7 @@ fn planner_failures_end_the_episode_with_their_reason() {
     for (failure, reason) in cases {
         let r = run(20.0, failure);
         assert_eq!(r.outcome, Outcome::PlannerFailure);
-        assert_eq!(r.reason, reason);
+        assert_eq!(r.reason.as_str(), reason);
         assert!(!r.detail.is_empty());
         // It failed at its 20th action, after 19 control periods of driving normally.
         let dt = sim_core::vehicle::default_dt(1.0);

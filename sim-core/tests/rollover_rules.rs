@@ -70,7 +70,7 @@ fn a_lean_past_30_degrees_fails_only_a_trial_that_failed_anyway() {
     // 30 degrees it is a rollover.
     let paper = across(&w, RolloverRule::AtFailure);
     assert_eq!(paper.outcome, Outcome::Rollover, "{paper:?}");
-    assert_eq!(paper.reason, "rollover");
+    assert_eq!(paper.reason, sim_core::episode::EndReason::Rollover);
     assert!(
         paper.detail.contains("at the end of a failed trial") && paper.detail.contains("stuck"),
         "{}",

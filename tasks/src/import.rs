@@ -160,7 +160,7 @@ pub fn import_world(w: &ReleaseWorld) -> Result<WorldRecord, TasksError> {
             ))
         }
     };
-    let semantics = SemanticsKind::from_name(&cfg.terrain_type).ok_or_else(|| {
+    let semantics = SemanticsKind::parse(&cfg.terrain_type).map_err(|_| {
         bad(
             "terrain_type",
             format!("unknown kind `{}`", cfg.terrain_type),

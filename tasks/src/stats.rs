@@ -121,7 +121,7 @@ pub fn compute(records: &[WorldRecord]) -> TaskSetStats {
     }
     s.rigid_friction_mean = fsum / fn_.max(1) as f64;
     s.mean_path_length = plen / pn.max(1) as f64;
-    for level in ElevationLevel::ALL {
+    for &level in ElevationLevel::ALL {
         let maps = records
             .iter()
             .filter(|r| r.world.level == level)

@@ -4,14 +4,14 @@
 
 use crate::SubmitError;
 use results::summary::Summary;
-use results::{EpisodeRow, RunFacts};
+use results::{EpisodeRow, EpisodeValues, RunFacts};
 use std::path::Path;
 use vb_proto::v1 as pb;
 
 /// The facts every row of the submission shares, from its status.
 fn facts(r: &pb::ResultsResponse) -> Result<RunFacts, SubmitError> {
     let s = r.status.clone().unwrap_or_default();
-    let rules = contracts::Rules::parse(&s.rules).ok_or_else(|| {
+    let rules = contracts::Rules::parse(&s.rules).map_err(|_| {
         SubmitError::Protocol(format!(
             "the coordinator names unknown episode rules `{}`",
             s.rules
@@ -38,26 +38,22 @@ pub fn rows(r: &pb::ResultsResponse) -> Result<Vec<EpisodeRow>, SubmitError> {
         .map(|e| {
             let metrics = serde_json::from_str(&e.metrics_json)
                 .map_err(|err| SubmitError::Protocol(format!("metrics of {}: {err}", e.task_id)))?;
-            Ok(EpisodeRow {
-                task_id: e.task_id.clone(),
-                world_id: e.world_id,
-                task_index: e.task_index,
-                level: e.level.clone(),
-                semantics: e.semantics.clone(),
-                density: e.density.clone(),
+            let bad = |what: &str, err: &dyn std::fmt::Display| {
+                SubmitError::Protocol(format!("{what} of {}: {err}", e.task_id))
+            };
+            Ok(facts.row(EpisodeValues {
+                task_id: e.task_id.parse().map_err(|err| bad("task id", &err))?,
+                level: e.level.parse().map_err(|err| bad("level", &err))?,
+                semantics: e.semantics.parse().map_err(|err| bad("semantics", &err))?,
+                density: e.density.parse().map_err(|err| bad("density", &err))?,
                 terrain: e.terrain,
-                sim_version: if e.sim_version.is_empty() {
-                    facts.sim_version.clone()
-                } else {
-                    e.sim_version.clone()
-                },
-                outcome: e.outcome.clone(),
-                reason: e.reason.clone(),
+                sim_version: (!e.sim_version.is_empty()).then(|| e.sim_version.clone()),
+                outcome: e.outcome.parse().map_err(|err| bad("outcome", &err))?,
+                reason: e.reason.parse().map_err(|err| bad("reason", &err))?,
                 detail: e.detail.clone(),
                 metrics,
                 wall_time_s: e.wall_time_s,
-                ..facts.row()
-            })
+            }))
         })
         .collect()
 }

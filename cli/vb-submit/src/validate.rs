@@ -80,7 +80,7 @@ pub async fn validate(
     Ok(Validation {
         ok: r.outcome != sim_core::episode::Outcome::PlannerFailure,
         outcome: r.outcome.as_str().into(),
-        reason: r.reason.clone(),
+        reason: r.reason.to_string(),
         detail: r.detail.clone(),
         control_steps: rt.len(),
         round_trip_p50_ms: rt.get(rt.len() / 2).copied().unwrap_or(0.0) * 1e3,

@@ -153,7 +153,7 @@ impl Slot {
         self.out.ended = Some(Box::new(Ended {
             task: self.task,
             outcome: r.outcome,
-            reason: r.reason,
+            reason: r.reason.to_string(),
             detail: r.detail,
             metrics: r.metrics,
         }));

@@ -1,18 +1,19 @@
 //! Conversions between protobuf messages and the store's types (protobuf stays at the service edge).
 
+use contracts::PlannerKind;
 use std::io::Read;
 use tonic::Status;
 use vb_proto::v1 as pb;
 use vb_store::{EpisodeRecord, EpisodeResultIn, Lease, Progress, Submission};
 
 /// Rebuilds the planner reference a submission was made with.
-pub fn planner_ref_from_parts(kind: &str, spec: &str) -> pb::PlannerRef {
+pub fn planner_ref_from_parts(kind: PlannerKind, spec: &str) -> pb::PlannerRef {
     use pb::planner_ref::Kind;
     let kind = match kind {
-        "builtin" => Kind::Builtin(spec.into()),
-        "endpoint" => Kind::Endpoint(spec.into()),
-        "image" => Kind::Image(spec.into()),
-        _ => Kind::Exec(pb::ExecPlanner {
+        PlannerKind::Builtin => Kind::Builtin(spec.into()),
+        PlannerKind::Endpoint => Kind::Endpoint(spec.into()),
+        PlannerKind::Image => Kind::Image(spec.into()),
+        PlannerKind::Exec => Kind::Exec(pb::ExecPlanner {
             argv: serde_json::from_str(spec).unwrap_or_else(|_| vec![spec.to_string()]),
         }),
     };
@@ -25,7 +26,7 @@ pub fn lease(l: &Lease) -> pb::EpisodeLease {
         lease_id: l.lease_id.clone(),
         submission_id: s.id.clone(),
         task_id: l.task_id.clone(),
-        planner: Some(planner_ref_from_parts(&s.planner_kind, &s.planner_spec)),
+        planner: Some(planner_ref_from_parts(s.planner_kind, &s.planner_spec)),
         vehicle: s.vehicle.clone(),
         scale: s.scale,
         seed: s.seed,

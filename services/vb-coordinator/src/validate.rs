@@ -3,7 +3,7 @@
 //! an image reference by Docker's grammar), vehicle, scale, deadline and task selection.
 
 use crate::*;
-use contracts::input;
+use contracts::{input, PlannerKind};
 
 pub(crate) struct ValidSubmit {
     pub(crate) sub: NewSubmission,
@@ -34,11 +34,11 @@ impl Coordinator {
                         baselines::NAMES.join(", ")
                     )));
                 }
-                ("builtin", b.clone())
+                (PlannerKind::Builtin, b.clone())
             }
             Some(pb::planner_ref::Kind::Endpoint(u)) => {
                 check_endpoint(u).map_err(bad)?;
-                ("endpoint", u.clone())
+                (PlannerKind::Endpoint, u.clone())
             }
             Some(pb::planner_ref::Kind::Exec(e)) => {
                 if !self.cfg.allow_exec {
@@ -58,7 +58,7 @@ impl Coordinator {
                     return Err(bad("exec argv[0] (the program) is empty".into()));
                 }
                 (
-                    "exec",
+                    PlannerKind::Exec,
                     serde_json::to_string(&e.argv).map_err(|e| Status::internal(e.to_string()))?,
                 )
             }
@@ -69,7 +69,7 @@ impl Coordinator {
                     ));
                 }
                 input::check_image_ref(i).map_err(|e| bad(e.to_string()))?;
-                ("image", i.clone())
+                (PlannerKind::Image, i.clone())
             }
         };
         let vehicle_name = if r.vehicle.is_empty() {
@@ -131,9 +131,9 @@ impl Coordinator {
                 name: name.to_string(),
                 owner: String::new(),
                 owner_token: String::new(),
-                planner_kind: kind.into(),
+                planner_kind: kind,
                 planner_identity: match kind {
-                    "builtin" => format!("builtin:{spec} ({SIM_VERSION})"),
+                    PlannerKind::Builtin => format!("builtin:{spec} ({SIM_VERSION})"),
                     _ => format!("{kind}:{spec}"),
                 },
                 planner_spec: spec,

@@ -79,7 +79,10 @@ pub fn pairwise(a: &Submission, ra: &[EpisodeRow], b: &Submission, rb: &[Episode
         .iter()
         .filter_map(|&level| {
             let of = |rows: &[EpisodeRow]| -> Vec<EpisodeRow> {
-                rows.iter().filter(|r| r.level == level).cloned().collect()
+                rows.iter()
+                    .filter(|r| r.level.as_str() == level)
+                    .cloned()
+                    .collect()
             };
             let c = results::compare::compare(&of(ra), &of(rb));
             (c.paired_tasks > 0).then(|| (level.to_string(), c))
@@ -99,7 +102,7 @@ impl Leaderboard {
     async fn finished_rows(&self, id: &str) -> Result<(Submission, Vec<EpisodeRow>), WebError> {
         let sub = public::submission(&self.reader, id).await?;
         let eps = public::episodes(&self.reader, &sub).await?;
-        let rows = vb_store::aggregate::rows(&sub, &eps, self.set.as_deref());
+        let rows = vb_store::aggregate::rows(&sub, &eps, self.set.as_deref())?;
         Ok((sub, rows))
     }
 

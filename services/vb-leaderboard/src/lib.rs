@@ -166,7 +166,7 @@ impl Leaderboard {
             Some(m) => m.summary.clone(),
             None => {
                 let eps = public::episodes(&self.reader, &sub).await?;
-                vb_store::aggregate::summary_of(&sub, &eps, self.set.as_deref())
+                vb_store::aggregate::summary_of(&sub, &eps, self.set.as_deref())?
             }
         };
         let progress = match &stored {

@@ -3,6 +3,7 @@
 //! likes, secrets it found included: the owner reads it with `vb-submit log`). Every read of the store by the
 //! leaderboard goes through here.
 
+use contracts::PlannerKind;
 use serde::Serialize;
 use sha2::{Digest, Sha256};
 use vb_store::{EpisodeRecord, Reader, StoreError, StoredSummary, Submission};
@@ -22,8 +23,8 @@ pub fn identity_hash(identity: &str) -> String {
 }
 
 /// The planner as the public sees it: a built-in's name, or the kind and the identity's hash.
-fn public_planner(kind: &str, spec: &str, identity: &str) -> (String, String) {
-    if kind == "builtin" {
+fn public_planner(kind: PlannerKind, spec: &str, identity: &str) -> (String, String) {
+    if kind == PlannerKind::Builtin {
         (spec.to_string(), identity.to_string())
     } else {
         (String::new(), identity_hash(identity))
@@ -31,15 +32,15 @@ fn public_planner(kind: &str, spec: &str, identity: &str) -> (String, String) {
 }
 
 fn redact(mut s: Submission) -> Submission {
-    let (spec, identity) = public_planner(&s.planner_kind, &s.planner_spec, &s.planner_identity);
+    let (spec, identity) = public_planner(s.planner_kind, &s.planner_spec, &s.planner_identity);
     s.planner_spec = spec;
     s.planner_identity = identity;
     s.owner_token = String::new();
     s
 }
 
-fn redact_episode(kind: &str, mut e: EpisodeRecord) -> EpisodeRecord {
-    if kind != "builtin" {
+fn redact_episode(kind: PlannerKind, mut e: EpisodeRecord) -> EpisodeRecord {
+    if kind != PlannerKind::Builtin {
         e.planner_identity = e.planner_identity.as_deref().map(identity_hash);
     }
     e
@@ -68,7 +69,7 @@ pub async fn episodes_range(
     Ok(r.episodes_range(&sub.id, offset, limit)
         .await?
         .into_iter()
-        .map(|e| redact_episode(&sub.planner_kind, e))
+        .map(|e| redact_episode(sub.planner_kind, e))
         .collect())
 }
 
@@ -77,7 +78,7 @@ pub async fn episodes(r: &Reader, sub: &Submission) -> Result<Vec<EpisodeRecord>
     Ok(r.episodes(&sub.id)
         .await?
         .into_iter()
-        .map(|e| redact_episode(&sub.planner_kind, e))
+        .map(|e| redact_episode(sub.planner_kind, e))
         .collect())
 }
 
@@ -85,7 +86,7 @@ pub async fn episode_detail(r: &Reader, id: &str, task: &str) -> Result<PublicEp
     let kind = r.submission(id).await?.planner_kind;
     let d = r.episode_detail(id, task).await?;
     Ok(PublicEpisode {
-        record: redact_episode(&kind, d.record),
+        record: redact_episode(kind, d.record),
         trajectory_csv: d.trajectory_csv,
     })
 }

@@ -41,7 +41,7 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
         name: EVIL.into(),
         owner: EVIL.into(),
         owner_token: "t".into(),
-        planner_kind: "exec".into(),
+        planner_kind: "exec".parse().unwrap(),
         planner_spec: format!("[\"{EVIL}\"]"),
         planner_identity: format!("exec:{EVIL}"),
         vehicle: "hmmwv".into(),

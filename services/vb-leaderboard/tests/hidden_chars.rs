@@ -55,7 +55,7 @@ async fn hidden_characters_in_stored_names_are_shown_escaped_on_every_page() -> 
         name: NAME.into(),
         owner: OWNER.into(),
         owner_token: "t".into(),
-        planner_kind: "builtin".into(),
+        planner_kind: "builtin".parse().unwrap(),
         planner_spec: format!("pid{}", '\u{202E}'),
         planner_identity: "builtin:pid".into(),
         vehicle: "hmmwv".into(),

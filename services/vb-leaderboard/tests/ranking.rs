@@ -39,7 +39,7 @@ async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
             name: name.into(),
             owner: "o".into(),
             owner_token: "t".into(),
-            planner_kind: "builtin".into(),
+            planner_kind: "builtin".parse().unwrap(),
             planner_spec: "pid".into(),
             planner_identity: "builtin:pid".into(),
             vehicle: "hmmwv".into(),

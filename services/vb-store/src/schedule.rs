@@ -29,7 +29,7 @@ impl Store {
         .bind(seq)
         .bind(&s.name)
         .bind(&s.owner)
-        .bind(&s.planner_kind)
+        .bind(s.planner_kind.as_str())
         .bind(&s.planner_spec)
         .bind(&s.planner_identity)
         .bind(&s.vehicle)

@@ -73,7 +73,7 @@ pub async fn seed(
             name: format!("bench-{s:03}"),
             owner: "bench".into(),
             owner_token: "bench".into(),
-            planner_kind: "builtin".into(),
+            planner_kind: contracts::PlannerKind::Builtin,
             planner_spec: "pid".into(),
             planner_identity: "builtin:pid".into(),
             vehicle: "hmmwv".into(),

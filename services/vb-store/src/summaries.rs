@@ -42,7 +42,7 @@ impl Store {
         let reader = self.reader();
         let sub = reader.submission(id).await?;
         let eps = reader.episodes(id).await?;
-        let summary = aggregate::summary_of(&sub, &eps, set);
+        let summary = aggregate::summary_of(&sub, &eps, set)?;
         let finished = eps.iter().filter(|e| e.state == EpisodeState::Done).count() as i64;
         let successes = eps
             .iter()

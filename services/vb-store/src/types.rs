@@ -1,7 +1,7 @@
 //! The store's values: tokens, submissions, episodes, leases, reports and progress, and how rows become them.
 
 use crate::{Result, StoreError};
-pub use contracts::{EpisodeState, RecordedOutcome, SubmissionState};
+pub use contracts::{EpisodeState, PlannerKind, RecordedOutcome, SubmissionState};
 use serde::{Deserialize, Serialize};
 use sqlx::any::AnyRow;
 use sqlx::Row;
@@ -62,7 +62,7 @@ pub struct NewSubmission {
     pub owner: String,
     /// Id of the token that submitted it: only that token (and admins) may see and cancel it.
     pub owner_token: String,
-    pub planner_kind: String,
+    pub planner_kind: PlannerKind,
     pub planner_spec: String,
     pub planner_identity: String,
     pub vehicle: String,
@@ -93,7 +93,7 @@ pub struct Submission {
     /// Id of the token that submitted it (empty for submissions made before owners were recorded).
     #[serde(default)]
     pub owner_token: String,
-    pub planner_kind: String,
+    pub planner_kind: PlannerKind,
     pub planner_spec: String,
     pub planner_identity: String,
     pub vehicle: String,
@@ -214,7 +214,8 @@ pub(crate) fn submission_from_row(r: &AnyRow) -> Result<Submission> {
         name: r.try_get("name")?,
         owner: r.try_get("owner")?,
         owner_token: r.try_get("owner_token")?,
-        planner_kind: r.try_get("planner_kind")?,
+        planner_kind: PlannerKind::parse(&r.try_get::<String, _>("planner_kind")?)
+            .map_err(|e| StoreError::Corrupt(e.to_string()))?,
         planner_spec: r.try_get("planner_spec")?,
         planner_identity: r.try_get("planner_identity")?,
         vehicle: r.try_get("vehicle")?,

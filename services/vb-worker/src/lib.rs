@@ -22,7 +22,7 @@ pub use vb_proto::tls;
 pub use pool::run_worker;
 
 use remote::{PlannerLog, RemotePlanner, SharedLog};
-use sim_core::episode::{EpisodeConfig, EpisodeResult, Outcome};
+use sim_core::episode::{EndReason, EpisodeConfig, EpisodeResult, Outcome};
 use sim_core::planner::{Action, Planner, PlannerError, VehicleState};
 use sim_core::runner::EpisodeObserver;
 use std::io::Write;
@@ -145,7 +145,7 @@ pub struct EpisodeRun {
 }
 
 fn failed(
-    reason: &str,
+    reason: EndReason,
     e: &PlannerError,
     log: String,
     identity: String,
@@ -154,7 +154,7 @@ fn failed(
     EpisodeRun {
         result: EpisodeResult {
             outcome: Outcome::PlannerFailure,
-            reason: reason.into(),
+            reason,
             detail: e.to_string(),
             metrics: Default::default(),
             trajectory: Vec::new(),
@@ -238,7 +238,7 @@ pub async fn run_episode(
                     // A planner that answered wrongly is at fault for what it said, not unreachable.
                     let reason = match e {
                         PlannerError::Timeout(_) | PlannerError::Protocol(_) => e.reason(),
-                        _ => "planner_unreachable",
+                        _ => EndReason::PlannerUnreachable,
                     };
                     return Ok(failed(reason, &e, String::new(), identity, t0));
                 }
@@ -290,7 +290,7 @@ pub async fn run_episode(
         );
         let mut round_trips = Vec::new();
         if let AnyPlanner::Remote(p) = &mut planner {
-            p.finish(r.outcome.as_str(), &r.reason);
+            p.finish(r.outcome.as_str(), r.reason);
             round_trips = std::mem::take(&mut p.round_trips);
         }
         Ok::<_, String>((r, round_trips))

@@ -320,12 +320,12 @@ impl RemotePlanner {
     }
 
     /// Tells the planner how the episode ended and closes the stream.
-    pub fn finish(&mut self, outcome: &str, reason: &str) {
+    pub fn finish(&mut self, outcome: &str, reason: impl std::fmt::Display) {
         if let Some(s) = self.session.take() {
             let end = pb::WorkerMessage {
                 msg: Some(pb::worker_message::Msg::End(pb::EpisodeEnd {
                     outcome: outcome.into(),
-                    reason: reason.into(),
+                    reason: reason.to_string(),
                 })),
             };
             // Best effort: the planner may already be gone.

@@ -82,7 +82,7 @@ impl SimEpisode {
         if step.ended() {
             let result = run.finish();
             let outcome = result.outcome.as_str();
-            resp.outcome = if result.reason == outcome {
+            resp.outcome = if result.reason.as_str() == outcome {
                 outcome.to_string()
             } else {
                 format!("{outcome}:{}", result.reason)

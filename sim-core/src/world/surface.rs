@@ -3,77 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-/// Elevation level of a world (relief 30 %, 60 %, 100 % of the highest).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ElevationLevel {
-    Low,
-    Medium,
-    High,
-}
-
-impl ElevationLevel {
-    pub const ALL: [ElevationLevel; 3] = [Self::Low, Self::Medium, Self::High];
-    /// Fraction of the highest relief used by this level (paper: 30 / 60 / 100 %).
-    pub fn fraction(self) -> f64 {
-        match self {
-            Self::Low => 0.3,
-            Self::Medium => 0.6,
-            Self::High => 1.0,
-        }
-    }
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Low => "low",
-            Self::Medium => "medium",
-            Self::High => "high",
-        }
-    }
-}
-
-/// Which kinds of surface a world has.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SemanticsKind {
-    Rigid,
-    Deformable,
-    Mixed,
-}
-
-impl SemanticsKind {
-    pub const ALL: [SemanticsKind; 3] = [Self::Rigid, Self::Deformable, Self::Mixed];
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Rigid => "rigid",
-            Self::Deformable => "deformable",
-            Self::Mixed => "mixed",
-        }
-    }
-    /// The kind named `name` (the inverse of [`Self::as_str`]).
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|k| k.as_str() == name)
-    }
-}
-
-/// Obstacle density of a world (10 / 20 / 40 rocks).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ObstacleDensity {
-    Sparse,
-    Medium,
-    Dense,
-}
-
-impl ObstacleDensity {
-    pub const ALL: [ObstacleDensity; 3] = [Self::Sparse, Self::Medium, Self::Dense];
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Sparse => "sparse",
-            Self::Medium => "medium",
-            Self::Dense => "dense",
-        }
-    }
-}
+pub use contracts::{ElevationLevel, ObstacleDensity, SemanticsKind};
 
 /// The ten semantic classes. The discriminants are the label ids of the original release.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]

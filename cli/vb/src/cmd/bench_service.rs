@@ -34,7 +34,7 @@ fn service_success(db: &str) -> anyhow::Result<(f64, usize)> {
         let subs = reader.submissions().await?;
         let sub = subs.first().context("the service stored no submission")?;
         let eps = reader.episodes(&sub.id).await?;
-        let s = vb_store::aggregate::summary_of(sub, &eps, None);
+        let s = vb_store::aggregate::summary_of(sub, &eps, None)?;
         Ok((s.overall.success_rate, s.overall.episodes))
     })
 }

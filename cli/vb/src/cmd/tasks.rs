@@ -75,8 +75,8 @@ pub enum TasksCmd {
 }
 
 fn parse_kind(s: &str) -> Result<SemanticsKind, String> {
-    SemanticsKind::from_name(s)
-        .ok_or_else(|| format!("unknown semantics kind `{s}`: use rigid, mixed or deformable"))
+    SemanticsKind::parse(s)
+        .map_err(|_| format!("unknown semantics kind `{s}`: use rigid, mixed or deformable"))
 }
 
 /// Whether two paths name the same directory (when both exist).

@@ -89,7 +89,7 @@ pub const COMPARE_LINKS: usize = 10;
 /// `builtin:pid`, or the kind alone (the public does not see command lines, URLs or image names).
 pub fn planner_label(s: &Submission) -> String {
     if s.planner_spec.is_empty() {
-        s.planner_kind.clone()
+        s.planner_kind.to_string()
     } else {
         format!("{}:{}", s.planner_kind, s.planner_spec)
     }

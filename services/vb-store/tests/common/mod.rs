@@ -38,7 +38,7 @@ pub fn new_submission(name: &str) -> NewSubmission {
         name: name.into(),
         owner: "tester".into(),
         owner_token: "tk-1".into(),
-        planner_kind: "builtin".into(),
+        planner_kind: "builtin".parse().unwrap(),
         planner_spec: "pid".into(),
         planner_identity: "builtin:pid".into(),
         vehicle: "hmmwv".into(),
