@@ -10,13 +10,17 @@
 
 #[macro_use]
 mod named;
+pub mod catalog;
 pub mod input;
+mod service_error;
 mod state;
 mod task_id;
 pub mod trajectory;
 mod vocab;
 
+pub use catalog::{Catalog, TaskGeometry, WorldFacts, WorldPicture};
 pub use named::UnknownName;
+pub use service_error::{ServiceError, ServiceErrorCode};
 pub use state::{EpisodeState, RecordedOutcome, SubmissionState};
 pub use task_id::{TaskId, TaskIdError};
 pub use vocab::{ElevationLevel, EndReason, ObstacleDensity, Outcome, PlannerKind, SemanticsKind};

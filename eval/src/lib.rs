@@ -11,9 +11,13 @@
 //! - [`compare`]: paired comparison of two evaluations (difference in success rate with a 95% interval, exact
 //!   McNemar test).
 //! - [`move_off`]: from how many of a task set's starts a vehicle cannot move off at all.
+//! - [`catalog`]: the benchmark as the service tier sees it, built from the physics crates for the binary that wires
+//!   the services.
 
 pub mod move_off;
 pub mod run;
+
+use contracts::Catalog;
 
 // The results' types and files live in the `results` crate (shared with the service); re-exported here so local
 // evaluation reads as one crate.
@@ -33,6 +37,21 @@ pub enum EvalError {
     Param { field: String, message: String },
     #[error(transparent)]
     Results(#[from] ResultsError),
+}
+
+/// The service tier's view of `set` under this build ([`contracts::Catalog`]): its simulator version, the set's
+/// worlds, the built-in vehicles (each with its own scale) and the built-in planners.
+pub fn catalog(set: &tasks::TaskSet) -> Catalog {
+    Catalog {
+        sim_version: SIM_VERSION.to_string(),
+        task_set_version: set.version().to_string(),
+        worlds: set.world_facts(),
+        vehicles: sim_core::vehicle::builtin_vehicles()
+            .into_iter()
+            .map(|v| (v.name, v.scale))
+            .collect(),
+        builtin_planners: baselines::NAMES.iter().map(|n| n.to_string()).collect(),
+    }
 }
 
 pub(crate) fn io_err(path: &std::path::Path, e: impl std::fmt::Display) -> EvalError {

@@ -178,3 +178,39 @@ pub fn contact_sheet(records: &[WorldRecord], columns: usize) -> RgbImage {
     }
     sheet
 }
+
+impl crate::TaskSet {
+    /// World `id` as pages draw it ([`contracts::WorldPicture`]): its map without the tasks drawn in, as PNG at
+    /// `ppm` pixels per sample, and its tasks' geometry (full scale).
+    pub fn world_picture(
+        &self,
+        id: u32,
+        ppm: u32,
+    ) -> Result<contracts::WorldPicture, crate::TasksError> {
+        let mut record = self.record(id)?;
+        let tasks = std::mem::take(&mut record.tasks)
+            .into_iter()
+            .map(|t| contracts::TaskGeometry {
+                start: t.start,
+                goal: t.goal,
+                path: t.path,
+            })
+            .collect();
+        let mut png = Vec::new();
+        render_world(&record, ppm)
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .map_err(|e| crate::TasksError::Param {
+                field: "picture".into(),
+                message: format!("encoding the map of world {id}: {e}"),
+            })?;
+        let h = &record.world.heightmap;
+        Ok(contracts::WorldPicture {
+            png,
+            ppm,
+            nx: h.nx,
+            ny: h.ny,
+            cell: h.cell,
+            tasks,
+        })
+    }
+}

@@ -93,6 +93,72 @@ fn the_coordinator_links_neither_parquet_nor_rayon() {
     }
 }
 
+/// The service tier is free of physics (issue 30): the coordinator, the store and the leaderboard read the
+/// benchmark through `contracts::Catalog` and results through `results`; the binary that wires them passes in what
+/// they need of the task set and the simulator.
+#[test]
+fn the_service_tier_links_no_physics() {
+    for p in ["vb-coordinator", "vb-store", "vb-leaderboard"] {
+        assert_links_none(
+            p,
+            &[],
+            &[
+                "sim-core",
+                "tasks",
+                "baselines",
+                "swae",
+                "nalgebra",
+                "parry3d-f64",
+                "image",
+            ],
+        );
+    }
+}
+
+/// Benchmark harnesses live in `service-bench`, not in the product crates they measure.
+#[test]
+fn benchmark_harnesses_stay_out_of_product_crates() {
+    for (dir, harness) in [
+        ("services/vb-store/src", "seed.rs"),
+        ("services/vb-leaderboard/src", "bench.rs"),
+    ] {
+        assert!(
+            !repo_root().join(dir).join(harness).exists(),
+            "{dir}/{harness} is a benchmark harness: it belongs in service-bench"
+        );
+    }
+    assert!(linked("vb", &[]).contains("service-bench"));
+}
+
+/// Folder name = crate name, for every member of the workspace.
+#[test]
+fn every_crate_lives_in_a_folder_of_its_name() {
+    let out = cargo()
+        .args([
+            "metadata",
+            "--offline",
+            "--no-deps",
+            "--format-version",
+            "1",
+        ])
+        .output()
+        .expect("running cargo metadata");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let meta: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let packages = meta["packages"].as_array().unwrap();
+    assert!(packages.len() >= 18, "{} packages", packages.len());
+    for p in packages {
+        let name = p["name"].as_str().unwrap();
+        let manifest = Path::new(p["manifest_path"].as_str().unwrap());
+        let folder = manifest.parent().and_then(|d| d.file_name()).unwrap();
+        assert_eq!(folder.to_string_lossy(), name, "{}", manifest.display());
+    }
+}
+
 #[test]
 fn vb_submit_links_the_simulator_only_for_validate() {
     assert_links_none(

@@ -116,15 +116,16 @@ pub fn report(
 ) -> Result<EpisodeResultIn, Status> {
     contracts::RecordedOutcome::parse(&r.outcome)
         .map_err(|e| Status::invalid_argument(e.to_string()))?;
+    contracts::EndReason::parse(&r.reason).map_err(|e| Status::invalid_argument(e.to_string()))?;
     if !r.metrics_json.is_empty() {
-        serde_json::from_slice::<sim_core::episode::EpisodeMetrics>(&r.metrics_json)
+        serde_json::from_slice::<contracts::EpisodeMetrics>(&r.metrics_json)
             .map_err(|e| Status::invalid_argument(format!("metrics_json: {e}")))?;
     }
     // Checked (size, codec) but stored as the worker compressed it.
     let mut trajectory = String::new();
     if !r.trajectory.is_empty() {
         flate2_decode(&r.trajectory, max_trajectory, &mut trajectory)?;
-        sim_core::trajectory::from_csv(&trajectory)
+        contracts::trajectory::from_csv(&trajectory)
             .map_err(|e| Status::invalid_argument(e.to_string()))?;
     }
     Ok(EpisodeResultIn {

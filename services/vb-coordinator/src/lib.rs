@@ -12,19 +12,15 @@ mod submission_api;
 mod validate;
 mod worker_api;
 
-use std::path::PathBuf;
+use contracts::Catalog;
 use std::sync::Arc;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
-use tasks::TaskSet;
 use tokio::sync::Mutex;
 use tonic::{Request, Response, Status};
 use vb_proto::v1 as pb;
 use vb_store::{NewEpisode, NewSubmission, Store, StoreError, Submission, Token, TokenRole};
 
 pub use convert::planner_ref_from_parts;
-
-/// Version of the simulator every result must have been produced with.
-pub const SIM_VERSION: &str = sim_core::SIM_VERSION;
 
 /// Largest gRPC message the coordinator accepts (a report carries a trajectory and a log).
 pub const MAX_MESSAGE_BYTES: usize = 8 << 20;
@@ -39,7 +35,9 @@ const MAX_TRAJECTORY: usize = 16 << 20;
 
 #[derive(Clone, Debug)]
 pub struct CoordinatorConfig {
-    pub task_dir: PathBuf,
+    /// The benchmark served: the task set, the simulator results must come from, vehicles and built-in planners
+    /// (the binary builds it with `eval::catalog`).
+    pub catalog: Arc<Catalog>,
     /// How long a lease lasts without a heartbeat, s.
     pub lease_s: f64,
     /// How often workers should heartbeat, s.
@@ -57,9 +55,9 @@ pub struct CoordinatorConfig {
 }
 
 impl CoordinatorConfig {
-    pub fn new(task_dir: PathBuf) -> Self {
+    pub fn new(catalog: Arc<Catalog>) -> Self {
         CoordinatorConfig {
-            task_dir,
+            catalog,
             lease_s: 30.0,
             heartbeat_s: 5.0,
             allow_exec: true,
@@ -74,8 +72,6 @@ impl CoordinatorConfig {
 pub enum CoordinatorError {
     #[error(transparent)]
     Store(#[from] StoreError),
-    #[error(transparent)]
-    Tasks(#[from] tasks::TasksError),
     #[error("TLS: {0}")]
     Tls(String),
 }
@@ -91,28 +87,19 @@ pub fn now() -> f64 {
 /// Shared state of both gRPC services.
 pub struct Coordinator {
     store: Store,
-    set: Arc<TaskSet>,
     cfg: CoordinatorConfig,
     /// Serialises leasing so two workers never get the same episode (portable across SQLite and PostgreSQL).
     lease_lock: Mutex<()>,
 }
 
 fn store_status(e: StoreError) -> Status {
-    match e {
-        StoreError::UnknownSubmission(id) => Status::not_found(format!("no submission `{id}`")),
-        StoreError::UnknownEpisode { submission, task } => {
-            Status::not_found(format!("no episode `{task}` in submission `{submission}`"))
-        }
-        other => Status::internal(other.to_string()),
-    }
+    vb_proto::status(&e)
 }
 
 impl Coordinator {
     pub fn new(store: Store, cfg: CoordinatorConfig) -> Result<Arc<Coordinator>, CoordinatorError> {
-        let set = TaskSet::load(&cfg.task_dir)?;
         Ok(Arc::new(Coordinator {
             store,
-            set: Arc::new(set),
             cfg,
             lease_lock: Mutex::new(()),
         }))
@@ -169,7 +156,11 @@ impl Coordinator {
 
     /// Stores a submission's aggregates now (a failure is logged: the keeper tries again).
     async fn refresh_summary(&self, id: &str) {
-        if let Err(e) = self.store.refresh_summary(id, Some(&self.set), now()).await {
+        if let Err(e) = self
+            .store
+            .refresh_summary(id, Some(&self.cfg.catalog), now())
+            .await
+        {
             tracing::error!(submission = %id, error = %e, "summarising failed");
         }
     }

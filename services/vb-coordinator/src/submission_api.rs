@@ -121,12 +121,8 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
             episodes: eps
                 .iter()
                 .map(|e| {
-                    let terrain = self
-                        .0
-                        .set
-                        .world_meta(e.world_id)
-                        .ok()
-                        .and_then(|m| m.terrain);
+                    let worlds = &self.0.cfg.catalog.worlds;
+                    let terrain = worlds.get(&e.world_id).and_then(|w| w.terrain);
                     convert::result_row(e, terrain)
                 })
                 .collect(),

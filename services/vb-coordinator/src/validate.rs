@@ -12,6 +12,7 @@ pub(crate) struct ValidSubmit {
 
 impl Coordinator {
     pub(crate) fn validate_submit(&self, r: &pb::SubmitRequest) -> Result<ValidSubmit, Status> {
+        let catalog = &self.cfg.catalog;
         let bad = |m: String| Status::invalid_argument(m);
         let name = r.name.trim();
         if name.is_empty() || name.chars().count() > MAX_NAME {
@@ -28,10 +29,11 @@ impl Coordinator {
                 ))
             }
             Some(pb::planner_ref::Kind::Builtin(b)) => {
-                if baselines::by_name(b).is_none() {
+                let names = &catalog.builtin_planners;
+                if !names.contains(b) {
                     return Err(bad(format!(
                         "unknown builtin planner `{b}` (available: {})",
-                        baselines::NAMES.join(", ")
+                        names.join(", ")
                     )));
                 }
                 (PlannerKind::Builtin, b.clone())
@@ -77,10 +79,15 @@ impl Coordinator {
         } else {
             r.vehicle.as_str()
         };
-        let vehicle = sim_core::vehicle::vehicle_by_name(vehicle_name)
-            .map_err(|e| bad(format!("vehicle: {e}")))?;
+        let Some(&vehicle_scale) = catalog.vehicles.get(vehicle_name) else {
+            let names: Vec<&str> = catalog.vehicles.keys().map(String::as_str).collect();
+            return Err(bad(format!(
+                "vehicle: unknown vehicle `{vehicle_name}` (available: {})",
+                names.join(", ")
+            )));
+        };
         let scale = if r.scale == 0.0 {
-            vehicle.scale
+            vehicle_scale
         } else {
             r.scale
         };
@@ -109,23 +116,21 @@ impl Coordinator {
         } else {
             r.task_ids.join(",")
         };
-        let selected =
-            tasks::selection::select(&self.set, &spec_str).map_err(|e| bad(e.to_string()))?;
-        let mut episodes = Vec::with_capacity(selected.len());
-        for (w, t) in selected {
-            let meta = self
-                .set
-                .world_meta(w)
-                .map_err(|e| Status::internal(e.to_string()))?;
-            episodes.push(NewEpisode {
-                task_id: contracts::TaskId::new(w, t).to_string(),
-                world_id: w,
-                task_index: t,
-                level: meta.level.as_str().into(),
-                semantics: meta.semantics.as_str().into(),
-                density: meta.density.as_str().into(),
-            });
-        }
+        let selected = catalog.select(&spec_str).map_err(|e| bad(e.to_string()))?;
+        let episodes = selected
+            .into_iter()
+            .map(|id| {
+                let facts = catalog.worlds[&id.world];
+                NewEpisode {
+                    task_id: id.to_string(),
+                    world_id: id.world,
+                    task_index: id.index,
+                    level: facts.level.to_string(),
+                    semantics: facts.semantics.to_string(),
+                    density: facts.density.to_string(),
+                }
+            })
+            .collect();
         Ok(ValidSubmit {
             sub: NewSubmission {
                 name: name.to_string(),
@@ -133,16 +138,16 @@ impl Coordinator {
                 owner_token: String::new(),
                 planner_kind: kind,
                 planner_identity: match kind {
-                    PlannerKind::Builtin => format!("builtin:{spec} ({SIM_VERSION})"),
+                    PlannerKind::Builtin => format!("builtin:{spec} ({})", catalog.sim_version),
                     _ => format!("{kind}:{spec}"),
                 },
                 planner_spec: spec,
-                vehicle: vehicle.name.clone(),
+                vehicle: vehicle_name.to_string(),
                 scale,
                 seed: r.seed,
                 step_deadline_s: deadline,
-                task_set_version: self.set.version().to_string(),
-                sim_version: SIM_VERSION.into(),
+                task_set_version: catalog.task_set_version.clone(),
+                sim_version: catalog.sim_version.clone(),
             },
             episodes,
         })

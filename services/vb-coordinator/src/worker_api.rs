@@ -13,9 +13,10 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
     ) -> Result<Response<pb::RegisterResponse>, Status> {
         let token = self.0.worker(&req).await?;
         let r = req.into_inner();
-        if r.sim_version != SIM_VERSION {
+        let sim_version = &self.0.cfg.catalog.sim_version;
+        if &r.sim_version != sim_version {
             return Err(Status::failed_precondition(format!(
-                "worker runs `{}` but this coordinator's results need `{SIM_VERSION}`",
+                "worker runs `{}` but this coordinator's results need `{sim_version}`",
                 r.sim_version
             )));
         }
@@ -183,9 +184,10 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
             }));
         }
         let result = convert::report(&r, MAX_LOG, MAX_TRAJECTORY)?;
-        if r.sim_version != SIM_VERSION {
+        let sim_version = &self.0.cfg.catalog.sim_version;
+        if &r.sim_version != sim_version {
             return Err(Status::invalid_argument(format!(
-                "the result was computed by `{}`, not `{SIM_VERSION}`",
+                "the result was computed by `{}`, not `{sim_version}`",
                 r.sim_version
             )));
         }

@@ -18,7 +18,7 @@ pub struct Side {
     pub state: contracts::SubmissionState,
     pub task_set_version: String,
     pub sim_version: String,
-    pub rules: sim_core::episode::Rules,
+    pub rules: contracts::Rules,
     /// Its finished episodes.
     pub finished: usize,
 }
@@ -102,7 +102,7 @@ impl Leaderboard {
     async fn finished_rows(&self, id: &str) -> Result<(Submission, Vec<EpisodeRow>), WebError> {
         let sub = public::submission(&self.reader, id).await?;
         let eps = public::episodes(&self.reader, &sub).await?;
-        let rows = vb_store::aggregate::rows(&sub, &eps, self.set.as_deref())?;
+        let rows = vb_store::aggregate::rows(&sub, &eps, self.catalog())?;
         Ok((sub, rows))
     }
 

@@ -5,7 +5,6 @@
 //! Pages are rendered on the server by askama templates in `web/templates/` ([`pages`], compiled in and escaping
 //! every value); no JavaScript.
 
-pub mod bench;
 pub mod cache;
 pub mod compare;
 pub mod metrics;
@@ -18,10 +17,10 @@ use axum::http::{header, StatusCode};
 use axum::response::{Html, IntoResponse, Response};
 use axum::routing::get;
 use axum::{Json, Router};
+use contracts::{Catalog, ServiceError, ServiceErrorCode, WorldPicture};
 use serde::Serialize;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
-use tasks::TaskSet;
 use vb_store::{EpisodeRecord, Progress, Reader, StoreError, StoredSummary, Submission};
 
 pub const OPENAPI: &str = include_str!("../../../web/openapi.json");
@@ -29,14 +28,28 @@ pub const OPENAPI: &str = include_str!("../../../web/openapi.json");
 /// Shared state of the leaderboard.
 pub struct Leaderboard {
     reader: Reader,
-    set: Option<Arc<TaskSet>>,
-    world_png: Mutex<HashMap<u32, Arc<Vec<u8>>>>,
+    /// The simulator ranked runs must have run on.
+    sim_version: String,
+    tasks: Option<ServedTasks>,
+    pictures: Mutex<HashMap<u32, Arc<WorldPicture>>>,
     /// The ranking, at most [`cache::TTL`] old, with its page and JSON.
     snapshot: cache::SnapshotCell,
     /// Rendered submission pages.
     pages: cache::PageCache,
     /// Durations of the requests answered (for `/metrics`).
     latency: metrics::Latency,
+}
+
+/// Draws world `id` of the served task set at [`pages::MAP_PPM`] pixels per sample (the binary wires
+/// `tasks::TaskSet::world_picture`: the leaderboard itself never links the task set or the simulator).
+pub type DrawWorld = Arc<dyn Fn(u32) -> Result<WorldPicture, String> + Send + Sync>;
+
+/// The task set a leaderboard serves: its catalog (the reference runs are ranked against, the terrain groups of
+/// the density contrasts) and how to draw its worlds.
+#[derive(Clone)]
+pub struct ServedTasks {
+    pub catalog: Arc<Catalog>,
+    pub draw: DrawWorld,
 }
 
 /// One submission with its progress and summary, as the API returns it.
@@ -90,40 +103,48 @@ async fn security_headers(mut res: Response) -> Response {
     res
 }
 
-#[derive(Debug)]
+/// A request's failure; its HTTP status comes from its [`ServiceErrorCode`] by the one map.
+#[derive(Debug, thiserror::Error)]
 pub enum WebError {
+    #[error("{0}")]
     NotFound(String),
+    #[error("{0}")]
     Internal(String),
+    #[error(transparent)]
+    Store(#[from] StoreError),
 }
 
-impl From<StoreError> for WebError {
-    fn from(e: StoreError) -> Self {
-        match e {
-            StoreError::UnknownSubmission(_) | StoreError::UnknownEpisode { .. } => {
-                WebError::NotFound(e.to_string())
-            }
-            other => WebError::Internal(other.to_string()),
+impl ServiceError for WebError {
+    fn error_code(&self) -> ServiceErrorCode {
+        match self {
+            Self::NotFound(_) => ServiceErrorCode::NotFound,
+            Self::Internal(_) => ServiceErrorCode::Internal,
+            Self::Store(e) => e.error_code(),
         }
     }
 }
 
 impl IntoResponse for WebError {
     fn into_response(self) -> Response {
-        let (code, msg) = match self {
-            WebError::NotFound(m) => (StatusCode::NOT_FOUND, m),
-            WebError::Internal(m) => (StatusCode::INTERNAL_SERVER_ERROR, m),
-        };
-        (code, Json(serde_json::json!({ "error": msg }))).into_response()
+        let code = StatusCode::from_u16(self.error_code().http_status())
+            .unwrap_or(StatusCode::INTERNAL_SERVER_ERROR);
+        (code, Json(serde_json::json!({ "error": self.to_string() }))).into_response()
     }
 }
 
 impl Leaderboard {
-    /// `set` gives the maps drawn under episode paths (pages work without it, minus the map).
-    pub fn new(reader: Reader, set: Option<TaskSet>) -> Arc<Leaderboard> {
+    fn catalog(&self) -> Option<&Catalog> {
+        self.tasks.as_ref().map(|t| t.catalog.as_ref())
+    }
+
+    /// `sim_version`: the simulator ranked runs must have run on; `tasks` gives the reference task set and the
+    /// maps drawn under episode paths (pages work without it, minus the map).
+    pub fn new(reader: Reader, sim_version: &str, tasks: Option<ServedTasks>) -> Arc<Leaderboard> {
         Arc::new(Leaderboard {
             reader,
-            set: set.map(Arc::new),
-            world_png: Mutex::new(HashMap::new()),
+            sim_version: sim_version.to_string(),
+            tasks,
+            pictures: Mutex::new(HashMap::new()),
             snapshot: Default::default(),
             pages: Default::default(),
             latency: Default::default(),
@@ -166,7 +187,7 @@ impl Leaderboard {
             Some(m) => m.summary.clone(),
             None => {
                 let eps = public::episodes(&self.reader, &sub).await?;
-                vb_store::aggregate::summary_of(&sub, &eps, self.set.as_deref())?
+                vb_store::aggregate::summary_of(&sub, &eps, self.catalog())?
             }
         };
         let progress = match &stored {
@@ -192,10 +213,12 @@ impl Leaderboard {
     /// What ranked runs must have run: the full loaded task set (or, without one, the newest submission's set and
     /// the most tasks a submission on it has), on this build's simulator, under the paper's rules.
     fn reference(&self, entries: &[SubmissionEntry]) -> ranking::Reference {
-        match &self.set {
-            Some(set) => {
-                ranking::Reference::current(set.version(), set.world_ids().len() as u32 * 10)
-            }
+        match self.catalog() {
+            Some(c) => ranking::Reference::current(
+                &c.task_set_version,
+                c.all_tasks().len() as u32,
+                &self.sim_version,
+            ),
             None => {
                 // Entries come newest first.
                 let version = entries
@@ -207,7 +230,7 @@ impl Leaderboard {
                     .map(|e| e.progress.total)
                     .max()
                     .unwrap_or(0);
-                ranking::Reference::current(version, tasks)
+                ranking::Reference::current(version, tasks, &self.sim_version)
             }
         }
     }
@@ -278,33 +301,34 @@ impl Leaderboard {
         Err(WebError::NotFound(format!("no submission `{id}`")))
     }
 
-    fn world_png_bytes(&self, id: u32) -> Result<Arc<Vec<u8>>, WebError> {
-        if let Some(b) = self.world_png.lock().ok().and_then(|m| m.get(&id).cloned()) {
-            return Ok(b);
+    /// World `id`'s picture and task geometry, drawn once (blocking: call from `spawn_blocking`).
+    fn world_picture(&self, id: u32) -> Result<Arc<WorldPicture>, WebError> {
+        if let Some(p) = self.pictures.lock().ok().and_then(|m| m.get(&id).cloned()) {
+            return Ok(p);
         }
-        let set = self.set.as_ref().ok_or_else(|| {
+        let served = self.tasks.as_ref().ok_or_else(|| {
             WebError::NotFound("this leaderboard has no task set to draw maps from".into())
         })?;
-        let mut record = set
-            .record(id)
-            .map_err(|e| WebError::NotFound(e.to_string()))?;
-        record.tasks.clear();
-        let img = tasks::render::render_world(&record, pages::MAP_PPM);
-        let mut bytes = Vec::new();
-        img.write_to(
-            &mut std::io::Cursor::new(&mut bytes),
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| WebError::Internal(format!("encoding the map of world {id}: {e}")))?;
-        let bytes = Arc::new(bytes);
-        if let Ok(mut m) = self.world_png.lock() {
-            m.insert(id, bytes.clone());
+        if !served.catalog.worlds.contains_key(&id) {
+            return Err(WebError::NotFound(format!("no world {id} in the task set")));
         }
-        Ok(bytes)
+        let picture = Arc::new((served.draw)(id).map_err(WebError::Internal)?);
+        if let Ok(mut m) = self.pictures.lock() {
+            m.insert(id, picture.clone());
+        }
+        Ok(picture)
     }
 }
 
 type St = State<Arc<Leaderboard>>;
+
+/// World `id`'s picture, drawn off the async workers the first time.
+async fn picture(lb: &Arc<Leaderboard>, id: u32) -> Result<Arc<WorldPicture>, WebError> {
+    let lb = lb.clone();
+    tokio::task::spawn_blocking(move || lb.world_picture(id))
+        .await
+        .map_err(|e| WebError::Internal(e.to_string()))?
+}
 
 async fn index(State(lb): St) -> Result<Html<axum::body::Bytes>, WebError> {
     Ok(Html(lb.snapshot(false).await?.html.clone()))
@@ -346,19 +370,13 @@ async fn episode_page(
 ) -> Result<Html<String>, WebError> {
     let sub = public::submission(&lb.reader, &id).await?;
     let detail = public::episode_detail(&lb.reader, &id, &task).await?;
-    let world_task = lb.set.as_ref().and_then(|set| {
-        let w = detail.record.world_id;
-        let t = detail.record.task_index as usize;
-        let tasks = set.tasks(w, 1.0).ok()?;
-        let task = tasks.into_iter().nth(t)?;
-        let world = set.world(w, 1.0).ok()?;
-        Some((world, task))
-    });
-    Ok(Html(pages::episode::page(
-        &sub,
-        &detail,
-        world_task.as_ref(),
-    )))
+    // The page works without its map (no task set served, or a world it does not have).
+    let map = if lb.tasks.is_some() {
+        picture(&lb, detail.record.world_id).await.ok()
+    } else {
+        None
+    };
+    Ok(Html(pages::episode::page(&sub, &detail, map.as_deref())))
 }
 
 async fn world_png(State(lb): St, Path(file): Path<String>) -> Result<Response, WebError> {
@@ -366,16 +384,13 @@ async fn world_png(State(lb): St, Path(file): Path<String>) -> Result<Response, 
         .strip_suffix(".png")
         .and_then(|s| s.parse().ok())
         .ok_or_else(|| WebError::NotFound(format!("no world picture `{file}`")))?;
-    let lb2 = lb.clone();
-    let bytes = tokio::task::spawn_blocking(move || lb2.world_png_bytes(id))
-        .await
-        .map_err(|e| WebError::Internal(e.to_string()))??;
+    let bytes = picture(&lb, id).await?.png.clone();
     Ok((
         [
             (header::CONTENT_TYPE, "image/png"),
             (header::CACHE_CONTROL, "max-age=3600"),
         ],
-        bytes.as_ref().clone(),
+        bytes,
     )
         .into_response())
 }

@@ -18,12 +18,12 @@ pub struct Reference {
 }
 
 impl Reference {
-    /// The full set of `task_set_version` (of `tasks` tasks), on this build's simulator, under the paper's rules.
-    pub fn current(task_set_version: &str, tasks: u32) -> Reference {
+    /// The full set of `task_set_version` (of `tasks` tasks), on simulator `sim_version`, under the paper's rules.
+    pub fn current(task_set_version: &str, tasks: u32, sim_version: &str) -> Reference {
         Reference {
             task_set_version: task_set_version.to_string(),
             tasks,
-            sim_version: sim_core::SIM_VERSION.to_string(),
+            sim_version: sim_version.to_string(),
             rules: Rules::Paper,
         }
     }
@@ -153,14 +153,14 @@ mod tests {
             tasks: 1000,
             finished,
             task_set_version: "set",
-            sim_version: sim_core::SIM_VERSION,
+            sim_version: "sim r1",
             rules: Rules::Paper,
         }
     }
 
     #[test]
     fn only_full_finished_runs_of_the_reference_are_ranked() {
-        let r = Reference::current("set", 1000);
+        let r = Reference::current("set", 1000, "sim r1");
         assert_eq!(run(SubmissionState::Done, 1000).unranked(&r), None);
         assert_eq!(run(SubmissionState::Done, 1000).coverage(&r), 1.0);
         assert_eq!(

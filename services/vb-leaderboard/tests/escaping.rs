@@ -2,6 +2,8 @@
 //! planner log, identity) comes out escaped on every HTML page, in every SVG and in the static leaderboard; the JSON
 //! API serves it as JSON that browsers may not sniff; every response carries the Content-Security-Policy.
 
+mod common;
+
 use std::io::{Read, Write};
 use vb_store::*;
 
@@ -36,7 +38,7 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
     std::fs::create_dir_all(&dir)?;
     let url = format!("sqlite://{}", dir.join("vb.db").display());
     let store = Store::open(&url).await?;
-    let set = tasks::TaskSet::committed()?;
+    let (set, served) = common::committed()?;
     let sub = NewSubmission {
         name: EVIL.into(),
         owner: EVIL.into(),
@@ -62,7 +64,7 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
     let id = store.create_submission(&sub, &[episode], 0.0).await?;
     let w = store.register_worker("w", 1, "s", "tw", 0.0).await?;
     let lease = store.lease(&w, 1, 30.0, true, 1.0).await?.remove(0);
-    let metrics = serde_json::to_string(&sim_core::episode::EpisodeMetrics::default())?;
+    let metrics = serde_json::to_string(&contracts::EpisodeMetrics::default())?;
     let r = EpisodeResultIn {
         lease_id: lease.lease_id.clone(),
         submission_id: id.clone(),
@@ -71,7 +73,7 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
         reason: EVIL.into(),
         detail: EVIL.into(),
         metrics_json: metrics,
-        trajectory_csv: format!("{}\n", sim_core::trajectory::CSV_HEADER),
+        trajectory_csv: format!("{}\n", contracts::trajectory::CSV_HEADER),
         trajectory_gz: None,
         planner_log: format!("{EVIL} {LOG_SECRET}"),
         sim_version: "s".into(),
@@ -79,7 +81,8 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
         wall_time_s: 0.1,
     };
     assert_eq!(store.report(&w, &r, 2.0).await?, ReportOutcome::Accepted);
-    let lb = vb_leaderboard::Leaderboard::new(store.reader(), Some(set));
+    let lb =
+        vb_leaderboard::Leaderboard::new(store.reader(), common::SIM_VERSION, Some(served.clone()));
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let port = listener.local_addr()?.port();
     tokio::spawn(vb_leaderboard::serve(lb, listener));
@@ -143,6 +146,7 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
             name: EVIL.into(),
             summary,
         }],
+        common::SIM_VERSION,
         None,
     );
     assert_clean("leaderboard.html", &page);
@@ -155,7 +159,7 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
 #[test]
 fn standalone_page_allows_only_its_own_style() {
     use sha2::Digest;
-    let page = vb_leaderboard::pages::board::standalone(&[], None);
+    let page = vb_leaderboard::pages::board::standalone(&[], common::SIM_VERSION, None);
     let css = page
         .split_once("<style>")
         .and_then(|(_, rest)| rest.split_once("</style>"))

@@ -2,6 +2,8 @@
 //! store directly, as an old database holds them) are shown with those characters escaped on every page, SVG chart
 //! and the static board; the JSON API serves the stored value as it is (data, for programs to show as they choose).
 
+mod common;
+
 use std::io::{Read, Write};
 use vb_store::*;
 
@@ -50,7 +52,7 @@ async fn hidden_characters_in_stored_names_are_shown_escaped_on_every_page() -> 
     std::fs::create_dir_all(&dir)?;
     let url = format!("sqlite://{}", dir.join("vb.db").display());
     let store = Store::open(&url).await?;
-    let set = tasks::TaskSet::committed()?;
+    let (set, served) = common::committed()?;
     let sub = NewSubmission {
         name: NAME.into(),
         owner: OWNER.into(),
@@ -83,8 +85,8 @@ async fn hidden_characters_in_stored_names_are_shown_escaped_on_every_page() -> 
         outcome: "planner_failure".into(),
         reason: "planner_crash".into(),
         detail: DETAIL.into(),
-        metrics_json: serde_json::to_string(&sim_core::episode::EpisodeMetrics::default())?,
-        trajectory_csv: format!("{}\n", sim_core::trajectory::CSV_HEADER),
+        metrics_json: serde_json::to_string(&contracts::EpisodeMetrics::default())?,
+        trajectory_csv: format!("{}\n", contracts::trajectory::CSV_HEADER),
         trajectory_gz: None,
         planner_log: String::new(),
         sim_version: "s".into(),
@@ -92,7 +94,8 @@ async fn hidden_characters_in_stored_names_are_shown_escaped_on_every_page() -> 
         wall_time_s: 0.1,
     };
     assert_eq!(store.report(&w, &r, 2.0).await?, ReportOutcome::Accepted);
-    let lb = vb_leaderboard::Leaderboard::new(store.reader(), Some(set));
+    let lb =
+        vb_leaderboard::Leaderboard::new(store.reader(), common::SIM_VERSION, Some(served.clone()));
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let port = listener.local_addr()?.port();
     tokio::spawn(vb_leaderboard::serve(lb, listener));
@@ -137,6 +140,7 @@ async fn hidden_characters_in_stored_names_are_shown_escaped_on_every_page() -> 
             name: NAME.into(),
             summary,
         }],
+        common::SIM_VERSION,
         None,
     );
     assert_neutralised("leaderboard.html", &page);

@@ -1,6 +1,8 @@
 //! The ranking: only complete runs of the current task set and simulator get a rank; the others are listed apart
 //! with why; two submissions compare paired.
 
+mod common;
+
 use vb_store::*;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -9,16 +11,16 @@ async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir)?;
     let store = Store::open(&format!("sqlite://{}", dir.join("vb.db").display())).await?;
-    let set = tasks::TaskSet::committed()?;
-    let metrics = serde_json::to_string(&sim_core::episode::EpisodeMetrics::default())?;
+    let (set, served) = common::committed()?;
+    let metrics = serde_json::to_string(&contracts::EpisodeMetrics::default())?;
     let w = store.register_worker("w", 64, "s", "tw", 0.0).await?;
     // A full run with some failures, a 2-task run that succeeded on both, and a full run on another simulator
     // that succeeded everywhere.
     let mut ids = Vec::new();
     let full_set = set.world_ids().len() * 10;
     for (name, tasks, succeed_every, sim) in [
-        ("full", full_set, 3, sim_core::SIM_VERSION),
-        ("lucky", 2, 1, sim_core::SIM_VERSION),
+        ("full", full_set, 3, common::SIM_VERSION),
+        ("lucky", 2, 1, common::SIM_VERSION),
         ("old-sim", full_set, 1, "sim-core 0.0.1 r0"),
     ] {
         let episodes: Vec<NewEpisode> = set
@@ -79,11 +81,14 @@ async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
         ids.push(id);
     }
     for id in &ids {
-        store.refresh_summary(id, Some(&set), 4.0).await?;
+        store
+            .refresh_summary(id, Some(&served.catalog), 4.0)
+            .await?;
     }
-    let lb = vb_leaderboard::Leaderboard::new(store.reader(), Some(set));
+    let lb =
+        vb_leaderboard::Leaderboard::new(store.reader(), common::SIM_VERSION, Some(served.clone()));
     let ranking = lb.ranked().await.map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    assert_eq!(ranking.reference.sim_version, sim_core::SIM_VERSION);
+    assert_eq!(ranking.reference.sim_version, common::SIM_VERSION);
     assert_eq!(ranking.reference.tasks as usize, full_set);
     let ranked = &ranking.entries;
     let by_name = |n: &str| ranked.iter().find(|e| e.submission.name == n).unwrap();
@@ -196,29 +201,36 @@ fn the_static_board_ranks_only_full_evaluations() {
         summary.overall.episodes = episodes;
         summary.overall.success_rate = rate;
         summary.task_set_version = "set".into();
-        summary.sim_version = sim_core::SIM_VERSION.into();
+        summary.sim_version = common::SIM_VERSION.into();
         Evaluation {
             name: name.into(),
             summary,
         }
     };
     let mut release = eval("release-rules", 1000, 0.95);
-    release.summary.rules = sim_core::episode::Rules::Release;
+    release.summary.rules = contracts::Rules::Release;
     let evals = [
         eval("partial-run", 330, 0.9),
         eval("full-run", 1000, 0.4),
         release,
     ];
     // Without a reference the most common set among the evaluations is ranked, full at its largest run.
-    for reference in [Some(Reference::current("set", 1000)), None] {
-        let page = standalone(&evals, reference);
+    for reference in [
+        Some(Reference::current("set", 1000, common::SIM_VERSION)),
+        None,
+    ] {
+        let page = standalone(&evals, common::SIM_VERSION, reference);
         assert!(
             page.contains("<tr><td>1</td><td class=\"l\">full-run"),
             "{page}"
         );
         assert!(page.contains("release-rules</td><td class=\"l\"></td><td class=\"l\"></td><td class=\"l why\">release rules"), "{page}");
     }
-    let page = standalone(&evals, Some(Reference::current("set", 1000)));
+    let page = standalone(
+        &evals,
+        common::SIM_VERSION,
+        Some(Reference::current("set", 1000, common::SIM_VERSION)),
+    );
     let at = |s: &str| page.find(s).unwrap_or_else(|| panic!("{s} missing"));
     assert!(at("full-run") < at("partial-run"));
     assert!(

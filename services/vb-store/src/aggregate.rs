@@ -3,10 +3,11 @@
 //! coordinator stores them ([`crate::Store::refresh_summary`]); the leaderboard reads them.
 
 use crate::{EpisodeRecord, StoreError, Submission, SERVICE_RULES};
-use contracts::{ElevationLevel, EndReason, ObstacleDensity, RecordedOutcome, SemanticsKind};
+use contracts::{
+    Catalog, ElevationLevel, EndReason, ObstacleDensity, Outcome, RecordedOutcome, SemanticsKind,
+};
 use results::summary::Summary;
 use results::{EpisodeRow, EpisodeValues, RunFacts};
-use tasks::TaskSet;
 
 /// The facts every row of a submission shares (the service runs every episode under [`SERVICE_RULES`]).
 pub fn facts(sub: &Submission) -> RunFacts {
@@ -21,29 +22,28 @@ pub fn facts(sub: &Submission) -> RunFacts {
     }
 }
 
-/// Stored finished episodes as the evaluation rows summaries are computed from. `set`, when it is the submission's
-/// task set, gives each world's terrain group (for the matched density contrasts). A done episode whose stored
+/// Stored finished episodes as the evaluation rows summaries are computed from. `catalog`, when it serves the
+/// submission's task set, gives each world's terrain group (for the matched density contrasts). A done episode whose stored
 /// values do not parse is a corrupt store, reported as such.
 pub fn rows(
     sub: &Submission,
     eps: &[EpisodeRecord],
-    set: Option<&TaskSet>,
+    catalog: Option<&Catalog>,
 ) -> Result<Vec<EpisodeRow>, StoreError> {
-    let set = set.filter(|s| s.version() == sub.task_set_version);
     let facts = facts(sub);
     eps.iter()
         .filter(|e| e.state == crate::EpisodeState::Done)
         .map(|e| {
-            let terrain = set
-                .and_then(|s| s.world_meta(e.world_id).ok())
-                .and_then(|m| m.terrain);
+            let terrain = catalog.and_then(|c| c.terrain(&sub.task_set_version, e.world_id));
             Ok(facts.row(values(e, terrain)?))
         })
         .collect()
 }
 
-/// A done episode's own values. One stored before reasons were recorded, or without an outcome (neither happens
-/// since the store's first schema), reads as an infrastructure error rather than being dropped.
+/// A done episode's own values. One without an outcome (never stored since the store's first schema) reads as an
+/// infrastructure error rather than being dropped; a reason the coordinator did not check (reports were checked
+/// for their outcome only before reasons were typed) reads as its outcome's own reason: summaries never read
+/// reasons, so a page never fails on one.
 fn values(e: &EpisodeRecord, terrain: Option<u32>) -> Result<EpisodeValues, StoreError> {
     let corrupt = |what: &str, err: &dyn std::fmt::Display| {
         StoreError::Corrupt(format!(
@@ -52,10 +52,22 @@ fn values(e: &EpisodeRecord, terrain: Option<u32>) -> Result<EpisodeValues, Stor
         ))
     };
     let outcome = e.outcome.unwrap_or(RecordedOutcome::InfrastructureError);
-    let reason = match e.reason.as_deref() {
-        None | Some("") => EndReason::Infrastructure,
-        Some(r) => EndReason::parse(r).map_err(|err| corrupt("reason", &err))?,
-    };
+    let reason = e
+        .reason
+        .as_deref()
+        .and_then(|r| EndReason::parse(r).ok())
+        .unwrap_or(match outcome {
+            RecordedOutcome::InfrastructureError => EndReason::Infrastructure,
+            RecordedOutcome::Episode(o) => match o {
+                Outcome::Success => EndReason::Success,
+                Outcome::Rollover => EndReason::Rollover,
+                Outcome::Stuck => EndReason::Stuck,
+                Outcome::Timeout => EndReason::Timeout,
+                Outcome::OffMap => EndReason::OffMap,
+                Outcome::PlannerFailure => EndReason::PlannerError,
+                Outcome::Cancelled => EndReason::Cancelled,
+            },
+        });
     Ok(EpisodeValues {
         task_id: e.task_id.parse().map_err(|err| corrupt("task id", &err))?,
         level: ElevationLevel::parse(&e.level).map_err(|err| corrupt("level", &err))?,
@@ -78,7 +90,7 @@ fn values(e: &EpisodeRecord, terrain: Option<u32>) -> Result<EpisodeValues, Stor
 pub fn summary_of(
     sub: &Submission,
     eps: &[EpisodeRecord],
-    set: Option<&TaskSet>,
+    catalog: Option<&Catalog>,
 ) -> Result<Summary, StoreError> {
-    Ok(facts(sub).summary(&rows(sub, eps, set)?))
+    Ok(facts(sub).summary(&rows(sub, eps, catalog)?))
 }

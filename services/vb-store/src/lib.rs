@@ -49,6 +49,17 @@ pub enum StoreError {
     Input(#[from] contracts::input::InputError),
 }
 
+impl contracts::ServiceError for StoreError {
+    fn error_code(&self) -> contracts::ServiceErrorCode {
+        use contracts::ServiceErrorCode as C;
+        match self {
+            Self::UnknownSubmission(_) | Self::UnknownEpisode { .. } => C::NotFound,
+            Self::Input(_) | Self::Url(_) => C::BadRequest,
+            Self::Db(_) | Self::Migrate(_) | Self::Random(_) | Self::Corrupt(_) => C::Internal,
+        }
+    }
+}
+
 pub type Result<T> = std::result::Result<T, StoreError>;
 
 pub mod aggregate;
@@ -57,7 +68,6 @@ mod metrics;
 mod reader;
 mod report;
 mod schedule;
-pub mod seed;
 mod summaries;
 mod tokens;
 mod types;

@@ -2,9 +2,9 @@
 //! a submission ends, read by the leaderboard in one row per submission.
 
 use crate::*;
+use contracts::Catalog;
 use serde::{Deserialize, Serialize};
 use sqlx::Row;
-use tasks::TaskSet;
 
 /// A submission's stored aggregates.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -36,13 +36,18 @@ const SUMMARY_COLUMNS: &str =
      m.updated_at AS m_updated_at";
 
 impl Store {
-    /// Recomputes and stores a submission's aggregates from its finished episodes (`set`: its task set, for the
-    /// matched density contrasts). O(one submission's episodes).
-    pub async fn refresh_summary(&self, id: &str, set: Option<&TaskSet>, now: f64) -> Result<()> {
+    /// Recomputes and stores a submission's aggregates from its finished episodes (`catalog`: the task set served,
+    /// for the matched density contrasts). O(one submission's episodes).
+    pub async fn refresh_summary(
+        &self,
+        id: &str,
+        catalog: Option<&Catalog>,
+        now: f64,
+    ) -> Result<()> {
         let reader = self.reader();
         let sub = reader.submission(id).await?;
         let eps = reader.episodes(id).await?;
-        let summary = aggregate::summary_of(&sub, &eps, set)?;
+        let summary = aggregate::summary_of(&sub, &eps, catalog)?;
         let finished = eps.iter().filter(|e| e.state == EpisodeState::Done).count() as i64;
         let successes = eps
             .iter()

@@ -176,15 +176,16 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
                     existing
                 } else {
                     let t0 = std::time::Instant::now();
-                    let ids = vb_store::seed::seed(&store, &set, submissions, episodes, trajectory_rows).await?;
+                    let ids = service_bench::seed::seed(&store, &eval::catalog(&set), submissions, episodes, trajectory_rows).await?;
                     println!(
                         "seeded {submissions} submissions x {episodes} episodes ({trajectory_rows}-row trajectories) in {:.0} s on {url}",
                         t0.elapsed().as_secs_f64()
                     );
                     ids
                 };
-                let lb = vb_leaderboard::Leaderboard::new(store.reader(), Some(set));
-                let addr = vb_leaderboard::bench::serve_loopback(lb).await?;
+                let served = super::service::common::served_tasks(set);
+                let lb = vb_leaderboard::Leaderboard::new(store.reader(), sim_core::SIM_VERSION, Some(served));
+                let addr = service_bench::http_load::serve_loopback(lb).await?;
                 let id = &ids[ids.len() / 2];
                 println!("path                                   rate/s  requests  failed    p50 ms    p99 ms    max ms   bytes");
                 for path in [
@@ -193,7 +194,7 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
                     format!("/api/submissions/{id}"),
                     format!("/submissions/{id}"),
                 ] {
-                    let r = vb_leaderboard::bench::load(addr, &path, rate, seconds).await;
+                    let r = service_bench::http_load::load(addr, &path, rate, seconds).await;
                     println!(
                         "{:<38} {:>6.0} {:>9} {:>7} {:>9.2} {:>9.2} {:>9.2} {:>7}",
                         r.path, r.rate, r.requests, r.failed, r.p50_ms, r.p99_ms, r.max_ms, r.bytes

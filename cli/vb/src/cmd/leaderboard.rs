@@ -39,8 +39,11 @@ pub fn run(a: LeaderboardArgs) -> anyhow::Result<()> {
     if let Some(parent) = a.out.parent() {
         std::fs::create_dir_all(parent)?;
     }
-    let reference = set.map(|s| Reference::current(s.version(), s.world_ids().len() as u32 * 10));
-    std::fs::write(&a.out, standalone(&evals, reference))?;
+    let reference = set.map(|s| {
+        let tasks = s.world_ids().len() as u32 * contracts::catalog::TASKS_PER_WORLD;
+        Reference::current(s.version(), tasks, eval::SIM_VERSION)
+    });
+    std::fs::write(&a.out, standalone(&evals, eval::SIM_VERSION, reference))?;
     println!("leaderboard: {}", a.out.canonicalize()?.display());
     Ok(())
 }

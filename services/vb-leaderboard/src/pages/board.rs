@@ -127,8 +127,8 @@ pub struct Evaluation {
 
 /// A page that stands alone (`vb leaderboard-static`), ranked by the service's rule ([`crate::ranking`]) against
 /// `reference` (`None`: the full set is the most common task set among the evaluations, of as many tasks as the
-/// largest evaluation on it ran, on this build's simulator under the paper's rules).
-pub fn standalone(evals: &[Evaluation], reference: Option<Reference>) -> String {
+/// largest evaluation on it ran, on simulator `sim_version` under the paper's rules).
+pub fn standalone(evals: &[Evaluation], sim_version: &str, reference: Option<Reference>) -> String {
     let reference = reference.unwrap_or_else(|| {
         let mut counts = BTreeMap::<&str, usize>::new();
         for e in evals {
@@ -144,7 +144,7 @@ pub fn standalone(evals: &[Evaluation], reference: Option<Reference>) -> String 
             .map(|e| e.summary.overall.episodes as u32)
             .max()
             .unwrap_or(0);
-        Reference::current(version, tasks)
+        Reference::current(version, tasks, sim_version)
     });
     fn run(e: &Evaluation) -> Run<'_> {
         let episodes = e.summary.overall.episodes as u32;

@@ -1,10 +1,10 @@
 //! An episode's page (`episode.html`): its result, metrics, the global path and the driven trajectory over the
 //! world's map, roll, pitch and speed over time (the planner's log is its owner's: `vb-submit log`).
 
-use super::{render, Frame, MAP_PPM};
+use super::{render, Frame};
 use crate::public::PublicEpisode;
 use askama::Template;
-use sim_core::world::{Task, World};
+use contracts::WorldPicture;
 use std::fmt::Write;
 use vb_store::{EpisodeState, Submission};
 
@@ -55,7 +55,7 @@ struct Page {
 /// Parsed trajectory: time and (x, y, roll°, pitch°, speed).
 /// (time, x, y, roll in degrees, pitch in degrees, speed) of each sample (none for an unreadable trajectory).
 fn parse_trajectory(csv: &str) -> Vec<[f64; 6]> {
-    sim_core::trajectory::from_csv(csv)
+    contracts::trajectory::from_csv(csv)
         .unwrap_or_default()
         .iter()
         .map(|t| {
@@ -100,16 +100,16 @@ fn plot(pts: &[(f64, f64)]) -> Option<Plot> {
     })
 }
 
-fn map_view(sub: &Submission, world: &World, task: &Task, traj: &[[f64; 6]]) -> MapView {
-    let h = &world.heightmap;
-    let ppm = MAP_PPM as f64;
+/// The map of task `task` of the episode's world: the global path and the driven trajectory (at the submission's
+/// scale) over the world's picture (drawn at full scale).
+fn map_view(
+    sub: &Submission,
+    pic: &WorldPicture,
+    (world, task): (u32, u32),
+    traj: &[[f64; 6]],
+) -> Option<MapView> {
+    let t = pic.tasks.get(task as usize)?;
     let s = if sub.scale > 0.0 { sub.scale } else { 1.0 };
-    // Full-scale world coordinates to picture pixels (the picture is drawn at full scale).
-    let px = |x: f64, y: f64| {
-        let (fx, fy) = h.grid_coords(x / s, y / s);
-        ((fx + 0.5) * ppm, (h.ny as f64 - 1.0 - fy + 0.5) * ppm)
-    };
-    let pxw = |x: f64, y: f64| px(x * s, y * s);
     let polyline = |pts: &mut dyn Iterator<Item = (f64, f64)>| {
         let mut o = String::new();
         for (a, c) in pts {
@@ -118,24 +118,26 @@ fn map_view(sub: &Submission, world: &World, task: &Task, traj: &[[f64; 6]]) -> 
         o
     };
     let pair = |(a, c): (f64, f64)| (format!("{a:.1}"), format!("{c:.1}"));
-    MapView {
-        width: format!("{:.0}", h.nx as f64 * ppm),
-        height: format!("{:.0}", h.ny as f64 * ppm),
-        image: format!("/worlds/{}.png", world.id),
-        path: polyline(&mut task.path.iter().map(|p| pxw(p[0], p[1]))),
-        trajectory: polyline(&mut traj.iter().map(|p| px(p[1], p[2]))),
-        start: pair(pxw(task.start[0], task.start[1])),
-        goal: pair(pxw(task.goal[0], task.goal[1])),
-    }
+    let ppm = f64::from(pic.ppm);
+    Some(MapView {
+        width: format!("{:.0}", pic.nx as f64 * ppm),
+        height: format!("{:.0}", pic.ny as f64 * ppm),
+        image: format!("/worlds/{world}.png"),
+        path: polyline(&mut t.path.iter().map(|p| pic.pixel(p[0], p[1]))),
+        trajectory: polyline(&mut traj.iter().map(|p| pic.pixel(p[1] / s, p[2] / s))),
+        start: pair(pic.pixel(t.start[0], t.start[1])),
+        goal: pair(pic.pixel(t.goal[0], t.goal[1])),
+    })
 }
 
-pub fn page(sub: &Submission, d: &PublicEpisode, world_task: Option<&(World, Task)>) -> String {
+/// The episode's page; `map`: its world's picture, when the leaderboard serves the task set.
+pub fn page(sub: &Submission, d: &PublicEpisode, map: Option<&WorldPicture>) -> String {
     let r = &d.record;
     let traj = parse_trajectory(&d.trajectory_csv);
     let metrics = r
         .metrics_json
         .as_deref()
-        .and_then(|m| serde_json::from_str::<sim_core::episode::EpisodeMetrics>(m).ok())
+        .and_then(|m| serde_json::from_str::<contracts::EpisodeMetrics>(m).ok())
         .map(|m| {
             vec![
                 format!("{:.1}", m.time),
@@ -184,7 +186,7 @@ pub fn page(sub: &Submission, d: &PublicEpisode, world_task: Option<&(World, Tas
             ),
         ],
         metrics,
-        map: world_task.map(|(w, t)| map_view(sub, w, t, &traj)),
+        map: map.and_then(|m| map_view(sub, m, (r.world_id, r.task_index), &traj)),
         charts: vec![
             chart("roll-chart", "roll", "°", 3),
             chart("pitch-chart", "pitch", "°", 4),

@@ -154,7 +154,7 @@ fn episode_line(sub_id: &str, ep: &EpisodeRecord) -> EpisodeLine {
     let time = ep
         .metrics_json
         .as_deref()
-        .and_then(|m| serde_json::from_str::<sim_core::episode::EpisodeMetrics>(m).ok())
+        .and_then(|m| serde_json::from_str::<contracts::EpisodeMetrics>(m).ok())
         .map_or("-".into(), |m| format!("{:.1}", m.time));
     EpisodeLine {
         href: format!("/submissions/{sub_id}/episodes/{}", ep.task_id),

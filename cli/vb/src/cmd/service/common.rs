@@ -141,3 +141,24 @@ pub(super) async fn start_coordinator(
     });
     Ok(coord)
 }
+
+/// The benchmark the services serve: the task set at `task_dir` under this build's simulator, vehicles and
+/// built-in planners (`eval::catalog`).
+pub fn catalog(task_dir: &std::path::Path) -> anyhow::Result<Arc<contracts::Catalog>> {
+    let set = tasks::TaskSet::load(task_dir)
+        .with_context(|| format!("loading the task set at {}", task_dir.display()))?;
+    Ok(Arc::new(eval::catalog(&set)))
+}
+
+/// The task set a leaderboard serves: its catalog, and its worlds drawn by `tasks`.
+pub fn served_tasks(set: tasks::TaskSet) -> vb_leaderboard::ServedTasks {
+    let catalog = Arc::new(eval::catalog(&set));
+    let draw = move |id| {
+        set.world_picture(id, vb_leaderboard::pages::MAP_PPM)
+            .map_err(|e| e.to_string())
+    };
+    vb_leaderboard::ServedTasks {
+        catalog,
+        draw: Arc::new(draw),
+    }
+}

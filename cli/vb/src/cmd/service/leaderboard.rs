@@ -1,7 +1,7 @@
 //! `vb leaderboard`: the HTTP leaderboard over the coordinator's store (read only).
 
 use super::args::LeaderboardArgs;
-use super::common::{bind, runtime, StopSignal};
+use super::common::{bind, runtime, served_tasks, StopSignal};
 use anyhow::Context;
 use vb_leaderboard::Leaderboard;
 
@@ -12,11 +12,11 @@ pub fn leaderboard(a: LeaderboardArgs) -> anyhow::Result<()> {
         let reader = vb_store::Reader::open(&a.db)
             .await
             .with_context(|| format!("opening the store at {}", a.db))?;
-        let set = tasks::TaskSet::load(&a.task_dir).ok();
+        let served = tasks::TaskSet::load(&a.task_dir).ok().map(served_tasks);
         let listener = bind(a.listen, "leaderboard").await?;
         tracing::info!(url = %format!("http://{}/", listener.local_addr()?), "leaderboard listening");
         tokio::select! {
-            r = vb_leaderboard::serve_with(Leaderboard::new(reader, set), listener, &limits) => r?,
+            r = vb_leaderboard::serve_with(Leaderboard::new(reader, sim_core::SIM_VERSION, served), listener, &limits) => r?,
             _ = signal.recv() => {}
         }
         Ok(())

@@ -4,7 +4,7 @@
 
 mod admin;
 mod args;
-mod common;
+pub(crate) mod common;
 mod leaderboard;
 mod serve;
 mod worker;

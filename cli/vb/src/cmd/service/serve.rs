@@ -2,8 +2,8 @@
 
 use super::args::{CoordinatorArgs, ServeArgs};
 use super::common::{
-    bind, open_store, planner_user, runtime, sim_service, start_coordinator, without_credentials,
-    StopSignal,
+    bind, catalog, open_store, planner_user, runtime, served_tasks, sim_service, start_coordinator,
+    without_credentials, StopSignal,
 };
 use anyhow::bail;
 use std::time::Duration;
@@ -67,10 +67,11 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
         let grpc_addr = grpc.local_addr()?;
         let http_addr = http.local_addr()?;
         let sim = sim_service(&a.task_dir)?;
-        let mut ccfg = CoordinatorConfig::new(a.task_dir.clone());
+        let mut ccfg = CoordinatorConfig::new(catalog(&a.task_dir)?);
         ccfg.allow_exec = !a.no_exec;
         let coord = start_coordinator(store.clone(), ccfg, grpc, Some(sim), None, &limits).await?;
-        let lb = Leaderboard::new(store.reader(), Some(tasks::TaskSet::load(&a.task_dir)?));
+        let served = served_tasks(tasks::TaskSet::load(&a.task_dir)?);
+        let lb = Leaderboard::new(store.reader(), sim_core::SIM_VERSION, Some(served));
         tokio::spawn(async move {
             if let Err(e) = vb_leaderboard::serve_with(lb, http, &limits).await {
                 tracing::error!(error = %e, "leaderboard stopped");
@@ -144,7 +145,7 @@ pub fn coordinator(a: CoordinatorArgs) -> anyhow::Result<()> {
         let mut signal = StopSignal::new()?;
         let store = open_store(&a.db).await?;
         let listener = bind(a.listen, "coordinator gRPC API").await?;
-        let mut cfg = CoordinatorConfig::new(a.task_dir.clone());
+        let mut cfg = CoordinatorConfig::new(catalog(&a.task_dir)?);
         cfg.lease_s = a.lease_s;
         cfg.heartbeat_s = a.heartbeat_s;
         cfg.allow_exec = !a.no_exec;

@@ -1,42 +1,33 @@
 //! Throw-away stores for benchmarks (`vb bench leaderboard`): finished submissions written through the store's own
 //! API, as the coordinator fills a store.
 
-use crate::{EpisodeResultIn, NewEpisode, NewSubmission, Store, StoreError};
-use tasks::TaskSet;
+use contracts::Catalog;
+use vb_store::{EpisodeResultIn, NewEpisode, NewSubmission, Store, StoreError};
 
-/// Seeds `submissions` finished submissions of `episodes` episodes each (tasks of `set`, outcomes mixed, a
+/// Seeds `submissions` finished submissions of `episodes` episodes each (at most one per task of `catalog`'s set, outcomes mixed, a
 /// trajectory of `trajectory_rows` rows and a short log per episode), each with its stored aggregates. Returns
 /// their ids.
 pub async fn seed(
     store: &Store,
-    set: &TaskSet,
+    catalog: &Catalog,
     submissions: usize,
     episodes: usize,
     trajectory_rows: usize,
 ) -> Result<Vec<String>, StoreError> {
-    let tasks: Vec<NewEpisode> = set
-        .world_ids()
-        .iter()
-        .flat_map(|&w| (0..10u32).map(move |t| (w, t)))
-        .cycle()
+    // At most one episode per task of the catalog's set (task ids are unique within a submission).
+    let tasks: Vec<NewEpisode> = catalog
+        .all_tasks()
+        .into_iter()
         .take(episodes)
-        .enumerate()
-        .map(|(i, (w, t))| {
-            let meta = set.world_meta(w).ok();
+        .map(|id| {
+            let facts = catalog.worlds[&id.world];
             NewEpisode {
-                // Unique even when more episodes than tasks are asked for.
-                task_id: format!("w{w:03}-t{t}-{}", i / (set.world_ids().len() * 10).max(1)),
-                world_id: w,
-                task_index: t,
-                level: meta
-                    .as_ref()
-                    .map_or("low".into(), |m| m.level.as_str().into()),
-                semantics: meta
-                    .as_ref()
-                    .map_or("rigid".into(), |m| m.semantics.as_str().into()),
-                density: meta
-                    .as_ref()
-                    .map_or("sparse".into(), |m| m.density.as_str().into()),
+                task_id: id.to_string(),
+                world_id: id.world,
+                task_index: id.index,
+                level: facts.level.to_string(),
+                semantics: facts.semantics.to_string(),
+                density: facts.density.to_string(),
             }
         })
         .collect();
@@ -55,7 +46,7 @@ pub async fn seed(
             0.1 * (t * 0.9).sin()
         );
     }
-    let metrics = serde_json::to_string(&sim_core::episode::EpisodeMetrics {
+    let metrics = serde_json::to_string(&contracts::EpisodeMetrics {
         time: 42.0,
         path_length: 80.0,
         ..Default::default()
@@ -80,7 +71,7 @@ pub async fn seed(
             scale: 1.0,
             seed: s as u64,
             step_deadline_s: 1.0,
-            task_set_version: set.version().into(),
+            task_set_version: catalog.task_set_version.clone(),
             sim_version: "bench".into(),
         };
         let t = 1.0 + s as f64;
@@ -112,7 +103,7 @@ pub async fn seed(
                 store.report(&worker, &r, t).await?;
             }
         }
-        store.refresh_summary(&id, Some(set), t + 0.5).await?;
+        store.refresh_summary(&id, Some(catalog), t + 0.5).await?;
         ids.push(id);
     }
     Ok(ids)

@@ -1,11 +1,11 @@
-//! `vb bench leaderboard`: serves the leaderboard on loopback over a store seeded by [`vb_store::seed`] and measures
+//! `vb bench leaderboard`: serves the leaderboard on loopback over a store seeded by [`crate::seed`] and measures
 //! request latency at a fixed request rate. The load is open-loop: requests leave on a fixed schedule whether or not earlier ones were answered, and
 //! each latency counts from its scheduled departure, so a slow server cannot hide its queueing.
 
-use crate::Leaderboard;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use vb_leaderboard::Leaderboard;
 
 /// Latencies of one path under load.
 #[derive(Clone, Debug)]
@@ -78,6 +78,6 @@ pub async fn load(addr: std::net::SocketAddr, path: &str, rate: f64, seconds: f6
 pub async fn serve_loopback(lb: Arc<Leaderboard>) -> std::io::Result<std::net::SocketAddr> {
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let addr = listener.local_addr()?;
-    tokio::spawn(crate::serve(lb, listener));
+    tokio::spawn(vb_leaderboard::serve(lb, listener));
     Ok(addr)
 }
