@@ -19,17 +19,7 @@ pub async fn seed(
         .all_tasks()
         .into_iter()
         .take(episodes)
-        .map(|id| {
-            let facts = catalog.worlds[&id.world];
-            NewEpisode {
-                task_id: id.to_string(),
-                world_id: id.world,
-                task_index: id.index,
-                level: facts.level.to_string(),
-                semantics: facts.semantics.to_string(),
-                density: facts.density.to_string(),
-            }
-        })
+        .filter_map(|id| NewEpisode::of(catalog, id))
         .collect();
     let mut trajectory = String::from("time,x,y,z,roll,pitch,yaw,speed,throttle,steering,brake\n");
     for k in 0..trajectory_rows {

@@ -35,6 +35,21 @@ fn host_triple() -> String {
         .to_string()
 }
 
+/// `cargo metadata` of the workspace with `args`, parsed.
+fn metadata(args: &[&str]) -> serde_json::Value {
+    let out = cargo()
+        .args(["metadata", "--offline", "--format-version", "1"])
+        .args(args)
+        .output()
+        .expect("running cargo metadata");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("metadata JSON")
+}
+
 /// Every package `package` links (normal dependencies, transitively, itself included) with `features`.
 fn linked(package: &str, features: &[&str]) -> BTreeSet<String> {
     let mut c = cargo();
@@ -133,22 +148,7 @@ fn benchmark_harnesses_stay_out_of_product_crates() {
 /// Folder name = crate name, for every member of the workspace.
 #[test]
 fn every_crate_lives_in_a_folder_of_its_name() {
-    let out = cargo()
-        .args([
-            "metadata",
-            "--offline",
-            "--no-deps",
-            "--format-version",
-            "1",
-        ])
-        .output()
-        .expect("running cargo metadata");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let meta: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let meta = metadata(&["--no-deps"]);
     let packages = meta["packages"].as_array().unwrap();
     assert!(packages.len() >= 18, "{} packages", packages.len());
     for p in packages {
@@ -254,17 +254,7 @@ fn the_connection_guard_is_transport_only_and_the_leaderboard_links_no_grpc() {
 fn every_crate_declares_the_real_minimum_rust_version() {
     // The host's packages only: those are the ones a build here fetches (and `--offline` then finds), and the
     // ones whose `rust-version` bounds ours; other platforms' (Android, Windows) are never downloaded.
-    let out = cargo()
-        .args(["metadata", "--offline", "--format-version", "1"])
-        .args(["--filter-platform", &host_triple()])
-        .output()
-        .expect("running cargo metadata");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let meta: serde_json::Value = serde_json::from_slice(&out.stdout).expect("metadata JSON");
+    let meta = metadata(&["--filter-platform", &host_triple()]);
     let members: BTreeSet<&str> = meta["workspace_members"]
         .as_array()
         .expect("members")

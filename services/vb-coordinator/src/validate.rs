@@ -117,19 +117,10 @@ impl Coordinator {
             r.task_ids.join(",")
         };
         let selected = catalog.select(&spec_str).map_err(|e| bad(e.to_string()))?;
+        // Selected from the catalog, so every task's world is in it.
         let episodes = selected
             .into_iter()
-            .map(|id| {
-                let facts = catalog.worlds[&id.world];
-                NewEpisode {
-                    task_id: id.to_string(),
-                    world_id: id.world,
-                    task_index: id.index,
-                    level: facts.level.to_string(),
-                    semantics: facts.semantics.to_string(),
-                    density: facts.density.to_string(),
-                }
-            })
+            .filter_map(|id| NewEpisode::of(catalog, id))
             .collect();
         Ok(ValidSubmit {
             sub: NewSubmission {

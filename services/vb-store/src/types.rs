@@ -84,6 +84,21 @@ pub struct NewEpisode {
     pub density: String,
 }
 
+impl NewEpisode {
+    /// Task `id` of `catalog`'s set (`None` when its world is not in the set).
+    pub fn of(catalog: &contracts::Catalog, id: contracts::TaskId) -> Option<NewEpisode> {
+        let facts = catalog.worlds.get(&id.world)?;
+        Some(NewEpisode {
+            task_id: id.to_string(),
+            world_id: id.world,
+            task_index: id.index,
+            level: facts.level.to_string(),
+            semantics: facts.semantics.to_string(),
+            density: facts.density.to_string(),
+        })
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Submission {
     pub id: String,
