@@ -1,9 +1,15 @@
-//! Conversions between protobuf messages and the store's types (protobuf stays at the service edge).
+//! Conversions between protobuf messages and the store's types (protobuf stays at the service edge). The
+//! vocabulary's enums and the metrics convert through `vb_proto::convert`; the store keeps their string forms and
+//! the metrics as JSON.
 
-use contracts::PlannerKind;
+use contracts::{
+    ElevationLevel, EndReason, EpisodeMetrics, ObstacleDensity, PlannerKind, RecordedOutcome,
+    SemanticsKind,
+};
 use std::io::Read;
 use tonic::Status;
 use vb_proto::v1 as pb;
+use vb_proto::ProtoEnum;
 use vb_store::{EpisodeRecord, EpisodeResultIn, Lease, Progress, Submission};
 
 /// Rebuilds the planner reference a submission was made with.
@@ -43,7 +49,7 @@ pub fn status(s: &Submission, p: &Progress, throughput_per_s: Option<f64>) -> pb
     let eta_known = active && throughput_per_s > 0.0;
     pb::SubmissionStatus {
         submission_id: s.id.clone(),
-        state: s.state.as_str().to_string(),
+        state: s.state.wire(),
         total: p.total,
         finished: p.finished,
         running: p.running,
@@ -71,30 +77,50 @@ pub fn status(s: &Submission, p: &Progress, throughput_per_s: Option<f64>) -> pb
         eta_known,
         scale: s.scale,
         seed: s.seed,
-        rules: vb_store::SERVICE_RULES.as_str().to_string(),
+        rules: vb_store::SERVICE_RULES.wire(),
     }
 }
 
-/// An episode as the results API returns it; `terrain`: its world's terrain group in the task set.
-pub fn result_row(e: &EpisodeRecord, terrain: Option<u32>) -> pb::EpisodeResultRow {
-    pb::EpisodeResultRow {
+/// An episode as the results API returns it; `terrain`: its world's terrain group in the task set. A stored value
+/// that names nothing (a corrupt row) is an internal error.
+pub fn result_row(e: &EpisodeRecord, terrain: Option<u32>) -> Result<pb::EpisodeResultRow, Status> {
+    let corrupt = |what: &str, err: &dyn std::fmt::Display| {
+        Status::internal(format!(
+            "episode {} of {}: stored {what}: {err}",
+            e.task_id, e.submission_id
+        ))
+    };
+    let level = ElevationLevel::parse(&e.level).map_err(|err| corrupt("level", &err))?;
+    let semantics = SemanticsKind::parse(&e.semantics).map_err(|err| corrupt("semantics", &err))?;
+    let density = ObstacleDensity::parse(&e.density).map_err(|err| corrupt("density", &err))?;
+    let reason = match e.reason.as_deref() {
+        None | Some("") => None,
+        Some(r) => Some(EndReason::parse(r).map_err(|err| corrupt("reason", &err))?),
+    };
+    let metrics = match e.metrics_json.as_deref() {
+        None | Some("") => None,
+        Some(m) => Some(
+            serde_json::from_str::<EpisodeMetrics>(m).map_err(|err| corrupt("metrics", &err))?,
+        ),
+    };
+    Ok(pb::EpisodeResultRow {
         task_id: e.task_id.clone(),
         world_id: e.world_id,
         task_index: e.task_index,
-        level: e.level.clone(),
-        semantics: e.semantics.clone(),
-        density: e.density.clone(),
-        state: e.state.as_str().to_string(),
-        outcome: e.outcome.map_or(String::new(), |o| o.as_str().to_string()),
-        reason: e.reason.clone().unwrap_or_default(),
+        level: level.wire(),
+        semantics: semantics.wire(),
+        density: density.wire(),
+        state: e.state.wire(),
+        outcome: e.outcome.map(ProtoEnum::wire),
+        reason: reason.map(ProtoEnum::wire),
         detail: e.detail.clone().unwrap_or_default(),
-        metrics_json: e.metrics_json.clone().unwrap_or_default(),
+        metrics: metrics.map(pb::Metrics::from),
         wall_time_s: e.wall_time_s.unwrap_or(0.0),
         attempts: e.attempts.max(0) as u32,
         planner_identity: e.planner_identity.clone().unwrap_or_default(),
         sim_version: e.sim_version.clone().unwrap_or_default(),
         terrain,
-    }
+    })
 }
 
 fn truncate(s: &str, max: usize) -> String {
@@ -108,18 +134,21 @@ fn truncate(s: &str, max: usize) -> String {
     format!("{}\n[... log truncated at {max} bytes]", &s[..cut])
 }
 
-/// Validates a worker's report and unpacks its gzip-compressed trajectory.
+/// Validates a worker's report (an unspecified or unknown outcome or reason is refused) and checks its
+/// gzip-compressed trajectory.
 pub fn report(
     r: &pb::EpisodeReport,
     max_log: usize,
     max_trajectory: usize,
 ) -> Result<EpisodeResultIn, Status> {
-    contracts::RecordedOutcome::parse(&r.outcome)
-        .map_err(|e| Status::invalid_argument(e.to_string()))?;
-    if !r.metrics_json.is_empty() {
-        serde_json::from_slice::<sim_core::episode::EpisodeMetrics>(&r.metrics_json)
-            .map_err(|e| Status::invalid_argument(format!("metrics_json: {e}")))?;
-    }
+    let outcome = RecordedOutcome::from_wire(r.outcome)?;
+    let reason = EndReason::from_wire(r.reason)?;
+    // Stored as the JSON it always was (the leaderboard and the aggregates read that).
+    let metrics_json = match &r.metrics {
+        None => String::new(),
+        Some(m) => serde_json::to_string(&EpisodeMetrics::from(m.clone()))
+            .map_err(|e| Status::invalid_argument(format!("metrics: {e}")))?,
+    };
     // Checked (size, codec) but stored as the worker compressed it.
     let mut trajectory = String::new();
     if !r.trajectory.is_empty() {
@@ -131,10 +160,10 @@ pub fn report(
         lease_id: r.lease_id.clone(),
         submission_id: r.submission_id.clone(),
         task_id: r.task_id.clone(),
-        outcome: r.outcome.clone(),
-        reason: r.reason.clone(),
+        outcome: outcome.as_str().into(),
+        reason: reason.as_str().into(),
         detail: truncate(&r.detail, 16 << 10),
-        metrics_json: String::from_utf8_lossy(&r.metrics_json).into_owned(),
+        metrics_json,
         trajectory_csv: String::new(),
         trajectory_gz: (!r.trajectory.is_empty()).then(|| r.trajectory.clone()),
         planner_log: truncate(&r.planner_log, max_log),
