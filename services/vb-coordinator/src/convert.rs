@@ -146,7 +146,7 @@ pub fn report(
     // Stored as the JSON it always was (the leaderboard and the aggregates read that).
     let metrics_json = match &r.metrics {
         None => String::new(),
-        Some(m) => serde_json::to_string(&EpisodeMetrics::from(m.clone()))
+        Some(m) => serde_json::to_string(&EpisodeMetrics::from(*m))
             .map_err(|e| Status::invalid_argument(format!("metrics: {e}")))?,
     };
     // Checked (size, codec) but stored as the worker compressed it.
@@ -185,4 +185,117 @@ fn flate2_decode(bytes: &[u8], max: usize, out: &mut String) -> Result<(), Statu
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use contracts::{EpisodeState, Outcome};
+
+    fn metrics() -> EpisodeMetrics {
+        let mut m = EpisodeMetrics {
+            time: 28.768000000002946,
+            throttle_tv: 3.9066006773336635,
+            final_goal_distance: 9.992706353594361,
+            obstacle_contacts: 2,
+            steps: 14_384,
+            ..Default::default()
+        };
+        m.pitch.mean = -2.0042475476114894;
+        m
+    }
+
+    /// A report's metrics are stored as the JSON the worker used to send (stored rows are unchanged), and the
+    /// results row gives back the same values, bit for bit.
+    #[test]
+    fn a_report_is_stored_as_before_and_read_back_typed() {
+        let m = metrics();
+        let r = pb::EpisodeReport {
+            outcome: pb::Outcome::Timeout.into(),
+            reason: pb::EndReason::Timeout.into(),
+            metrics: Some((&m).into()),
+            ..Default::default()
+        };
+        let stored = report(&r, 1024, 1024).unwrap();
+        assert_eq!(
+            (stored.outcome.as_str(), stored.reason.as_str()),
+            ("timeout", "timeout")
+        );
+        assert_eq!(stored.metrics_json, serde_json::to_string(&m).unwrap());
+        let rec = EpisodeRecord {
+            submission_id: "s1".into(),
+            task_id: "w001-t2".into(),
+            world_id: 1,
+            task_index: 2,
+            level: "high".into(),
+            semantics: "mixed".into(),
+            density: "dense".into(),
+            state: EpisodeState::Done,
+            attempts: 1,
+            outcome: Some(RecordedOutcome::Episode(Outcome::Timeout)),
+            reason: Some(stored.reason),
+            detail: None,
+            metrics_json: Some(stored.metrics_json),
+            sim_version: None,
+            planner_identity: None,
+            wall_time_s: Some(1.5),
+            finished_at: None,
+        };
+        let row = result_row(&rec, Some(3)).unwrap();
+        assert_eq!(
+            (row.level(), row.semantics(), row.density(), row.state()),
+            (
+                pb::ElevationLevel::High,
+                pb::SemanticsKind::Mixed,
+                pb::ObstacleDensity::Dense,
+                pb::EpisodeState::Done
+            )
+        );
+        assert_eq!(
+            (row.outcome(), row.reason()),
+            (pb::Outcome::Timeout, pb::EndReason::Timeout)
+        );
+        let back = EpisodeMetrics::from(row.metrics.unwrap());
+        assert_eq!(format!("{back:?}"), format!("{m:?}"));
+
+        // Not run yet: no outcome, reason or metrics.
+        let queued = EpisodeRecord {
+            state: EpisodeState::Queued,
+            outcome: None,
+            reason: None,
+            metrics_json: None,
+            ..rec.clone()
+        };
+        let row = result_row(&queued, None).unwrap();
+        assert_eq!((row.outcome, row.reason, row.metrics), (None, None, None));
+        // A corrupt stored value is the service's fault.
+        let corrupt = EpisodeRecord {
+            level: "steep".into(),
+            ..rec
+        };
+        let e = result_row(&corrupt, None).unwrap_err();
+        assert_eq!(e.code(), tonic::Code::Internal, "{e}");
+    }
+
+    #[test]
+    fn a_report_without_an_outcome_or_reason_is_refused() {
+        for (outcome, reason, says) in [
+            (0, pb::EndReason::Success as i32, "no outcome given"),
+            (
+                99,
+                pb::EndReason::Success as i32,
+                "unknown outcome number 99",
+            ),
+            (pb::Outcome::Success as i32, 0, "no end reason given"),
+        ] {
+            let r = pb::EpisodeReport {
+                outcome,
+                reason,
+                ..Default::default()
+            };
+            let e = report(&r, 1024, 1024).unwrap_err();
+            assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e}");
+            assert!(e.message().contains(says), "{e}");
+        }
+    }
 }
