@@ -44,28 +44,21 @@ pub fn rows(r: &pb::ResultsResponse) -> Result<Vec<EpisodeRow>, SubmitError> {
         }
         let outcome = e.outcome.ok_or_else(|| bad("outcome", &"none given"))?;
         let reason = e.reason.ok_or_else(|| bad("reason", &"none given"))?;
-        rows.push(
-            facts.row(EpisodeValues {
-                task_id: e.task_id.parse().map_err(|err| bad("task id", &err))?,
-                level: ElevationLevel::from_wire(e.level).map_err(|err| bad("level", &err))?,
-                semantics: SemanticsKind::from_wire(e.semantics)
-                    .map_err(|err| bad("semantics", &err))?,
-                density: ObstacleDensity::from_wire(e.density)
-                    .map_err(|err| bad("density", &err))?,
-                terrain: e.terrain,
-                sim_version: (!e.sim_version.is_empty()).then(|| e.sim_version.clone()),
-                outcome: RecordedOutcome::from_wire(outcome).map_err(|err| bad("outcome", &err))?,
-                reason: EndReason::from_wire(reason).map_err(|err| bad("reason", &err))?,
-                detail: e.detail.clone(),
-                // None when no worker could run the episode: zeros, as the service's own summaries read it.
-                metrics: e
-                    .metrics
-                    .clone()
-                    .map(EpisodeMetrics::from)
-                    .unwrap_or_default(),
-                wall_time_s: e.wall_time_s,
-            }),
-        );
+        rows.push(facts.row(EpisodeValues {
+            task_id: e.task_id.parse().map_err(|err| bad("task id", &err))?,
+            level: ElevationLevel::from_wire(e.level).map_err(|err| bad("level", &err))?,
+            semantics:
+                SemanticsKind::from_wire(e.semantics).map_err(|err| bad("semantics", &err))?,
+            density: ObstacleDensity::from_wire(e.density).map_err(|err| bad("density", &err))?,
+            terrain: e.terrain,
+            sim_version: (!e.sim_version.is_empty()).then(|| e.sim_version.clone()),
+            outcome: RecordedOutcome::from_wire(outcome).map_err(|err| bad("outcome", &err))?,
+            reason: EndReason::from_wire(reason).map_err(|err| bad("reason", &err))?,
+            detail: e.detail.clone(),
+            // None when no worker could run the episode: zeros, as the service's own summaries read it.
+            metrics: e.metrics.map(EpisodeMetrics::from).unwrap_or_default(),
+            wall_time_s: e.wall_time_s,
+        }));
     }
     Ok(rows)
 }

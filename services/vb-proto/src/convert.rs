@@ -423,7 +423,7 @@ mod tests {
             )
         };
         let p = pb::Metrics::from(&m);
-        let back = EpisodeMetrics::from(p.clone());
+        let back = EpisodeMetrics::from(p);
         assert_eq!(bits(&back), bits(&m));
         let wire = pb::Metrics::decode(p.encode_to_vec().as_slice()).unwrap();
         assert_eq!(bits(&EpisodeMetrics::from(wire)), bits(&m));
