@@ -30,8 +30,10 @@ use serde::{Deserialize, Serialize};
 named!(
     /// Which named set of rules an episode configuration follows (results carry it: runs under different rules
     /// are different runs).
+    #[derive(Default)]
     Rules, "rules", {
-        /// The paper's definitions (sim-core's `EpisodeConfig::default`).
+        /// The paper's definitions (sim-core's `EpisodeConfig::default`); the default.
+        #[default]
         Paper = "paper",
         /// The original release's (`EpisodeConfig::release`).
         Release = "release",
@@ -39,12 +41,6 @@ named!(
         Custom = "custom",
     }
 );
-
-impl Default for Rules {
-    fn default() -> Self {
-        Self::Paper
-    }
-}
 
 /// Mean, variance and maximum of a signal sampled at every physics step.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]

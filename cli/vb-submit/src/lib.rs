@@ -34,6 +34,7 @@ use tonic::transport::Channel;
 use tonic::{Request, Status};
 use vb_proto::v1 as pb;
 use vb_proto::v1::coordinator_client::CoordinatorClient;
+use vb_proto::ProtoEnum;
 
 pub use vb_proto::v1::{PlannerRef, SubmissionStatus, SubmitRequest};
 
@@ -187,7 +188,11 @@ pub async fn write_logs(
     std::fs::create_dir_all(dir)
         .map_err(|e| SubmitError::Io(format!("cannot make {}: {e}", dir.display())))?;
     let mut n = 0;
-    for e in r.episodes.iter().filter(|e| e.state == "done") {
+    for e in r
+        .episodes
+        .iter()
+        .filter(|e| e.state() == pb::EpisodeState::Done)
+    {
         // A task id is `wNNN-tK` (checked), so it names a file safely.
         let task: contracts::TaskId = e.task_id.parse().map_err(|_| {
             SubmitError::Protocol(format!("task id `{}` in the results", e.task_id))
@@ -251,16 +256,17 @@ pub fn status_line(s: &SubmissionStatus) -> String {
         (width as u64 * s.finished as u64 / s.total as u64) as usize
     };
     let bar = format!("[{}{}]", "#".repeat(filled), ".".repeat(width - filled));
+    let state = contracts::SubmissionState::from_wire(s.state).ok();
     let mut line = format!(
         "{} {:<9} {bar} {}/{} done, {} running, success {:.1}%",
         s.submission_id,
-        s.state,
+        state.map_or("unknown", contracts::SubmissionState::as_str),
         s.finished,
         s.total,
         s.running,
         100.0 * s.success_rate
     );
-    if s.state == "queued" || s.state == "running" {
+    if state.is_some_and(contracts::SubmissionState::is_active) {
         if s.queue_position > 0 {
             line += &format!(", {} submissions ahead", s.queue_position);
         }
@@ -283,7 +289,7 @@ mod tests {
         let s = super::SubmissionStatus {
             submission_id: "s1".into(),
             name: "evil\u{202E}gnp.exe\u{200B}".into(),
-            state: "done".into(),
+            state: vb_proto::ProtoEnum::wire(contracts::SubmissionState::Done),
             ..Default::default()
         };
         let line = super::list_line(&s);

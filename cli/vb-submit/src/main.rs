@@ -6,6 +6,7 @@ use clap::{Args, Parser, Subcommand};
 use contracts::input::shown;
 use std::path::PathBuf;
 use vb_proto::v1 as pb;
+use vb_proto::ProtoEnum;
 
 #[derive(Parser)]
 #[command(
@@ -222,14 +223,15 @@ async fn do_submit(
         let finished = results
             .episodes
             .iter()
-            .filter(|e| !e.outcome.is_empty())
+            .filter(|e| e.outcome.is_some())
             .count();
         let broken: Vec<_> = results
             .episodes
             .iter()
             .filter(|e| {
-                contracts::RecordedOutcome::parse(&e.outcome)
-                    .is_ok_and(|o| o.is_failure_of_planner_or_infrastructure())
+                e.outcome
+                    .and_then(|o| contracts::RecordedOutcome::from_wire(o).ok())
+                    .is_some_and(|o| o.is_failure_of_planner_or_infrastructure())
             })
             .collect();
         if let Some(first) = broken.first() {
@@ -238,7 +240,10 @@ async fn do_submit(
                  {}: {}): see `vb-submit results {} --format json`",
                 broken.len(),
                 first.task_id,
-                shown(&first.reason),
+                first
+                    .reason
+                    .and_then(|r| contracts::EndReason::from_wire(r).ok())
+                    .map_or("unknown reason", contracts::EndReason::as_str),
                 shown(&first.detail),
                 r.submission_id
             );
@@ -334,7 +339,7 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             let mut client =
                 vb_submit::connect(&cli.coordinator, &token(&cli)?, cli.tls_ca.as_deref()).await?;
             let r = vb_submit::results(&mut client, id).await?;
-            let unfinished = vb_submit::results::unfinished(&r);
+            let unfinished = vb_submit::results::unfinished(&r)?;
             if !unfinished.is_empty() {
                 eprintln!(
                     "note: {} of {} episodes have not finished (first: {} {}); the results hold the finished ones",

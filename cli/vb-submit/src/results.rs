@@ -3,20 +3,21 @@
 //! streamed as the same CSV columns and JSON rows.
 
 use crate::SubmitError;
+use contracts::{
+    ElevationLevel, EndReason, EpisodeMetrics, EpisodeState, ObstacleDensity, RecordedOutcome,
+    Rules, SemanticsKind, SubmissionState,
+};
 use results::summary::Summary;
 use results::{EpisodeRow, EpisodeValues, RunFacts};
 use std::path::Path;
 use vb_proto::v1 as pb;
+use vb_proto::ProtoEnum;
 
 /// The facts every row of the submission shares, from its status.
 fn facts(r: &pb::ResultsResponse) -> Result<RunFacts, SubmitError> {
     let s = r.status.clone().unwrap_or_default();
-    let rules = contracts::Rules::parse(&s.rules).map_err(|_| {
-        SubmitError::Protocol(format!(
-            "the coordinator names unknown episode rules `{}`",
-            s.rules
-        ))
-    })?;
+    let rules = Rules::from_wire(s.rules)
+        .map_err(|e| SubmitError::Protocol(format!("the submission's episode rules: {e}")))?;
     Ok(RunFacts {
         planner: s.name,
         vehicle: s.vehicle,
@@ -32,39 +33,47 @@ fn facts(r: &pb::ResultsResponse) -> Result<RunFacts, SubmitError> {
 /// as the coordinator read it from the task set).
 pub fn rows(r: &pb::ResultsResponse) -> Result<Vec<EpisodeRow>, SubmitError> {
     let facts = facts(r)?;
-    r.episodes
-        .iter()
-        .filter(|e| e.state == "done")
-        .map(|e| {
-            let metrics = serde_json::from_str(&e.metrics_json)
-                .map_err(|err| SubmitError::Protocol(format!("metrics of {}: {err}", e.task_id)))?;
-            let bad = |what: &str, err: &dyn std::fmt::Display| {
-                SubmitError::Protocol(format!("{what} of {}: {err}", e.task_id))
-            };
-            Ok(facts.row(EpisodeValues {
-                task_id: e.task_id.parse().map_err(|err| bad("task id", &err))?,
-                level: e.level.parse().map_err(|err| bad("level", &err))?,
-                semantics: e.semantics.parse().map_err(|err| bad("semantics", &err))?,
-                density: e.density.parse().map_err(|err| bad("density", &err))?,
-                terrain: e.terrain,
-                sim_version: (!e.sim_version.is_empty()).then(|| e.sim_version.clone()),
-                outcome: e.outcome.parse().map_err(|err| bad("outcome", &err))?,
-                reason: e.reason.parse().map_err(|err| bad("reason", &err))?,
-                detail: e.detail.clone(),
-                metrics,
-                wall_time_s: e.wall_time_s,
-            }))
-        })
-        .collect()
+    let mut rows = Vec::new();
+    for e in &r.episodes {
+        let bad = |what: &str, err: &dyn std::fmt::Display| {
+            SubmitError::Protocol(format!("{what} of {}: {err}", e.task_id))
+        };
+        if EpisodeState::from_wire(e.state).map_err(|err| bad("state", &err))? != EpisodeState::Done
+        {
+            continue;
+        }
+        let outcome = e.outcome.ok_or_else(|| bad("outcome", &"none given"))?;
+        let reason = e.reason.ok_or_else(|| bad("reason", &"none given"))?;
+        rows.push(facts.row(EpisodeValues {
+            task_id: e.task_id.parse().map_err(|err| bad("task id", &err))?,
+            level: ElevationLevel::from_wire(e.level).map_err(|err| bad("level", &err))?,
+            semantics:
+                SemanticsKind::from_wire(e.semantics).map_err(|err| bad("semantics", &err))?,
+            density: ObstacleDensity::from_wire(e.density).map_err(|err| bad("density", &err))?,
+            terrain: e.terrain,
+            sim_version: (!e.sim_version.is_empty()).then(|| e.sim_version.clone()),
+            outcome: RecordedOutcome::from_wire(outcome).map_err(|err| bad("outcome", &err))?,
+            reason: EndReason::from_wire(reason).map_err(|err| bad("reason", &err))?,
+            detail: e.detail.clone(),
+            // None when no worker could run the episode: zeros, as the service's own summaries read it.
+            metrics: e.metrics.map(EpisodeMetrics::from).unwrap_or_default(),
+            wall_time_s: e.wall_time_s,
+        }));
+    }
+    Ok(rows)
 }
 
 /// Episodes of `r` that have not finished (queued, running or not run): `(task id, state)`.
-pub fn unfinished(r: &pb::ResultsResponse) -> Vec<(String, String)> {
-    r.episodes
-        .iter()
-        .filter(|e| e.state != "done")
-        .map(|e| (e.task_id.clone(), e.state.clone()))
-        .collect()
+pub fn unfinished(r: &pb::ResultsResponse) -> Result<Vec<(String, EpisodeState)>, SubmitError> {
+    let mut out = Vec::new();
+    for e in &r.episodes {
+        let state = EpisodeState::from_wire(e.state)
+            .map_err(|err| SubmitError::Protocol(format!("state of {}: {err}", e.task_id)))?;
+        if state != EpisodeState::Done {
+            out.push((e.task_id.clone(), state));
+        }
+    }
+    Ok(out)
 }
 
 /// The summary of the finished rows, named and described as the submission.
@@ -105,14 +114,17 @@ pub fn csv(r: &pb::ResultsResponse) -> Result<String, SubmitError> {
 /// unfinished episodes with their state.
 pub fn json(r: &pb::ResultsResponse) -> Result<String, SubmitError> {
     let s = r.status.clone().unwrap_or_default();
-    let unfinished: Vec<serde_json::Value> = unfinished(r)
+    let state = SubmissionState::from_wire(s.state)
+        .map_err(|e| SubmitError::Protocol(format!("the submission's state: {e}")))?;
+    let rules = facts(r)?.rules;
+    let unfinished: Vec<serde_json::Value> = unfinished(r)?
         .into_iter()
         .map(|(task_id, state)| serde_json::json!({ "task_id": task_id, "state": state }))
         .collect();
     let v = serde_json::json!({
-        "submission_id": s.submission_id, "name": s.name, "state": s.state, "planner": s.planner,
+        "submission_id": s.submission_id, "name": s.name, "state": state, "planner": s.planner,
         "planner_identity": s.planner_identity, "vehicle": s.vehicle, "scale": s.scale, "seed": s.seed,
-        "task_set_version": s.task_set_version, "sim_version": s.sim_version, "rules": s.rules,
+        "task_set_version": s.task_set_version, "sim_version": s.sim_version, "rules": rules,
         "total": s.total, "finished": s.finished, "not_run": s.not_run, "success_rate": s.success_rate,
         "episodes": rows(r)?, "unfinished": unfinished,
     });

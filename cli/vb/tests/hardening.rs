@@ -167,13 +167,13 @@ async fn a_worker_outlives_endpoint_planners_that_close_early() -> anyhow::Resul
         &token,
         &sub.submission_id,
         Duration::from_secs(180),
-        |s| s.state == "done",
+        |s| s.state() == pb::SubmissionState::Done,
     )
     .await;
     assert_eq!((s.finished, s.total), (20, 20));
     let r = vb_submit::results(&mut c, &sub.submission_id).await?;
     for e in &r.episodes {
-        assert_eq!(e.outcome, "planner_failure", "{e:?}");
+        assert_eq!(e.outcome(), pb::Outcome::PlannerFailure, "{e:?}");
     }
     assert!(alive(&mut worker), "the worker died: {}", worker.output());
     assert!(ignores_sigpipe(worker.child.id()));
@@ -325,7 +325,7 @@ async fn a_planner_finds_no_token_in_proc_and_its_log_is_its_owner_s() -> anyhow
         &token,
         &sub.submission_id,
         Duration::from_secs(120),
-        |s| s.state == "done",
+        |s| s.state() == pb::SubmissionState::Done,
     )
     .await;
     let _ = decoy.kill();

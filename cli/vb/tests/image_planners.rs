@@ -287,7 +287,7 @@ async fn an_ended_episode_s_container_and_directory_go() -> anyhow::Result<()> {
         .await?
         .submission_id;
     let status = wait_for(port, &token, &id, Duration::from_secs(120), |s| {
-        s.state == "done"
+        s.state() == pb::SubmissionState::Done
     })
     .await;
     assert!(

@@ -52,14 +52,18 @@ async fn a_planner_announcing_a_name_that_cannot_be_shown_fails_as_a_protocol_er
     ] {
         let id = vb_submit::submit(&mut c, req).await?.submission_id;
         wait_for(port, &token, &id, Duration::from_secs(120), |s| {
-            s.state == "done"
+            s.state() == pb::SubmissionState::Done
         })
         .await;
         let r = vb_submit::results(&mut c, &id).await?;
         let e = &r.episodes[0];
         assert_eq!(
-            (e.outcome.as_str(), e.reason.as_str(), e.attempts),
-            ("planner_failure", "planner_protocol", 1),
+            (e.outcome(), e.reason(), e.attempts),
+            (
+                pb::Outcome::PlannerFailure,
+                pb::EndReason::PlannerProtocol,
+                1
+            ),
             "{}",
             e.detail
         );
@@ -83,12 +87,13 @@ async fn a_planner_announcing_a_name_that_cannot_be_shown_fails_as_a_protocol_er
     .await?
     .submission_id;
     wait_for(port, &token, &id, Duration::from_secs(120), |s| {
-        s.state == "done"
+        s.state() == pb::SubmissionState::Done
     })
     .await;
     let r = vb_submit::results(&mut c, &id).await?;
     assert_ne!(
-        r.episodes[0].reason, "planner_protocol",
+        r.episodes[0].reason(),
+        pb::EndReason::PlannerProtocol,
         "{}",
         r.episodes[0].detail
     );

@@ -74,7 +74,7 @@ async fn service_results_are_vb_evals_files() -> anyhow::Result<()> {
     };
     let id = vb_submit::submit(&mut c, req).await?.submission_id;
     let done = wait_for(port, &token, &id, Duration::from_secs(300), |s| {
-        s.state.as_str() == "done"
+        s.state() == pb::SubmissionState::Done
     })
     .await;
     assert_eq!((done.finished, done.total), (10, 10));

@@ -24,7 +24,10 @@ fn exec_request(name: &str, tasks: &[&str], args: &[&str], deadline: f64) -> pb:
 }
 
 fn done(s: &pb::SubmissionStatus) -> bool {
-    s.state.as_str() == "done" || s.state.as_str() == "cancelled"
+    matches!(
+        s.state(),
+        pb::SubmissionState::Done | pb::SubmissionState::Cancelled
+    )
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -60,8 +63,8 @@ async fn workers_die_and_the_coordinator_restarts_yet_every_task_has_exactly_one
     let _coordinator2 = start_coordinator(&dir, "coordinator-restarted", &db, port);
     let last = wait_for(port, &token, &id, Duration::from_secs(300), done).await;
     assert_eq!(
-        (last.state.as_str(), last.finished, last.total, last.not_run),
-        ("done", 20, 20, 0)
+        (last.state(), last.finished, last.total, last.not_run),
+        (pb::SubmissionState::Done, 20, 20, 0)
     );
 
     let mut c = client(port, &token).await;
@@ -69,19 +72,24 @@ async fn workers_die_and_the_coordinator_restarts_yet_every_task_has_exactly_one
     let mut per_task: BTreeMap<String, usize> = BTreeMap::new();
     for e in &r.episodes {
         *per_task.entry(e.task_id.clone()).or_default() += 1;
-        assert_eq!(e.state.as_str(), "done");
+        assert_eq!(e.state(), pb::EpisodeState::Done);
         assert_ne!(
-            e.outcome, "error",
+            e.outcome(),
+            pb::Outcome::InfrastructureError,
             "{}: lost to infrastructure: {}",
-            e.task_id, e.detail
+            e.task_id,
+            e.detail
         );
         assert_ne!(
-            e.outcome, "planner_failure",
-            "{}: {} {}",
-            e.task_id, e.reason, e.detail
+            e.outcome(),
+            pb::Outcome::PlannerFailure,
+            "{}: {:?} {}",
+            e.task_id,
+            e.reason(),
+            e.detail
         );
         assert!(e.planner_identity.starts_with("exec:") && e.planner_identity.contains("sha256:"));
-        assert!(!e.metrics_json.is_empty());
+        assert!(e.metrics.is_some());
     }
     assert_eq!(per_task.len(), 20);
     assert!(per_task.values().all(|&n| n == 1), "{per_task:?}");
@@ -202,8 +210,8 @@ async fn a_stopping_worker_hands_back_what_it_cannot_finish() -> anyhow::Result<
     let r = vb_submit::results(&mut c, &id).await?;
     for e in &r.episodes {
         assert_eq!(
-            (e.state.as_str(), e.attempts),
-            ("queued", 0),
+            (e.state(), e.attempts),
+            (pb::EpisodeState::Queued, 0),
             "{}",
             e.task_id
         );
@@ -291,24 +299,28 @@ async fn misbehaving_planners_fail_their_own_episodes_and_nothing_else() -> anyh
         }
     };
     let expect = [
-        (&crash, "planner_crash", "crashing on purpose"),
-        (&hang, "planner_timeout", "within 0.300 s"),
-        (&nan, "invalid_action", "steering is not finite"),
-        (&range, "invalid_action", "throttle = 5 is outside"),
+        (&crash, pb::EndReason::PlannerCrash, "crashing on purpose"),
+        (&hang, pb::EndReason::PlannerTimeout, "within 0.300 s"),
+        (&nan, pb::EndReason::InvalidAction, "steering is not finite"),
+        (
+            &range,
+            pb::EndReason::InvalidAction,
+            "throttle = 5 is outside",
+        ),
     ];
     for (s, reason, detail) in expect {
         let r = results(s.submission_id.clone()).await?;
         assert_eq!(r.episodes.len(), 2);
         for e in &r.episodes {
             assert_eq!(
-                (e.state.as_str(), e.outcome.as_str(), e.reason.as_str()),
-                ("done", "planner_failure", reason),
+                (e.state(), e.outcome(), e.reason()),
+                (pb::EpisodeState::Done, pb::Outcome::PlannerFailure, reason),
                 "{}",
                 e.detail
             );
             assert!(
                 e.detail.contains(detail),
-                "{reason}: detail `{}` lacks `{detail}`",
+                "{reason:?}: detail `{}` lacks `{detail}`",
                 e.detail
             );
             assert_eq!(e.attempts, 1, "a planner's own failure must not be retried");
@@ -319,11 +331,13 @@ async fn misbehaving_planners_fail_their_own_episodes_and_nothing_else() -> anyh
     let g = results(good.submission_id.clone()).await?;
     assert_eq!(g.episodes.len(), good_tasks.len());
     for (x, y) in a.episodes.iter().zip(&g.episodes) {
+        // Debug writes each f64 so that it reads back to the same bits (-0.0 included).
         assert_eq!(
-            (&x.task_id, &x.outcome, &x.metrics_json),
-            (&y.task_id, &y.outcome, &y.metrics_json)
+            (&x.task_id, x.outcome, format!("{:?}", x.metrics)),
+            (&y.task_id, y.outcome, format!("{:?}", y.metrics))
         );
-        assert_ne!(y.outcome, "planner_failure");
+        assert!(y.metrics.is_some());
+        assert_ne!(y.outcome(), pb::Outcome::PlannerFailure);
     }
     // The crash's stderr is kept with the episode and shown on its page.
     let http = free_port();
@@ -539,7 +553,7 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
         .report_result(authed(
             pb::EpisodeReport {
                 worker_id: "wk-nope".into(),
-                outcome: "success".into(),
+                outcome: pb::Outcome::Success.into(),
                 ..Default::default()
             },
             &worker_token,
@@ -569,21 +583,25 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
         tonic::Code::NotFound,
         "another token cannot use this worker: {e}"
     );
-    let e = w
-        .report_result(authed(
-            pb::EpisodeReport {
-                worker_id: reg.worker_id.clone(),
-                outcome: "victory".into(),
-                ..Default::default()
-            },
-            &worker_token,
-        ))
-        .await
-        .unwrap_err();
-    assert!(
-        e.code() == tonic::Code::InvalidArgument && e.message().contains("unknown outcome"),
-        "{e}"
-    );
+    // An outcome number the protocol does not define, or none (UNSPECIFIED), is refused.
+    for (outcome, says) in [(99, "unknown outcome number 99"), (0, "no outcome given")] {
+        let e = w
+            .report_result(authed(
+                pb::EpisodeReport {
+                    worker_id: reg.worker_id.clone(),
+                    outcome,
+                    reason: pb::EndReason::Success.into(),
+                    ..Default::default()
+                },
+                &worker_token,
+            ))
+            .await
+            .unwrap_err();
+        assert!(
+            e.code() == tonic::Code::InvalidArgument && e.message().contains(says),
+            "{e}"
+        );
+    }
     // A forged success for an episode this worker never leased is not taken, nor one with a bogus simulator
     // version or task set.
     let victim = vb_submit::submit(&mut c, exec_request("victim", &["9"], &[], 1.0)).await?;
@@ -592,11 +610,11 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
         lease_id: "ls-forged".into(),
         submission_id: victim.submission_id.clone(),
         task_id: "w009-t0".into(),
-        outcome: "success".into(),
-        reason: "success".into(),
+        outcome: pb::Outcome::Success.into(),
+        reason: pb::EndReason::Success.into(),
         sim_version: sim.into(),
         task_set_version: set.into(),
-        metrics_json: serde_json::to_vec(&sim_core::episode::EpisodeMetrics::default()).unwrap(),
+        metrics: Some((&sim_core::episode::EpisodeMetrics::default()).into()),
         ..Default::default()
     };
     let set_version = tasks::TaskSet::committed()?.version().to_string();
@@ -629,7 +647,10 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
     assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e}");
     let results = vb_submit::results(&mut c, &victim.submission_id).await?;
     assert!(
-        results.episodes.iter().all(|e| e.outcome != "success"),
+        results
+            .episodes
+            .iter()
+            .all(|e| e.outcome() != pb::Outcome::Success),
         "no forged result was stored (no worker has run the submission yet)"
     );
     // Another user's token neither sees nor cancels the submission; an admin's does.
@@ -676,7 +697,7 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
     })
     .await;
     let s = vb_submit::cancel(&mut c, &id).await?;
-    assert_eq!(s.state.as_str(), "cancelled");
+    assert_eq!(s.state(), pb::SubmissionState::Cancelled);
     let s = wait_for(port, &token, &id, Duration::from_secs(60), |s| {
         s.running == 0
     })
@@ -695,7 +716,7 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
     assert_eq!(
         r.episodes
             .iter()
-            .filter(|e| e.state.as_str() == "not_run")
+            .filter(|e| e.state() == pb::EpisodeState::NotRun)
             .count() as u32,
         s.not_run
     );
@@ -745,14 +766,23 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
     }
     let r = vb_submit::results(&mut c, &up.submission_id).await?;
     for e in &r.episodes {
-        assert_ne!(e.outcome, "planner_failure", "{}: {}", e.task_id, e.detail);
+        assert_ne!(
+            e.outcome(),
+            pb::Outcome::PlannerFailure,
+            "{}: {}",
+            e.task_id,
+            e.detail
+        );
         assert_eq!(e.planner_identity, format!("endpoint:http://{paddr}"));
     }
     let r = vb_submit::results(&mut c, &down.submission_id).await?;
     let e = &r.episodes[0];
     assert_eq!(
-        (e.outcome.as_str(), e.reason.as_str()),
-        ("planner_failure", "planner_unreachable"),
+        (e.outcome(), e.reason()),
+        (
+            pb::Outcome::PlannerFailure,
+            pb::EndReason::PlannerUnreachable
+        ),
         "{}",
         e.detail
     );
@@ -791,7 +821,7 @@ async fn a_submission_completes_on_postgres() -> anyhow::Result<()> {
     };
     let id = vb_submit::submit(&mut c, req).await?.submission_id;
     let s = wait_for(port, &token, &id, Duration::from_secs(120), done).await;
-    assert_eq!((s.state.as_str(), s.finished), ("done", 10));
+    assert_eq!((s.state(), s.finished), (pb::SubmissionState::Done, 10));
     let http = free_port();
     let listen = format!("127.0.0.1:{http}");
     let _lb = Proc::start(

@@ -67,7 +67,7 @@ async fn an_evaluation_runs_over_tls_and_nothing_else_gets_in() -> anyhow::Resul
     let t0 = Instant::now();
     let status = loop {
         let s = vb_submit::status(&mut c, &id).await?;
-        if s.state.as_str() == "done" {
+        if s.state() == pb::SubmissionState::Done {
             break s;
         }
         assert!(

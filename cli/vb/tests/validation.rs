@@ -108,8 +108,8 @@ async fn a_token_that_leases_and_hands_back_in_a_loop_is_throttled() -> anyhow::
     let r = vb_submit::results(&mut c, &sub).await?;
     for e in &r.episodes {
         assert_eq!(
-            (e.state.as_str(), e.attempts),
-            ("queued", 0),
+            (e.state(), e.attempts),
+            (pb::EpisodeState::Queued, 0),
             "{}",
             e.task_id
         );
@@ -372,14 +372,18 @@ async fn a_planner_announcing_a_bad_control_rate_fails_as_a_protocol_error() -> 
     for (req, rate) in [(exec, "5000"), (endpoint, "0")] {
         let id = vb_submit::submit(&mut c, req).await?.submission_id;
         wait_for(port, &token, &id, Duration::from_secs(120), |s| {
-            s.state == "done"
+            s.state() == pb::SubmissionState::Done
         })
         .await;
         let r = vb_submit::results(&mut c, &id).await?;
         let e = &r.episodes[0];
         assert_eq!(
-            (e.outcome.as_str(), e.reason.as_str(), e.attempts),
-            ("planner_failure", "planner_protocol", 1),
+            (e.outcome(), e.reason(), e.attempts),
+            (
+                pb::Outcome::PlannerFailure,
+                pb::EndReason::PlannerProtocol,
+                1
+            ),
             "{}",
             e.detail
         );

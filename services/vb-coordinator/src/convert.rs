@@ -1,9 +1,15 @@
-//! Conversions between protobuf messages and the store's types (protobuf stays at the service edge).
+//! Conversions between protobuf messages and the store's types (protobuf stays at the service edge). The
+//! vocabulary's enums and the metrics convert through `vb_proto::convert`; the store keeps their string forms and
+//! the metrics as JSON.
 
-use contracts::PlannerKind;
+use contracts::{
+    ElevationLevel, EndReason, EpisodeMetrics, ObstacleDensity, PlannerKind, RecordedOutcome,
+    SemanticsKind,
+};
 use std::io::Read;
 use tonic::Status;
 use vb_proto::v1 as pb;
+use vb_proto::ProtoEnum;
 use vb_store::{EpisodeRecord, EpisodeResultIn, Lease, Progress, Submission};
 
 /// Rebuilds the planner reference a submission was made with.
@@ -43,7 +49,7 @@ pub fn status(s: &Submission, p: &Progress, throughput_per_s: Option<f64>) -> pb
     let eta_known = active && throughput_per_s > 0.0;
     pb::SubmissionStatus {
         submission_id: s.id.clone(),
-        state: s.state.as_str().to_string(),
+        state: s.state.wire(),
         total: p.total,
         finished: p.finished,
         running: p.running,
@@ -71,30 +77,50 @@ pub fn status(s: &Submission, p: &Progress, throughput_per_s: Option<f64>) -> pb
         eta_known,
         scale: s.scale,
         seed: s.seed,
-        rules: vb_store::SERVICE_RULES.as_str().to_string(),
+        rules: vb_store::SERVICE_RULES.wire(),
     }
 }
 
-/// An episode as the results API returns it; `terrain`: its world's terrain group in the task set.
-pub fn result_row(e: &EpisodeRecord, terrain: Option<u32>) -> pb::EpisodeResultRow {
-    pb::EpisodeResultRow {
+/// An episode as the results API returns it; `terrain`: its world's terrain group in the task set. A stored value
+/// that names nothing (a corrupt row) is an internal error.
+pub fn result_row(e: &EpisodeRecord, terrain: Option<u32>) -> Result<pb::EpisodeResultRow, Status> {
+    let corrupt = |what: &str, err: &dyn std::fmt::Display| {
+        Status::internal(format!(
+            "episode {} of {}: stored {what}: {err}",
+            e.task_id, e.submission_id
+        ))
+    };
+    let level = ElevationLevel::parse(&e.level).map_err(|err| corrupt("level", &err))?;
+    let semantics = SemanticsKind::parse(&e.semantics).map_err(|err| corrupt("semantics", &err))?;
+    let density = ObstacleDensity::parse(&e.density).map_err(|err| corrupt("density", &err))?;
+    let reason = match e.reason.as_deref() {
+        None | Some("") => None,
+        Some(r) => Some(EndReason::parse(r).map_err(|err| corrupt("reason", &err))?),
+    };
+    let metrics = match e.metrics_json.as_deref() {
+        None | Some("") => None,
+        Some(m) => Some(
+            serde_json::from_str::<EpisodeMetrics>(m).map_err(|err| corrupt("metrics", &err))?,
+        ),
+    };
+    Ok(pb::EpisodeResultRow {
         task_id: e.task_id.clone(),
         world_id: e.world_id,
         task_index: e.task_index,
-        level: e.level.clone(),
-        semantics: e.semantics.clone(),
-        density: e.density.clone(),
-        state: e.state.as_str().to_string(),
-        outcome: e.outcome.map_or(String::new(), |o| o.as_str().to_string()),
-        reason: e.reason.clone().unwrap_or_default(),
+        level: level.wire(),
+        semantics: semantics.wire(),
+        density: density.wire(),
+        state: e.state.wire(),
+        outcome: e.outcome.map(ProtoEnum::wire),
+        reason: reason.map(ProtoEnum::wire),
         detail: e.detail.clone().unwrap_or_default(),
-        metrics_json: e.metrics_json.clone().unwrap_or_default(),
+        metrics: metrics.map(pb::Metrics::from),
         wall_time_s: e.wall_time_s.unwrap_or(0.0),
         attempts: e.attempts.max(0) as u32,
         planner_identity: e.planner_identity.clone().unwrap_or_default(),
         sim_version: e.sim_version.clone().unwrap_or_default(),
         terrain,
-    }
+    })
 }
 
 fn truncate(s: &str, max: usize) -> String {
@@ -108,19 +134,21 @@ fn truncate(s: &str, max: usize) -> String {
     format!("{}\n[... log truncated at {max} bytes]", &s[..cut])
 }
 
-/// Validates a worker's report and unpacks its gzip-compressed trajectory.
+/// Validates a worker's report (an unspecified or unknown outcome or reason is refused) and checks its
+/// gzip-compressed trajectory.
 pub fn report(
     r: &pb::EpisodeReport,
     max_log: usize,
     max_trajectory: usize,
 ) -> Result<EpisodeResultIn, Status> {
-    contracts::RecordedOutcome::parse(&r.outcome)
-        .map_err(|e| Status::invalid_argument(e.to_string()))?;
-    contracts::EndReason::parse(&r.reason).map_err(|e| Status::invalid_argument(e.to_string()))?;
-    if !r.metrics_json.is_empty() {
-        serde_json::from_slice::<contracts::EpisodeMetrics>(&r.metrics_json)
-            .map_err(|e| Status::invalid_argument(format!("metrics_json: {e}")))?;
-    }
+    let outcome = RecordedOutcome::from_wire(r.outcome)?;
+    let reason = EndReason::from_wire(r.reason)?;
+    // Stored as the JSON it always was (the leaderboard and the aggregates read that).
+    let metrics_json = match &r.metrics {
+        None => String::new(),
+        Some(m) => serde_json::to_string(&EpisodeMetrics::from(*m))
+            .map_err(|e| Status::invalid_argument(format!("metrics: {e}")))?,
+    };
     // Checked (size, codec) but stored as the worker compressed it.
     let mut trajectory = String::new();
     if !r.trajectory.is_empty() {
@@ -132,10 +160,10 @@ pub fn report(
         lease_id: r.lease_id.clone(),
         submission_id: r.submission_id.clone(),
         task_id: r.task_id.clone(),
-        outcome: r.outcome.clone(),
-        reason: r.reason.clone(),
+        outcome: outcome.as_str().into(),
+        reason: reason.as_str().into(),
         detail: truncate(&r.detail, 16 << 10),
-        metrics_json: String::from_utf8_lossy(&r.metrics_json).into_owned(),
+        metrics_json,
         trajectory_csv: String::new(),
         trajectory_gz: (!r.trajectory.is_empty()).then(|| r.trajectory.clone()),
         planner_log: truncate(&r.planner_log, max_log),
@@ -157,4 +185,117 @@ fn flate2_decode(bytes: &[u8], max: usize, out: &mut String) -> Result<(), Statu
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use contracts::{EpisodeState, Outcome};
+
+    fn metrics() -> EpisodeMetrics {
+        let mut m = EpisodeMetrics {
+            time: 28.768000000002946,
+            throttle_tv: 3.9066006773336635,
+            final_goal_distance: 9.992706353594361,
+            obstacle_contacts: 2,
+            steps: 14_384,
+            ..Default::default()
+        };
+        m.pitch.mean = -2.0042475476114894;
+        m
+    }
+
+    /// A report's metrics are stored as the JSON the worker used to send (stored rows are unchanged), and the
+    /// results row gives back the same values, bit for bit.
+    #[test]
+    fn a_report_is_stored_as_before_and_read_back_typed() {
+        let m = metrics();
+        let r = pb::EpisodeReport {
+            outcome: pb::Outcome::Timeout.into(),
+            reason: pb::EndReason::Timeout.into(),
+            metrics: Some((&m).into()),
+            ..Default::default()
+        };
+        let stored = report(&r, 1024, 1024).unwrap();
+        assert_eq!(
+            (stored.outcome.as_str(), stored.reason.as_str()),
+            ("timeout", "timeout")
+        );
+        assert_eq!(stored.metrics_json, serde_json::to_string(&m).unwrap());
+        let rec = EpisodeRecord {
+            submission_id: "s1".into(),
+            task_id: "w001-t2".into(),
+            world_id: 1,
+            task_index: 2,
+            level: "high".into(),
+            semantics: "mixed".into(),
+            density: "dense".into(),
+            state: EpisodeState::Done,
+            attempts: 1,
+            outcome: Some(RecordedOutcome::Episode(Outcome::Timeout)),
+            reason: Some(stored.reason),
+            detail: None,
+            metrics_json: Some(stored.metrics_json),
+            sim_version: None,
+            planner_identity: None,
+            wall_time_s: Some(1.5),
+            finished_at: None,
+        };
+        let row = result_row(&rec, Some(3)).unwrap();
+        assert_eq!(
+            (row.level(), row.semantics(), row.density(), row.state()),
+            (
+                pb::ElevationLevel::High,
+                pb::SemanticsKind::Mixed,
+                pb::ObstacleDensity::Dense,
+                pb::EpisodeState::Done
+            )
+        );
+        assert_eq!(
+            (row.outcome(), row.reason()),
+            (pb::Outcome::Timeout, pb::EndReason::Timeout)
+        );
+        let back = EpisodeMetrics::from(row.metrics.unwrap());
+        assert_eq!(format!("{back:?}"), format!("{m:?}"));
+
+        // Not run yet: no outcome, reason or metrics.
+        let queued = EpisodeRecord {
+            state: EpisodeState::Queued,
+            outcome: None,
+            reason: None,
+            metrics_json: None,
+            ..rec.clone()
+        };
+        let row = result_row(&queued, None).unwrap();
+        assert_eq!((row.outcome, row.reason, row.metrics), (None, None, None));
+        // A corrupt stored value is the service's fault.
+        let corrupt = EpisodeRecord {
+            level: "steep".into(),
+            ..rec
+        };
+        let e = result_row(&corrupt, None).unwrap_err();
+        assert_eq!(e.code(), tonic::Code::Internal, "{e}");
+    }
+
+    #[test]
+    fn a_report_without_an_outcome_or_reason_is_refused() {
+        for (outcome, reason, says) in [
+            (0, pb::EndReason::Success as i32, "no outcome given"),
+            (
+                99,
+                pb::EndReason::Success as i32,
+                "unknown outcome number 99",
+            ),
+            (pb::Outcome::Success as i32, 0, "no end reason given"),
+        ] {
+            let r = pb::EpisodeReport {
+                outcome,
+                reason,
+                ..Default::default()
+            };
+            let e = report(&r, 1024, 1024).unwrap_err();
+            assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e}");
+            assert!(e.message().contains(says), "{e}");
+        }
+    }
 }

@@ -66,7 +66,7 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
         tokio::spawn(async move {
             loop {
                 let s = me.status_of(&id).await;
-                let end = matches!(&s, Ok(s) if s.state == "done" || s.state == "cancelled")
+                let end = matches!(&s, Ok(s) if matches!(s.state(), pb::SubmissionState::Done | pb::SubmissionState::Cancelled))
                     || s.is_err();
                 if tx.send(s).await.is_err() || end {
                     break;
@@ -125,7 +125,7 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
                     let terrain = worlds.get(&e.world_id).and_then(|w| w.terrain);
                     convert::result_row(e, terrain)
                 })
-                .collect(),
+                .collect::<Result<_, _>>()?,
         }))
     }
 

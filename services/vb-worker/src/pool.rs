@@ -10,6 +10,7 @@ use tasks::TaskSet;
 use tonic::transport::Channel;
 use vb_proto::v1 as pb;
 use vb_proto::v1::worker_pool_client::WorkerPoolClient;
+use vb_proto::ProtoEnum;
 
 fn report(
     worker_id: &str,
@@ -23,10 +24,10 @@ fn report(
         lease_id: lease.lease_id.clone(),
         submission_id: lease.submission_id.clone(),
         task_id: lease.task_id.clone(),
-        outcome: run.result.outcome.as_str().into(),
-        reason: run.result.reason.to_string(),
+        outcome: pb::Outcome::from(run.result.outcome).into(),
+        reason: run.result.reason.wire(),
         detail: run.result.detail.clone(),
-        metrics_json: serde_json::to_vec(&run.result.metrics).unwrap_or_default(),
+        metrics: Some((&run.result.metrics).into()),
         trajectory: trajectory_gzip(&run.result),
         planner_log: run.planner_log.clone(),
         sim_version: SIM_VERSION.into(),
@@ -424,8 +425,8 @@ async fn run_lease(
         lease_id: lease.lease_id.clone(),
         submission_id: lease.submission_id.clone(),
         task_id: lease.task_id.clone(),
-        outcome: "error".into(),
-        reason: contracts::EndReason::Infrastructure.to_string(),
+        outcome: contracts::RecordedOutcome::InfrastructureError.wire(),
+        reason: contracts::EndReason::Infrastructure.wire(),
         detail,
         sim_version: SIM_VERSION.into(),
         infrastructure_failure: true,

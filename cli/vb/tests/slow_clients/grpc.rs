@@ -223,7 +223,7 @@ async fn the_coordinator_keeps_quiet_live_connections_drops_dead_peers_and_runs_
     .expect("submit")
     .submission_id;
     let s = wait_for(port, &token, &id, Duration::from_secs(300), |s| {
-        s.state == "done"
+        s.state() == pb::SubmissionState::Done
     })
     .await;
     assert_eq!(s.finished, 2, "{s:?}");
