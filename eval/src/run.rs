@@ -46,7 +46,7 @@ pub fn read_results(path: &Path) -> Result<Vec<EpisodeRow>, EvalError> {
     for (i, line) in lines.iter().enumerate() {
         match serde_json::from_str::<EpisodeRow>(line) {
             Ok(r) => {
-                if seen.insert(r.task_id.clone()) {
+                if seen.insert(r.task_id) {
                     rows.push(r);
                 }
             }

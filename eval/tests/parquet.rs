@@ -21,7 +21,7 @@ fn row(task: u32, outcome: &str, time: f64) -> EpisodeRow {
     metrics.pitch_abs.max = 29.87654321;
     metrics.steering_tv = 0.123456;
     EpisodeRow {
-        task_id: contracts::TaskId::new(17, task as u32),
+        task_id: contracts::TaskId::new(17, task),
         world_id: 17,
         task_index: task,
         level: "high".parse().unwrap(),

@@ -41,13 +41,7 @@ fn a_resumed_evaluation_equals_an_uninterrupted_one() {
     assert_eq!(calls, 2, "only the two missing episodes ran");
     let key = |rows: &[eval::EpisodeRow]| {
         rows.iter()
-            .map(|r| {
-                (
-                    r.task_id.clone(),
-                    r.outcome.clone(),
-                    r.metrics.time.to_bits(),
-                )
-            })
+            .map(|r| (r.task_id, r.outcome, r.metrics.time.to_bits()))
             .collect::<Vec<_>>()
     };
     assert_eq!(
