@@ -135,7 +135,7 @@ pub struct EpisodeSpec {
 
 /// A finished episode, ready to report.
 #[derive(Clone, Debug)]
-pub struct EpisodeRun {
+pub struct FinishedEpisode {
     pub result: EpisodeResult,
     pub planner_log: String,
     pub planner_identity: String,
@@ -150,8 +150,8 @@ fn failed(
     log: String,
     identity: String,
     t0: Instant,
-) -> EpisodeRun {
-    EpisodeRun {
+) -> FinishedEpisode {
+    FinishedEpisode {
         result: EpisodeResult {
             outcome: Outcome::PlannerFailure,
             reason,
@@ -190,7 +190,7 @@ pub async fn run_episode(
     spec: EpisodeSpec,
     cancel: Arc<AtomicBool>,
     planner_startup: Duration,
-) -> Result<EpisodeRun, EpisodeError> {
+) -> Result<FinishedEpisode, EpisodeError> {
     let t0 = Instant::now();
     let (w, t) =
         parse_task_id(&spec.task_id).ok_or_else(|| format!("bad task id `{}`", spec.task_id))?;
@@ -308,7 +308,7 @@ pub async fn run_episode(
     if let Some(p) = process {
         p.stop().await;
     }
-    Ok(EpisodeRun {
+    Ok(FinishedEpisode {
         result,
         planner_log,
         planner_identity: identity,

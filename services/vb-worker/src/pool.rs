@@ -15,7 +15,7 @@ use vb_proto::ProtoEnum;
 fn report(
     worker_id: &str,
     lease: &pb::EpisodeLease,
-    run: &EpisodeRun,
+    run: &FinishedEpisode,
     task_set_version: &str,
 ) -> pb::EpisodeReport {
     pb::EpisodeReport {
