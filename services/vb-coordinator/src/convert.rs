@@ -84,32 +84,16 @@ pub fn status(s: &Submission, p: &Progress, throughput_per_s: Option<f64>) -> pb
 /// An episode as the results API returns it; `terrain`: its world's terrain group in the task set. A stored value
 /// that names nothing (a corrupt row) is an internal error.
 pub fn result_row(e: &EpisodeRecord, terrain: Option<u32>) -> Result<pb::EpisodeResultRow, Status> {
-    let corrupt = |what: &str, err: &dyn std::fmt::Display| {
-        Status::internal(format!(
-            "episode {} of {}: stored {what}: {err}",
-            e.task_id, e.submission_id
-        ))
-    };
-    let level = ElevationLevel::parse(&e.level).map_err(|err| corrupt("level", &err))?;
-    let semantics = SemanticsKind::parse(&e.semantics).map_err(|err| corrupt("semantics", &err))?;
-    let density = ObstacleDensity::parse(&e.density).map_err(|err| corrupt("density", &err))?;
-    let reason = match e.reason.as_deref() {
-        None | Some("") => None,
-        Some(r) => Some(EndReason::parse(r).map_err(|err| corrupt("reason", &err))?),
-    };
-    let metrics = match e.metrics_json.as_deref() {
-        None | Some("") => None,
-        Some(m) => Some(
-            serde_json::from_str::<EpisodeMetrics>(m).map_err(|err| corrupt("metrics", &err))?,
-        ),
-    };
+    let internal = |e: vb_store::StoreError| vb_proto::status(&e);
+    let reason = e.end_reason().map_err(internal)?;
+    let metrics = e.metrics().map_err(internal)?;
     Ok(pb::EpisodeResultRow {
         task_id: e.task_id.clone(),
         world_id: e.world_id,
         task_index: e.task_index,
-        level: level.wire(),
-        semantics: semantics.wire(),
-        density: density.wire(),
+        level: e.level.wire(),
+        semantics: e.semantics.wire(),
+        density: e.density.wire(),
         state: e.state.wire(),
         outcome: e.outcome.map(ProtoEnum::wire),
         reason: reason.map(ProtoEnum::wire),

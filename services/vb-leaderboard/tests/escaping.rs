@@ -57,9 +57,9 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
         task_id: "w001-t0".into(),
         world_id: 1,
         task_index: 0,
-        level: "low".into(),
-        semantics: "rigid".into(),
-        density: "sparse".into(),
+        level: contracts::ElevationLevel::Low,
+        semantics: contracts::SemanticsKind::Rigid,
+        density: contracts::ObstacleDensity::Sparse,
     };
     let id = store.create_submission(&sub, &[episode], 0.0).await?;
     let w = store.register_worker("w", 1, "s", "tw", 0.0).await?;

@@ -32,9 +32,9 @@ async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
                 task_id: format!("w{w:03}-t{t}"),
                 world_id: w,
                 task_index: t,
-                level: "low".into(),
-                semantics: "rigid".into(),
-                density: "sparse".into(),
+                level: contracts::ElevationLevel::Low,
+                semantics: contracts::SemanticsKind::Rigid,
+                density: contracts::ObstacleDensity::Sparse,
             })
             .collect();
         let sub = NewSubmission {

@@ -3,9 +3,7 @@
 //! coordinator stores them ([`crate::Store::refresh_summary`]); the leaderboard reads them.
 
 use crate::{EpisodeRecord, StoreError, Submission, SERVICE_RULES};
-use contracts::{
-    Catalog, ElevationLevel, EndReason, ObstacleDensity, Outcome, RecordedOutcome, SemanticsKind,
-};
+use contracts::{Catalog, EndReason, Outcome, RecordedOutcome};
 use results::summary::Summary;
 use results::{EpisodeRow, EpisodeValues, RunFacts};
 
@@ -45,43 +43,32 @@ pub fn rows(
 /// for their outcome only before reasons were typed) reads as its outcome's own reason: summaries never read
 /// reasons, so a page never fails on one.
 fn values(e: &EpisodeRecord, terrain: Option<u32>) -> Result<EpisodeValues, StoreError> {
-    let corrupt = |what: &str, err: &dyn std::fmt::Display| {
-        StoreError::Corrupt(format!(
-            "episode {} of {}: {what}: {err}",
-            e.task_id, e.submission_id
-        ))
-    };
     let outcome = e.outcome.unwrap_or(RecordedOutcome::InfrastructureError);
-    let reason = e
-        .reason
-        .as_deref()
-        .and_then(|r| EndReason::parse(r).ok())
-        .unwrap_or(match outcome {
-            RecordedOutcome::InfrastructureError => EndReason::Infrastructure,
-            RecordedOutcome::Episode(o) => match o {
-                Outcome::Success => EndReason::Success,
-                Outcome::Rollover => EndReason::Rollover,
-                Outcome::Stuck => EndReason::Stuck,
-                Outcome::Timeout => EndReason::Timeout,
-                Outcome::OffMap => EndReason::OffMap,
-                Outcome::PlannerFailure => EndReason::PlannerError,
-                Outcome::Cancelled => EndReason::Cancelled,
-            },
-        });
+    let reason = e.end_reason().ok().flatten().unwrap_or(match outcome {
+        RecordedOutcome::InfrastructureError => EndReason::Infrastructure,
+        RecordedOutcome::Episode(o) => match o {
+            Outcome::Success => EndReason::Success,
+            Outcome::Rollover => EndReason::Rollover,
+            Outcome::Stuck => EndReason::Stuck,
+            Outcome::Timeout => EndReason::Timeout,
+            Outcome::OffMap => EndReason::OffMap,
+            Outcome::PlannerFailure => EndReason::PlannerError,
+            Outcome::Cancelled => EndReason::Cancelled,
+        },
+    });
     Ok(EpisodeValues {
-        task_id: e.task_id.parse().map_err(|err| corrupt("task id", &err))?,
-        level: ElevationLevel::parse(&e.level).map_err(|err| corrupt("level", &err))?,
-        semantics: SemanticsKind::parse(&e.semantics).map_err(|err| corrupt("semantics", &err))?,
-        density: ObstacleDensity::parse(&e.density).map_err(|err| corrupt("density", &err))?,
+        task_id: e.task_id.parse().map_err(|err| {
+            StoreError::Corrupt(format!("episode of {}: {err}", e.submission_id))
+        })?,
+        level: e.level,
+        semantics: e.semantics,
+        density: e.density,
         terrain,
         sim_version: e.sim_version.clone(),
         outcome,
         reason,
         detail: e.detail.clone().unwrap_or_default(),
-        metrics: match e.metrics_json.as_deref() {
-            None | Some("") => Default::default(),
-            Some(m) => serde_json::from_str(m).map_err(|err| corrupt("metrics", &err))?,
-        },
+        metrics: e.metrics()?.unwrap_or_default(),
         wall_time_s: e.wall_time_s.unwrap_or(0.0),
     })
 }

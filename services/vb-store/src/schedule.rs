@@ -53,9 +53,9 @@ impl Store {
             .bind(i as i64)
             .bind(e.world_id as i64)
             .bind(e.task_index as i64)
-            .bind(&e.level)
-            .bind(&e.semantics)
-            .bind(&e.density)
+            .bind(e.level.as_str())
+            .bind(e.semantics.as_str())
+            .bind(e.density.as_str())
             .execute(&mut *tx)
             .await?;
         }

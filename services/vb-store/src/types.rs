@@ -2,6 +2,7 @@
 
 use crate::{Result, StoreError};
 pub use contracts::{EpisodeState, PlannerKind, RecordedOutcome, SubmissionState};
+use contracts::{ElevationLevel, EndReason, EpisodeMetrics, ObstacleDensity, SemanticsKind};
 use serde::{Deserialize, Serialize};
 use sqlx::any::AnyRow;
 use sqlx::Row;
@@ -79,9 +80,9 @@ pub struct NewEpisode {
     pub task_id: String,
     pub world_id: u32,
     pub task_index: u32,
-    pub level: String,
-    pub semantics: String,
-    pub density: String,
+    pub level: ElevationLevel,
+    pub semantics: SemanticsKind,
+    pub density: ObstacleDensity,
 }
 
 impl NewEpisode {
@@ -92,9 +93,9 @@ impl NewEpisode {
             task_id: id.to_string(),
             world_id: id.world,
             task_index: id.index,
-            level: facts.level.to_string(),
-            semantics: facts.semantics.to_string(),
-            density: facts.density.to_string(),
+            level: facts.level,
+            semantics: facts.semantics,
+            density: facts.density,
         })
     }
 }
@@ -199,9 +200,9 @@ pub struct EpisodeRecord {
     pub task_id: String,
     pub world_id: u32,
     pub task_index: u32,
-    pub level: String,
-    pub semantics: String,
-    pub density: String,
+    pub level: ElevationLevel,
+    pub semantics: SemanticsKind,
+    pub density: ObstacleDensity,
     pub state: EpisodeState,
     pub attempts: i64,
     pub outcome: Option<RecordedOutcome>,
@@ -212,6 +213,31 @@ pub struct EpisodeRecord {
     pub planner_identity: Option<String>,
     pub wall_time_s: Option<f64>,
     pub finished_at: Option<f64>,
+}
+
+impl EpisodeRecord {
+    /// Its metrics (`None` until it has its result, or for one no worker could run).
+    pub fn metrics(&self) -> Result<Option<EpisodeMetrics>> {
+        match self.metrics_json.as_deref() {
+            None | Some("") => Ok(None),
+            Some(m) => serde_json::from_str(m).map(Some).map_err(|e| self.corrupt("metrics", &e)),
+        }
+    }
+
+    /// Why it ended (`None` until it has its result).
+    pub fn end_reason(&self) -> Result<Option<EndReason>> {
+        match self.reason.as_deref() {
+            None | Some("") => Ok(None),
+            Some(r) => EndReason::parse(r).map(Some).map_err(|e| self.corrupt("reason", &e)),
+        }
+    }
+
+    fn corrupt(&self, what: &str, e: &dyn std::fmt::Display) -> StoreError {
+        StoreError::Corrupt(format!(
+            "episode {} of {}: stored {what}: {e}",
+            self.task_id, self.submission_id
+        ))
+    }
 }
 
 /// One episode with its trajectory (CSV) and the planner's log.
@@ -250,15 +276,24 @@ pub(crate) fn submission_from_row(r: &AnyRow) -> Result<Submission> {
 pub(crate) const EPISODE_COLUMNS: &str = "submission_id, task_id, world_id, task_index, level, semantics, density, state, \
      attempts, outcome, reason, detail, metrics_json, sim_version, planner_identity, wall_time_s, finished_at";
 
+/// A text column holding one of a type's string forms.
+fn parse_column<T>(
+    r: &AnyRow,
+    column: &str,
+    parse: fn(&str) -> std::result::Result<T, contracts::UnknownName>,
+) -> Result<T> {
+    parse(&r.try_get::<String, _>(column)?).map_err(|e| StoreError::Corrupt(e.to_string()))
+}
+
 pub(crate) fn episode_from_row(r: &AnyRow) -> Result<EpisodeRecord> {
     Ok(EpisodeRecord {
         submission_id: r.try_get("submission_id")?,
         task_id: r.try_get("task_id")?,
         world_id: r.try_get::<i64, _>("world_id")? as u32,
         task_index: r.try_get::<i64, _>("task_index")? as u32,
-        level: r.try_get("level")?,
-        semantics: r.try_get("semantics")?,
-        density: r.try_get("density")?,
+        level: parse_column(r, "level", ElevationLevel::parse)?,
+        semantics: parse_column(r, "semantics", SemanticsKind::parse)?,
+        density: parse_column(r, "density", ObstacleDensity::parse)?,
         state: EpisodeState::parse(&r.try_get::<String, _>("state")?)
             .map_err(|e| StoreError::Corrupt(e.to_string()))?,
         attempts: r.try_get("attempts")?,

@@ -166,9 +166,9 @@ pub fn page(sub: &Submission, d: &PublicEpisode, map: Option<&WorldPicture>) -> 
         task: r.task_id.clone(),
         world: r.world_id,
         task_index: r.task_index,
-        level: r.level.clone(),
-        semantics: r.semantics.clone(),
-        density: r.density.clone(),
+        level: r.level.to_string(),
+        semantics: r.semantics.to_string(),
+        density: r.density.to_string(),
         result: vec![
             ("state", super::submission::state_label(r.state.as_str())),
             (

@@ -159,9 +159,9 @@ fn episode_line(sub_id: &str, ep: &EpisodeRecord) -> EpisodeLine {
     EpisodeLine {
         href: format!("/submissions/{sub_id}/episodes/{}", ep.task_id),
         task: ep.task_id.clone(),
-        level: ep.level.clone(),
-        semantics: ep.semantics.clone(),
-        density: ep.density.clone(),
+        level: ep.level.to_string(),
+        semantics: ep.semantics.to_string(),
+        density: ep.density.to_string(),
         state: state_label(ep.state.as_str()),
         outcome: ep.outcome.map_or(String::new(), |o| o.as_str().to_string()),
         reason: ep.reason.clone().unwrap_or_default(),

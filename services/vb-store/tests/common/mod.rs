@@ -56,9 +56,9 @@ pub fn episodes(n: u32) -> Vec<NewEpisode> {
             task_id: format!("w001-t{i}"),
             world_id: 1,
             task_index: i,
-            level: "low".into(),
-            semantics: "rigid".into(),
-            density: "sparse".into(),
+            level: contracts::ElevationLevel::Low,
+            semantics: contracts::SemanticsKind::Rigid,
+            density: contracts::ObstacleDensity::Sparse,
         })
         .collect()
 }
