@@ -2,10 +2,7 @@
 //! vocabulary's enums and the metrics convert through `vb_proto::convert`; the store keeps their string forms and
 //! the metrics as JSON.
 
-use contracts::{
-    ElevationLevel, EndReason, EpisodeMetrics, ObstacleDensity, PlannerKind, RecordedOutcome,
-    SemanticsKind,
-};
+use contracts::{EndReason, EpisodeMetrics, PlannerKind, RecordedOutcome};
 use std::io::Read;
 use tonic::Status;
 use vb_proto::v1 as pb;
@@ -174,7 +171,7 @@ fn flate2_decode(bytes: &[u8], max: usize, out: &mut String) -> Result<(), Statu
 #[cfg(test)]
 mod tests {
     use super::*;
-    use contracts::{EpisodeState, Outcome};
+    use contracts::{ElevationLevel, EpisodeState, ObstacleDensity, Outcome, SemanticsKind};
 
     fn metrics() -> EpisodeMetrics {
         let mut m = EpisodeMetrics {
@@ -211,9 +208,9 @@ mod tests {
             task_id: "w001-t2".into(),
             world_id: 1,
             task_index: 2,
-            level: "high".into(),
-            semantics: "mixed".into(),
-            density: "dense".into(),
+            level: ElevationLevel::High,
+            semantics: SemanticsKind::Mixed,
+            density: ObstacleDensity::Dense,
             state: EpisodeState::Done,
             attempts: 1,
             outcome: Some(RecordedOutcome::Episode(Outcome::Timeout)),
@@ -254,7 +251,7 @@ mod tests {
         assert_eq!((row.outcome, row.reason, row.metrics), (None, None, None));
         // A corrupt stored value is the service's fault.
         let corrupt = EpisodeRecord {
-            level: "steep".into(),
+            reason: Some("exploded".into()),
             ..rec
         };
         let e = result_row(&corrupt, None).unwrap_err();

@@ -57,9 +57,10 @@ fn values(e: &EpisodeRecord, terrain: Option<u32>) -> Result<EpisodeValues, Stor
         },
     });
     Ok(EpisodeValues {
-        task_id: e.task_id.parse().map_err(|err| {
-            StoreError::Corrupt(format!("episode of {}: {err}", e.submission_id))
-        })?,
+        task_id: e
+            .task_id
+            .parse()
+            .map_err(|err| StoreError::Corrupt(format!("episode of {}: {err}", e.submission_id)))?,
         level: e.level,
         semantics: e.semantics,
         density: e.density,

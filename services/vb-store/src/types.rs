@@ -1,8 +1,8 @@
 //! The store's values: tokens, submissions, episodes, leases, reports and progress, and how rows become them.
 
 use crate::{Result, StoreError};
-pub use contracts::{EpisodeState, PlannerKind, RecordedOutcome, SubmissionState};
 use contracts::{ElevationLevel, EndReason, EpisodeMetrics, ObstacleDensity, SemanticsKind};
+pub use contracts::{EpisodeState, PlannerKind, RecordedOutcome, SubmissionState};
 use serde::{Deserialize, Serialize};
 use sqlx::any::AnyRow;
 use sqlx::Row;
@@ -220,7 +220,9 @@ impl EpisodeRecord {
     pub fn metrics(&self) -> Result<Option<EpisodeMetrics>> {
         match self.metrics_json.as_deref() {
             None | Some("") => Ok(None),
-            Some(m) => serde_json::from_str(m).map(Some).map_err(|e| self.corrupt("metrics", &e)),
+            Some(m) => serde_json::from_str(m)
+                .map(Some)
+                .map_err(|e| self.corrupt("metrics", &e)),
         }
     }
 
@@ -228,7 +230,9 @@ impl EpisodeRecord {
     pub fn end_reason(&self) -> Result<Option<EndReason>> {
         match self.reason.as_deref() {
             None | Some("") => Ok(None),
-            Some(r) => EndReason::parse(r).map(Some).map_err(|e| self.corrupt("reason", &e)),
+            Some(r) => EndReason::parse(r)
+                .map(Some)
+                .map_err(|e| self.corrupt("reason", &e)),
         }
     }
 
