@@ -1,7 +1,7 @@
 //! States of the service's episodes and submissions, and an episode's outcome as the service records it: each with
 //! one string form (what the store holds and the APIs show), written by `as_str` and read by `parse`.
 
-use crate::{Outcome, UnknownName};
+use crate::{EndReason, Outcome, UnknownName};
 use serde::{Deserialize, Serialize};
 
 named!(
@@ -59,6 +59,22 @@ impl RecordedOutcome {
             return Ok(Self::InfrastructureError);
         }
         Outcome::parse(s).map(Self::Episode)
+    }
+
+    /// The reason an end of this outcome has when nothing finer is known.
+    pub fn plain_reason(self) -> EndReason {
+        match self {
+            Self::InfrastructureError => EndReason::Infrastructure,
+            Self::Episode(o) => match o {
+                Outcome::Success => EndReason::Success,
+                Outcome::Rollover => EndReason::Rollover,
+                Outcome::Stuck => EndReason::Stuck,
+                Outcome::Timeout => EndReason::Timeout,
+                Outcome::OffMap => EndReason::OffMap,
+                Outcome::PlannerFailure => EndReason::PlannerError,
+                Outcome::Cancelled => EndReason::Cancelled,
+            },
+        }
     }
 
     /// The episode failed because of the planner or the infrastructure, not by how it drove.

@@ -94,7 +94,7 @@ impl EpisodeRow {
             sim_version: "s".into(),
             rules: Default::default(),
             outcome,
-            reason: EndReason::parse(outcome.as_str()).unwrap_or(EndReason::Infrastructure),
+            reason: outcome.plain_reason(),
             detail: String::new(),
             metrics: EpisodeMetrics::default(),
             wall_time_s: 0.1,

@@ -3,7 +3,7 @@
 //! coordinator stores them ([`crate::Store::refresh_summary`]); the leaderboard reads them.
 
 use crate::{EpisodeRecord, StoreError, Submission, SERVICE_RULES};
-use contracts::{Catalog, EndReason, Outcome, RecordedOutcome};
+use contracts::{Catalog, RecordedOutcome};
 use results::summary::Summary;
 use results::{EpisodeRow, EpisodeValues, RunFacts};
 
@@ -44,18 +44,11 @@ pub fn rows(
 /// reasons, so a page never fails on one.
 fn values(e: &EpisodeRecord, terrain: Option<u32>) -> Result<EpisodeValues, StoreError> {
     let outcome = e.outcome.unwrap_or(RecordedOutcome::InfrastructureError);
-    let reason = e.end_reason().ok().flatten().unwrap_or(match outcome {
-        RecordedOutcome::InfrastructureError => EndReason::Infrastructure,
-        RecordedOutcome::Episode(o) => match o {
-            Outcome::Success => EndReason::Success,
-            Outcome::Rollover => EndReason::Rollover,
-            Outcome::Stuck => EndReason::Stuck,
-            Outcome::Timeout => EndReason::Timeout,
-            Outcome::OffMap => EndReason::OffMap,
-            Outcome::PlannerFailure => EndReason::PlannerError,
-            Outcome::Cancelled => EndReason::Cancelled,
-        },
-    });
+    let reason = e
+        .end_reason()
+        .ok()
+        .flatten()
+        .unwrap_or(outcome.plain_reason());
     Ok(EpisodeValues {
         task_id: e
             .task_id
