@@ -2,8 +2,8 @@
 training task set generated with another seed (never on the benchmark's own tasks), then evaluated on the
 benchmark's low split with `vertibench.evaluate`.
 
-    cargo run --release -p vb -- tasks generate --seed 7 --out out/train-tasks   # the training worlds
-    python examples/python/train_ppo.py --task-set out/train-tasks --steps 500000
+    python examples/python/train_ppo.py --steps 500000    # training worlds: vertibench.tasks.training(seed=7)
+    python examples/python/train_ppo.py --task-set DIR     # or any task set (never the benchmark's)
 
 It reports the success rate of the untrained and the trained policy on training episodes (deterministic actions),
 the training steps and wall time, and the trained policy's benchmark results (files in OUT/benchmark-low, readable
@@ -38,7 +38,9 @@ def success_rate(model, env: VecNormalize, episodes: int):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--task-set", default="out/train-tasks")
+    ap.add_argument("--task-set", default=None,
+                    help="training task set (default: vertibench.tasks.training(--train-seed), made on first use)")
+    ap.add_argument("--train-seed", type=int, default=vb.tasks.TRAINING_SEED)
     ap.add_argument("--tasks", default="low+rigid")
     ap.add_argument("--steps", type=int, default=500_000)
     ap.add_argument("--envs", type=int, default=16)
@@ -47,9 +49,13 @@ def main():
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default="out/ppo")
     args = ap.parse_args()
+    if args.task_set is None:
+        args.task_set = str(vb.tasks.training(args.train_seed))
     if not Path(args.task_set, "manifest.json").is_file():
         raise SystemExit(f"no task set in {args.task_set}: generate one with "
-                         f"`cargo run --release -p vb -- tasks generate --seed 7 --out {args.task_set}`")
+                         f"`python -c 'import vertibench as vb; vb.tasks.generate(seed=7, out=\"{args.task_set}\")'`")
+    if vb.tasks.info(args.task_set).version == vb.tasks.benchmark_version():
+        raise SystemExit(f"{args.task_set} is the benchmark's own task set: train on another seed's worlds")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(args.seed)

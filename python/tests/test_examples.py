@@ -27,4 +27,12 @@ def test_pure_pursuit_evaluates_in_process(tmp_path):
 def test_train_ppo_refuses_a_missing_training_set_with_the_command_that_makes_one(tmp_path):
     r = subprocess.run([sys.executable, str(EXAMPLES / "train_ppo.py"), "--task-set", str(tmp_path / "none")],
                        capture_output=True, text=True, timeout=300)
-    assert r.returncode != 0 and "tasks generate --seed 7" in r.stderr
+    assert r.returncode != 0 and "vb.tasks.generate(seed=7" in r.stderr
+
+
+def test_train_ppo_refuses_the_benchmarks_own_tasks():
+    import vertibench as vb
+
+    r = subprocess.run([sys.executable, str(EXAMPLES / "train_ppo.py"), "--task-set", str(vb.tasks.benchmark())],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode != 0 and "benchmark's own task set" in r.stderr

@@ -1,16 +1,25 @@
 """vertibench: the off-road mobility benchmark on vertically challenging terrain, from Python.
 
-- :func:`make` and :func:`make_vec`: gymnasium environments (one, or a vector stepped in Rust threads).
+- :func:`make` and :func:`make_vec`: gymnasium environments (one, or a vector stepped in Rust threads); also
+  registered with gymnasium as ``"vertibench/Nav-v0"`` (``gym.make("vertibench/Nav-v0", task="w017-t3")``,
+  ``gym.make_vec("vertibench/Nav-v0", num_envs=8)``).
+- :mod:`vertibench.tasks`: the benchmark's task set (carried by the package) and training sets generated from other
+  seeds (:func:`vertibench.tasks.training`); never train on the benchmark's tasks.
 - :mod:`vertibench.planner`: a base class for planners; :func:`vertibench.serve.serve` runs one for the benchmark
   service.
 - :func:`evaluate`: run a Python planner on the benchmark in-process, writing ``vb eval``'s files.
+- :mod:`vertibench.render`: top-view frames and episode videos.
 """
 
 from __future__ import annotations
 
+from os import PathLike
+from typing import Sequence
+
+import gymnasium as gym
 from gymnasium.vector import AutoresetMode
 
-from . import _core
+from . import _core, tasks
 from ._spaces import (
     ACTION_FIELDS,
     DEFAULT_REWARD,
@@ -24,7 +33,10 @@ from .evaluation import evaluate
 from .planner import Action, Observation, Planner
 from .vector import VertibenchVectorEnv
 
+__version__: str = _core.__version__
 SIM_VERSION: str = _core.SIM_VERSION
+#: The gymnasium id of the navigation environment (its vector entry point is :class:`VertibenchVectorEnv`).
+ENV_ID = "vertibench/Nav-v0"
 #: Named splits of the task set accepted by ``tasks=`` (with ``"all"``, world ids and task ids like ``w017-t3``).
 SPLITS: tuple[str, ...] = tuple(_core.SPLITS)
 
@@ -34,29 +46,102 @@ def vehicles() -> list[str]:
     return list(_core.vehicles())
 
 
-def make(task: str | None = None, **kwargs) -> VertibenchEnv:
-    """One environment: on ``task`` (an id like ``"w017-t3"``) when given, else on tasks drawn from ``tasks=``.
+def make(
+    task: str | None = None,
+    *,
+    tasks: str | Sequence[str | int] = "all",
+    task_set: str | PathLike | None = None,
+    vehicle: str = "hmmwv",
+    scale: float | None = None,
+    control_rate_hz: float = 20.0,
+    crop_size: int = 0,
+    crop_resolution: float | None = None,
+    rules: str = "paper",
+    max_time: float | None = None,
+    reward: dict[str, float] | None = None,
+    clip_actions: bool = False,
+    render_mode: str | None = None,
+    render_ppm: int = 3,
+) -> VertibenchEnv:
+    """One environment: on ``task`` (an id like ``"w017-t3"``) when given, else on tasks drawn from ``tasks``.
 
-    Keyword arguments: ``tasks`` (``"all"``, a split name such as ``"low"`` or ``"rigid"``, or ids), ``task_set`` (a
-    task directory; default: the benchmark's), ``vehicle`` (``"hmmwv"``; see :func:`vehicles`), ``scale``,
-    ``control_rate_hz`` (20), ``crop_size`` (0: no map crops) and ``crop_resolution`` (m per cell; default 1 m x the
-    world scale), ``rules`` (``"paper"`` or ``"release"``), ``max_time`` (60 s), ``reward`` (weights, see
-    :data:`DEFAULT_REWARD`), ``clip_actions`` (False: an out-of-range action fails the episode, as in the benchmark).
+    ``tasks``: ``"all"``, a split name such as ``"low"`` or ``"rigid"`` (``,`` a union, ``+`` an intersection), or
+    ids; ``task_set``: a task directory (default: the benchmark's, :func:`vertibench.tasks.benchmark`; train on
+    :func:`vertibench.tasks.training`); ``vehicle``: see :func:`vehicles`; ``scale``: world scale (default: the
+    vehicle's); ``control_rate_hz``: steps per simulated second; ``crop_size``: map crops of that many cells a side
+    in every observation (0: none) at ``crop_resolution`` m per cell (default 1 m x the world scale); ``rules``:
+    ``"paper"`` or ``"release"``; ``max_time``: the time limit, s (60); ``reward``: weights (see
+    :data:`DEFAULT_REWARD`); ``clip_actions``: clip actions to the action space (default: an out-of-range action
+    fails the episode, as in the benchmark); ``render_mode``: ``"rgb_array"`` for top-view frames of
+    ``render_ppm`` pixels per map sample. The environment's ``spec`` is that of :data:`ENV_ID` with these options.
     """
-    return VertibenchEnv(task, **kwargs)
+    options = dict(
+        tasks=tasks, task_set=task_set, vehicle=vehicle, scale=scale, control_rate_hz=control_rate_hz,
+        crop_size=crop_size, crop_resolution=crop_resolution, rules=rules, max_time=max_time, reward=reward,
+        clip_actions=clip_actions, render_mode=render_mode, render_ppm=render_ppm,
+    )
+    env = VertibenchEnv(task, **options)
+    env.spec = _spec(dict(task=task, **options))
+    return env
 
 
-def make_vec(num_envs: int, tasks="all", **kwargs) -> VertibenchVectorEnv:
+def make_vec(
+    num_envs: int,
+    tasks: str | Sequence[str | int] = "all",
+    *,
+    task_set: str | PathLike | None = None,
+    vehicle: str = "hmmwv",
+    scale: float | None = None,
+    control_rate_hz: float = 20.0,
+    crop_size: int = 0,
+    crop_resolution: float | None = None,
+    rules: str = "paper",
+    max_time: float | None = None,
+    reward: dict[str, float] | None = None,
+    clip_actions: bool = False,
+    autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+    task_order: str = "random",
+    num_threads: int | None = None,
+) -> VertibenchVectorEnv:
     """``num_envs`` environments stepped together in Rust threads (the GIL released).
 
-    Takes :func:`make`'s keyword arguments and ``autoreset_mode`` (gymnasium's ``AutoresetMode``; ``NEXT_STEP`` by
-    default), ``task_order`` (``"random"``: each environment draws tasks uniformly from its own seeded generator;
-    ``"cycle"``: environment ``i`` runs tasks ``i, i + n, ...``) and ``num_threads`` (default: all cores).
+    Takes :func:`make`'s options and ``autoreset_mode`` (gymnasium's ``AutoresetMode``; ``NEXT_STEP`` by default),
+    ``task_order`` (``"random"``: each environment draws tasks uniformly from its own seeded generator; ``"cycle"``:
+    environment ``i`` runs tasks ``i, i + n, ...``) and ``num_threads`` (default: every core, at most one per
+    environment).
     """
-    return VertibenchVectorEnv(num_envs, tasks=tasks, **kwargs)
+    return VertibenchVectorEnv(
+        num_envs, tasks=tasks, task_set=task_set, vehicle=vehicle, scale=scale, control_rate_hz=control_rate_hz,
+        crop_size=crop_size, crop_resolution=crop_resolution, rules=rules, max_time=max_time, reward=reward,
+        clip_actions=clip_actions, autoreset_mode=autoreset_mode, task_order=task_order, num_threads=num_threads,
+    )
 
+
+def _register() -> None:
+    """Registers :data:`ENV_ID` with gymnasium (once per process)."""
+    if ENV_ID not in gym.registry:
+        gym.register(
+            id=ENV_ID,
+            entry_point="vertibench.env:VertibenchEnv",
+            vector_entry_point="vertibench.vector:VertibenchVectorEnv",
+        )
+
+
+def _spec(kwargs: dict):
+    """:data:`ENV_ID`'s spec with ``kwargs``, as ``gym.make`` would set it."""
+    import copy
+
+    spec = copy.deepcopy(gym.spec(ENV_ID))
+    spec.kwargs = kwargs
+    return spec
+
+
+_register()
 
 __all__ = [
+    "ENV_ID",
+    "__version__",
+    "tasks",
     "ACTION_FIELDS",
     "AutoresetMode",
     "DEFAULT_REWARD",

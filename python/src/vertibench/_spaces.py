@@ -95,7 +95,17 @@ def core_kwargs(
     max_time,
     reward,
 ) -> dict:
-    """Keyword arguments of ``_core.VecCore`` from the public options (shared by both environment kinds)."""
+    """Keyword arguments of ``_core.VecCore`` from the public options (shared by both environment kinds), each
+    checked with an error that names it."""
+    crop_size = check_int(crop_size, "crop_size", 0, 512)
+    check_positive(control_rate_hz, "control_rate_hz")
+    for name, value in (("scale", scale), ("crop_resolution", crop_resolution), ("max_time", max_time)):
+        if value is not None:
+            check_positive(value, name)
+    if rules not in ("paper", "release"):
+        raise ValueError(f"rules={rules!r} is not 'paper' or 'release'")
+    if not isinstance(vehicle, str):
+        raise TypeError(f"vehicle={vehicle!r} must be a vehicle name (vertibench.vehicles())")
     return dict(
         task_dir=str(task_set) if task_set is not None else default_task_set(),
         tasks=task_spec(tasks),
@@ -110,9 +120,41 @@ def core_kwargs(
     )
 
 
-def default_task_set() -> str:
-    """The benchmark's task set: ``$VB_TASK_DIR`` when set, else the committed set of the source tree this package
-    was built from."""
-    import os
+def check_int(value, name: str, lo: int, hi: int | None = None) -> int:
+    """``value`` as an int in ``[lo, hi]``, or an error naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name}={value!r} must be an int")
+    if value < lo or (hi is not None and value > hi):
+        bound = f"at least {lo}" if hi is None else f"in {lo}..{hi}"
+        raise ValueError(f"{name}={value} must be {bound}")
+    return int(value)
 
-    return os.environ.get("VB_TASK_DIR") or _core.default_task_dir()
+
+def check_positive(value, name: str) -> float:
+    """``value`` as a finite positive float, or an error naming ``name``."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name}={value!r} must be a number") from None
+    if not (np.isfinite(v) and v > 0):
+        raise ValueError(f"{name}={value} must be finite and positive")
+    return v
+
+
+def check_action_shape(action, shape: tuple[int, ...], name: str) -> np.ndarray:
+    """``action`` as a float64 array of exactly ``shape`` (no silent reshaping of, say, (1, 3) or (3, 1) into
+    (3,)), or an error naming ``name``."""
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise TypeError(f"{name} must be numbers of shape {shape}: {e}") from None
+    if a.shape != shape:
+        raise ValueError(f"{name} has shape {a.shape}; expected {shape} (steering, throttle, brake)")
+    return a
+
+
+def default_task_set() -> str:
+    """The benchmark's task set (``$VB_TASK_DIR`` when set), as a string; see :mod:`vertibench.tasks`."""
+    from .tasks import default_task_set as _default
+
+    return str(_default())

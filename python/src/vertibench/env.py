@@ -6,13 +6,14 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.utils import EzPickle
 
 from . import _core
 from .planner import Maps, make_task
-from ._spaces import REWARD_TERMS, action_space, core_kwargs, observation_space
+from ._spaces import REWARD_TERMS, action_space, check_action_shape, core_kwargs, observation_space
 
 
-class VertibenchEnv(gym.Env):
+class VertibenchEnv(gym.Env, EzPickle):
     """One environment (see :func:`vertibench.make` for the options).
 
     An episode is one benchmark task: the vehicle starts at rest at the task's start facing the goal and the episode
@@ -21,9 +22,15 @@ class VertibenchEnv(gym.Env):
     60 s by default). ``info`` has the reward terms at every step and, at the end, ``outcome`` (``success``,
     ``rollover``, ``stuck``, ``timeout``, ``off_map``, ``planner_failure``), ``success``, ``reason``, ``detail`` and
     ``metrics`` (traversal time, roll and pitch, path length, energy, ...).
+
+    ``render_mode="rgb_array"``: :meth:`render` returns a top view of the map (north up; hill shade tinted by
+    semantic class, obstacles, the task's global path in red, start in green, goal in blue) with the path driven so
+    far and the vehicle, ``render_ppm`` pixels per map sample (:func:`vertibench.render.record_episode` writes an
+    episode's frames as a GIF). The environment pickles by its options (``EzPickle``): an unpickled copy is a new
+    environment that needs ``reset()``.
     """
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 20}
 
     def __init__(
         self,
@@ -40,7 +47,21 @@ class VertibenchEnv(gym.Env):
         max_time: float | None = None,
         reward: dict | None = None,
         clip_actions: bool = False,
+        render_mode: str | None = None,
+        render_ppm: int = 3,
     ):
+        EzPickle.__init__(
+            self, task, tasks=tasks, task_set=task_set, vehicle=vehicle, scale=scale, control_rate_hz=control_rate_hz,
+            crop_size=crop_size, crop_resolution=crop_resolution, rules=rules, max_time=max_time, reward=reward,
+            clip_actions=clip_actions, render_mode=render_mode, render_ppm=render_ppm,
+        )
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode={render_mode!r} is not None or 'rgb_array'")
+        if isinstance(render_ppm, bool) or not isinstance(render_ppm, int) or not 1 <= render_ppm <= 16:
+            raise ValueError(f"render_ppm={render_ppm!r} must be an int in 1..16")
+        self.render_mode = render_mode
+        self.render_ppm = render_ppm
+        self._view = None
         self._core = _core.VecCore(
             1,
             autoreset="disabled",
@@ -104,10 +125,13 @@ class VertibenchEnv(gym.Env):
         pick = None if task is None else [self._task_index(task)]
         obs, tasks = self._core.reset(seed=seed, tasks=pick)
         self.task_id = self.task_ids[tasks[0]]
-        return {k: v[0] for k, v in obs.items()}, {"task_id": self.task_id}
+        obs = {k: v[0] for k, v in obs.items()}
+        if self.render_mode == "rgb_array":
+            self._start_view(tasks[0], obs)
+        return obs, {"task_id": self.task_id}
 
     def step(self, action):
-        a = np.asarray(action, dtype=np.float64).reshape(1, 3)
+        a = check_action_shape(action, (3,), "action").reshape(1, 3)
         if self.clip_actions:
             a = np.clip(a, self._lo, self._hi)
         obs, terms, terminated, truncated, _, _, ended = self._core.step(a)
@@ -117,13 +141,34 @@ class VertibenchEnv(gym.Env):
         }
         for _, e in ended:
             info.update(e)
+        obs = {k: v[0] for k, v in obs.items()}
+        self._last_state = obs["state"]
         return (
-            {k: v[0] for k, v in obs.items()},
+            obs,
             float(terms[0].sum()),
             bool(terminated[0]),
             bool(truncated[0]),
             info,
         )
+
+    def render(self):
+        """With ``render_mode="rgb_array"``: the current frame, ``(H, W, 3)`` uint8 (see the class docstring)."""
+        if self.render_mode is None:
+            gym.logger.warn("render() needs render_mode='rgb_array' when the environment is made")
+            return None
+        if self._view is None:
+            raise RuntimeError("call reset() before render()")
+        x, y, _, _, _, yaw = (float(v) for v in self._last_state[:6])
+        v = self._core.vehicle
+        return self._view.frame(x, y, yaw, float(v["length"]), float(v["width"]))
+
+    def _start_view(self, k: int, obs) -> None:
+        from .render import TopView
+
+        m = self._core.maps(k)
+        ny, nx = np.asarray(m["elevation"]).shape
+        self._view = TopView(self._core.picture(k, self.render_ppm), self.render_ppm, nx, ny, float(m["cell"]))
+        self._last_state = obs["state"]
 
     def _task_index(self, task_id: str) -> int:
         try:

@@ -7,7 +7,12 @@ method names are in :data:`PLANNER_SERVICE`.
 
 from __future__ import annotations
 
-from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+try:
+    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+except ImportError as _e:  # pragma: no cover - depends on what is installed
+    raise ImportError(
+        "vertibench.protocol and vertibench.serve need protobuf and grpcio: pip install 'vertibench[grpc]'"
+    ) from _e
 
 from . import _core
 

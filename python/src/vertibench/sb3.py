@@ -27,14 +27,21 @@ def _pick(batched: dict, i: int) -> dict:
 
 
 class SB3VecEnv(VecEnv):
-    """``num_envs`` vertibench environments as an SB3 ``VecEnv`` (keyword arguments as :func:`vertibench.make_vec`;
-    actions are clipped to the action space by default, as SB3 expects of an environment)."""
+    """``num_envs`` vertibench environments as an SB3 ``VecEnv`` for training (keyword arguments as
+    :func:`vertibench.make_vec`; actions are clipped to the action space by default, as SB3 expects of an
+    environment). ``task_set`` defaults to the training set :func:`vertibench.tasks.training` (seed 7), never the
+    benchmark's: pass ``task_set=`` for another."""
 
     render_mode = None
 
-    def __init__(self, num_envs: int, tasks="all", clip_actions: bool = True, **kwargs):
+    def __init__(self, num_envs: int, tasks="all", clip_actions: bool = True, task_set=None, **kwargs):
+        if task_set is None:
+            from . import tasks as task_sets
+
+            task_set = task_sets.training()
         self.venv = VertibenchVectorEnv(
-            num_envs, tasks=tasks, autoreset_mode=AutoresetMode.SAME_STEP, clip_actions=clip_actions, **kwargs
+            num_envs, tasks=tasks, task_set=task_set, autoreset_mode=AutoresetMode.SAME_STEP,
+            clip_actions=clip_actions, **kwargs
         )
         super().__init__(num_envs, self.venv.single_observation_space, self.venv.single_action_space)
         self._actions = None

@@ -107,7 +107,10 @@ def serve(planner: Planner, address: str | None = None, *, version: str = "", bl
     one at a time. With ``block=False`` returns the started ``grpc.Server`` (call ``stop(None)`` on it)."""
     from concurrent import futures
 
-    import grpc
+    try:
+        import grpc
+    except ImportError:
+        raise ImportError("serve() needs grpcio: pip install 'vertibench[grpc]'") from None
 
     address = address or os.environ.get("VB_PLANNER_ADDR") or DEFAULT_ADDR
     servicer = _Servicer(planner, version)

@@ -7,10 +7,11 @@ from typing import Any
 
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.utils import EzPickle
 from gymnasium.vector.utils import batch_space
 
 from . import _core
-from ._spaces import REWARD_TERMS, action_space, core_kwargs, observation_space
+from ._spaces import REWARD_TERMS, action_space, check_action_shape, check_int, core_kwargs, observation_space
 
 _MODES = {
     AutoresetMode.NEXT_STEP: "next_step",
@@ -19,7 +20,7 @@ _MODES = {
 }
 
 
-class VertibenchVectorEnv(VectorEnv):
+class VertibenchVectorEnv(VectorEnv, EzPickle):
     """``num_envs`` vertibench environments (see :func:`vertibench.make_vec` for the options).
 
     ``step`` returns ``(obs, reward, terminated, truncated, info)`` with NumPy arrays over the environments;
@@ -27,7 +28,7 @@ class VertibenchVectorEnv(VectorEnv):
     for the environments whose episode ended on this step (mask ``info["_outcome"]``): ``outcome``, ``success``,
     ``reason``, ``detail`` and ``metrics`` (a dict of arrays). With ``autoreset_mode=SAME_STEP`` the last observation
     is in ``info["final_obs"]`` and the ended episode's info in ``info["final_info"]``, as gymnasium's own vector
-    environments do.
+    environments do. The vector pickles by its options (``EzPickle``): an unpickled copy needs ``reset()``.
     """
 
     def __init__(
@@ -49,7 +50,22 @@ class VertibenchVectorEnv(VectorEnv):
         clip_actions: bool = False,
         num_threads: int | None = None,
     ):
-        mode = AutoresetMode(autoreset_mode) if isinstance(autoreset_mode, str) else autoreset_mode
+        EzPickle.__init__(
+            self, num_envs, tasks=tasks, task_set=task_set, vehicle=vehicle, scale=scale,
+            control_rate_hz=control_rate_hz, crop_size=crop_size, crop_resolution=crop_resolution, rules=rules,
+            max_time=max_time, reward=reward, autoreset_mode=autoreset_mode, task_order=task_order,
+            clip_actions=clip_actions, num_threads=num_threads,
+        )
+        num_envs = check_int(num_envs, "num_envs", 1, 4096)
+        if num_threads is not None:
+            num_threads = check_int(num_threads, "num_threads", 1)
+        if task_order not in ("random", "cycle"):
+            raise ValueError(f"task_order={task_order!r} is not 'random' or 'cycle'")
+        try:
+            mode = AutoresetMode(autoreset_mode) if isinstance(autoreset_mode, str) else AutoresetMode(autoreset_mode)
+        except ValueError:
+            modes = [m.value for m in AutoresetMode]
+            raise ValueError(f"autoreset_mode={autoreset_mode!r} is not one of {modes}") from None
         self._core = _core.VecCore(
             num_envs,
             autoreset=_MODES[mode],
@@ -115,7 +131,7 @@ class VertibenchVectorEnv(VectorEnv):
         return obs, {"task_id": self._task_ids[self._tasks]}
 
     def step(self, actions):
-        a = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, 3)
+        a = check_action_shape(actions, (self.num_envs, 3), "actions")
         if self.clip_actions:
             a = np.clip(a, self._lo, self._hi)
         obs, terms, terminated, truncated, was_reset, task_index, ended = self._core.step(a)

@@ -1,5 +1,6 @@
 //! The native core of the `vertibench` Python package (`vertibench._core`): vector environments stepped in Rust
-//! threads ([`py_vec::VecCore`]), in-process evaluation ([`py_eval::evaluate`]) and the facts Python needs about the simulator and the task set.
+//! threads ([`py_vec::VecCore`]), in-process evaluation ([`py_eval::evaluate`]) the facts Python needs about the simulator, and task sets (the benchmark's compiled in, training sets generated
+//! from a seed; [`task_data`]).
 
 mod bench;
 mod convert;
@@ -8,14 +9,10 @@ mod py_eval;
 mod py_vec;
 mod slot;
 mod source;
+mod task_data;
+mod threads;
 
 use pyo3::prelude::*;
-
-/// The committed task set's directory, as built into this package.
-#[pyfunction]
-fn default_task_dir() -> String {
-    tasks::TaskSet::default_dir().display().to_string()
-}
 
 /// Names of the vehicles in the catalogue.
 #[pyfunction]
@@ -39,7 +36,12 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("STATE_FIELDS", obs::STATE_FIELDS.to_vec())?;
     m.add("GOAL_FIELDS", obs::GOAL_FIELDS.to_vec())?;
     m.add("SPLITS", eval::run::SPLITS.to_vec())?;
-    m.add_function(wrap_pyfunction!(default_task_dir, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("BENCHMARK_SEED", tasks::generate::DEFAULT_SEED)?;
+    m.add_function(wrap_pyfunction!(task_data::py_benchmark_dir, m)?)?;
+    m.add_function(wrap_pyfunction!(task_data::benchmark_task_version, m)?)?;
+    m.add_function(wrap_pyfunction!(task_data::generate, m)?)?;
+    m.add_function(wrap_pyfunction!(task_data::task_set_info, m)?)?;
     m.add_function(wrap_pyfunction!(vehicles, m)?)?;
     m.add_class::<py_vec::VecCore>()?;
     m.add_function(wrap_pyfunction!(py_eval::evaluate, m)?)?;

@@ -4,6 +4,7 @@
 use crate::obs::{ObsBuf, GOAL_FIELDS, STATE_FIELDS};
 use crate::slot::{Autoreset, Settings, Slot, TaskOrder};
 use crate::source::Source;
+use crate::threads::{default_threads, on_local_pool, ForkSafePool};
 use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
@@ -26,7 +27,7 @@ pub struct VecCore {
     src: Source,
     set: Settings,
     slots: Vec<Slot>,
-    pool: Option<rayon::ThreadPool>,
+    pool: ForkSafePool,
 }
 
 /// Options of the episode rules, from Python keyword arguments.
@@ -50,16 +51,13 @@ impl VecCore {
         &mut self,
         py: Python<'_>,
         f: impl Fn(&mut Slot, &Source, &Settings) -> R + Send + Sync,
-    ) -> Vec<R> {
+    ) -> PyResult<Vec<R>> {
         let (src, set, slots) = (&self.src, &self.set, &mut self.slots);
-        let pool = self.pool.as_ref();
-        py.detach(|| {
-            let mut work = move || slots.par_iter_mut().map(|s| f(s, src, set)).collect();
-            match pool {
-                Some(p) => p.install(work),
-                None => work(),
-            }
-        })
+        if self.pool.serial() {
+            return Ok(py.detach(|| slots.iter_mut().map(|s| f(s, src, set)).collect()));
+        }
+        let pool = self.pool.get()?;
+        Ok(py.detach(|| pool.install(|| slots.par_iter_mut().map(|s| f(s, src, set)).collect())))
     }
 
     fn obs_dict<'py>(
@@ -168,7 +166,11 @@ impl VecCore {
         let tasks = tasks.to_string();
         let vehicle = vehicle.to_string();
         let src = py
-            .detach(|| Source::load(&task_dir, &tasks, &vehicle, scale, episode))
+            .detach(|| {
+                on_local_pool(default_threads(usize::MAX), || {
+                    Source::load(&task_dir, &tasks, &vehicle, scale, episode)
+                })
+            })?
             .map_err(bad)?;
         let crop = match crop_size {
             0 => None,
@@ -216,13 +218,13 @@ impl VecCore {
             o => return Err(bad(format!("task_order `{o}` is not random or cycle"))),
         };
         let pool = match num_threads {
-            None => None,
-            Some(t) => Some(
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(t.max(1))
-                    .build()
-                    .map_err(|e| PyRuntimeError::new_err(e.to_string()))?,
-            ),
+            Some(0) => {
+                return Err(bad(
+                    "num_threads=0: give at least 1, or None for every core",
+                ))
+            }
+            Some(t) => ForkSafePool::new(t.min(num_envs)),
+            None => ForkSafePool::new(default_threads(num_envs)),
         };
         let slots = (0..num_envs)
             .map(|i| Slot::new(i, num_envs, crop.as_ref()))
@@ -283,6 +285,33 @@ impl VecCore {
             return Err(bad(format!("task index {k} is out of range")));
         }
         crate::convert::maps(py, &self.src.get(k).0.world)
+    }
+
+    /// A top view of selected task `k`'s world, north up, `ppm` pixels per heightmap sample: hill shade tinted by
+    /// semantic class, obstacles, the task's global path (red), start (green) and goal (blue); `(H, W, 3)` uint8.
+    fn picture<'py>(
+        &self,
+        py: Python<'py>,
+        k: usize,
+        ppm: u32,
+    ) -> PyResult<Bound<'py, numpy::PyArray3<u8>>> {
+        if k >= self.src.tasks.len() {
+            return Err(bad(format!("task index {k} is out of range")));
+        }
+        if !(1..=16).contains(&ppm) {
+            return Err(bad(format!("ppm={ppm} must be in 1..=16")));
+        }
+        let (lw, t) = self.src.get(k);
+        let record = tasks::format::WorldRecord {
+            world: lw.world.clone(),
+            tasks: vec![t.clone()],
+            terrain: None,
+        };
+        let img = py.detach(|| tasks::render::render_world(&record, ppm));
+        let (w, h) = (img.width() as usize, img.height() as usize);
+        Array3::from_shape_vec((h, w, 3), img.into_raw())
+            .map(|a| a.into_pyarray(py))
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))
     }
 
     #[getter]
@@ -374,7 +403,7 @@ impl VecCore {
             if mask[slot.index] {
                 slot.reset(src, set, picks[slot.index]);
             }
-        });
+        })?;
         let tasks = self.slots.iter().map(|s| s.task).collect();
         Ok((self.obs_dict(py, |s| &s.obs, &self.all())?, tasks))
     }
@@ -413,7 +442,7 @@ impl VecCore {
                 brake: r[2],
             })
             .collect();
-        let results = self.run(py, |slot, src, set| slot.step(src, set, acts[slot.index]));
+        let results = self.run(py, |slot, src, set| slot.step(src, set, acts[slot.index]))?;
         if let Some(e) = results.into_iter().find_map(Result::err) {
             return Err(PyRuntimeError::new_err(e));
         }
