@@ -132,10 +132,16 @@ def test_version_is_the_package_version():
     (dict(max_time=float("nan")), ValueError, "max_time=nan"),
     (dict(rules="strict"), ValueError, "rules='strict'"),
     (dict(render_mode="human"), ValueError, "render_mode='human'"),
+    (dict(vehicle="tank"), ValueError, "vehicle='tank'"),
+    (dict(task_set="/nonexistent"), ValueError, "task_set='/nonexistent'"),
+    (dict(reward={"speed": 1.0}), ValueError, "reward= has unknown weights"),
+    (dict(tasks="low"), ValueError, "give task= .* or tasks= .*, not both"),
 ])
 def test_bad_options_name_the_parameter(kwargs, error, message):
     with pytest.raises(error, match=message):
         vb.make(TASK, **kwargs)
+    with pytest.raises(ValueError, match="parameter `tasks`: `lowish` is not"):
+        vb.make(tasks="lowish")
 
 
 def test_vector_options_name_the_parameter():

@@ -52,7 +52,7 @@ def reward_weights(reward: dict | None) -> list[float] | None:
     defaults = dict(DEFAULT_REWARD)
     unknown = set(reward) - set(defaults)
     if unknown:
-        raise ValueError(f"unknown reward weights {sorted(unknown)}; known: {sorted(defaults)}")
+        raise ValueError(f"reward= has unknown weights {sorted(unknown)}; known: {sorted(defaults)}")
     defaults.update(reward)
     return [float(defaults[k]) for k in DEFAULT_REWARD]
 
@@ -104,8 +104,15 @@ def core_kwargs(
             check_positive(value, name)
     if rules not in ("paper", "release"):
         raise ValueError(f"rules={rules!r} is not 'paper' or 'release'")
-    if not isinstance(vehicle, str):
-        raise TypeError(f"vehicle={vehicle!r} must be a vehicle name (vertibench.vehicles())")
+    known = list(_core.vehicles())
+    if vehicle not in known:
+        raise ValueError(f"vehicle={vehicle!r} is not a vehicle of the catalogue: {', '.join(known)}")
+    if task_set is not None:
+        from pathlib import Path
+
+        if not (Path(task_set) / "manifest.json").is_file():
+            raise ValueError(f"task_set={str(task_set)!r} holds no task set (no manifest.json): give a directory "
+                             "made by vertibench.tasks.generate or vb tasks generate, or None for the benchmark's")
     return dict(
         task_dir=str(task_set) if task_set is not None else default_task_set(),
         tasks=task_spec(tasks),

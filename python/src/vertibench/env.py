@@ -55,6 +55,8 @@ class VertibenchEnv(gym.Env, EzPickle):
             crop_size=crop_size, crop_resolution=crop_resolution, rules=rules, max_time=max_time, reward=reward,
             clip_actions=clip_actions, render_mode=render_mode, render_ppm=render_ppm,
         )
+        if task is not None and not (isinstance(tasks, str) and tasks == "all"):
+            raise ValueError(f"give task= (one task) or tasks= (a selection), not both: task={task!r}, tasks={tasks!r}")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode={render_mode!r} is not None or 'rgb_array'")
         if isinstance(render_ppm, bool) or not isinstance(render_ppm, int) or not 1 <= render_ppm <= 16:
