@@ -1,0 +1,47 @@
+//! A dataset's identity: what every episode in it shares. A run into a directory that holds a dataset of another
+//! spec is refused; the spec is written into `meta/info.json` (under `vertibench`).
+
+use crate::record::DatasetKind;
+use serde::{Deserialize, Serialize};
+
+/// Whether frames carry map crops.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Variant {
+    /// No crops: the Python reader rebuilds them from the task set and the pose.
+    Lite,
+    /// Heading-aligned elevation and semantics crops in every frame, float16.
+    Full,
+}
+
+/// Heading-aligned map crops: `size x size` cells of `resolution` m.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CropSpec {
+    pub size: usize,
+    pub resolution: f64,
+}
+
+/// What every episode of a dataset shares.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DatasetSpec {
+    pub kind: DatasetKind,
+    pub variant: Variant,
+    /// Vehicle name (LeRobot's `robot_type`) and its number of wheels (track contacts): the wheel features' rows.
+    pub vehicle: String,
+    pub wheels: usize,
+    /// World scale.
+    pub scale: f64,
+    /// Frames per simulated second (LeRobot's `fps`).
+    pub control_rate_hz: f64,
+    /// The crops' geometry: the full variant stores them, the lite one says how to rebuild them.
+    pub crop: CropSpec,
+    pub sim_version: String,
+    pub task_set_version: String,
+    /// The task set's master seed (`None` for imported sets).
+    pub task_set_seed: Option<u64>,
+    /// The run's seed: episode `i` draws from it and `i` alone.
+    pub seed: u64,
+    /// True when made from the benchmark's own tasks (`--allow-benchmark-tasks`): for analysis, never for
+    /// training a system evaluated on the benchmark.
+    pub analysis_only: bool,
+}
