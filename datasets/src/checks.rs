@@ -51,7 +51,7 @@ pub(crate) fn check_frames(
     rows: &[EpisodeRow],
     next: (u64, u64),
     fps: f64,
-    tasks: &[String],
+    tasks: Option<&[String]>,
 ) {
     let (mut episode, mut index) = next;
     let ranges = f.episode_ranges();
@@ -86,9 +86,11 @@ pub(crate) fn check_frames(
                 );
             }
         }
-        let task = rows
-            .get(k)
-            .and_then(|r| tasks.iter().position(|t| *t == r.task));
+        // The episode's task index, when both the task table and the episode's metadata could be read.
+        let task = match (tasks, rows.get(k)) {
+            (Some(ts), Some(row)) => Some(ts.iter().position(|t| *t == row.task)),
+            _ => None,
+        };
         for (j, r) in range.clone().enumerate() {
             if f.index[r] as u64 != index {
                 c.add(
@@ -116,8 +118,9 @@ pub(crate) fn check_frames(
                 );
             }
             match task {
-                Some(t) if f.task_index[r] == t as i64 => {}
-                _ => c.add(
+                None => {}
+                Some(Some(t)) if f.task_index[r] == t as i64 => {}
+                Some(_) => c.add(
                     rel,
                     Some("task_index"),
                     format!(

@@ -15,7 +15,7 @@ use crate::frames::{columns, FrameColumns};
 use crate::layout::{scan, FileId, CARD, INFO, TASKS};
 use crate::meta::read_info;
 use crate::parquet_read::read_table;
-use crate::resume::KEY_SPEC;
+use crate::resume::{KEY_LAYOUT, KEY_SPEC};
 use crate::spec::DatasetSpec;
 use crate::stats::Stats;
 use std::fmt;
@@ -111,11 +111,11 @@ pub fn validate(dir: &Path) -> Result<Report, DatasetError> {
             None
         }
     };
-    let spec = match &info {
-        Some(i) => Some(i.vertibench.spec.clone()),
-        None => footer_spec(dir, &s),
+    let identity = match &info {
+        Some(i) => Some((i.vertibench.spec.clone(), i.chunks_size)),
+        None => footer_identity(dir, &s),
     };
-    let Some(spec) = spec else {
+    let Some((spec, chunks)) = identity else {
         c.add(
             INFO,
             None,
@@ -127,13 +127,12 @@ pub fn validate(dir: &Path) -> Result<Report, DatasetError> {
         check_info(&mut c, i, &spec);
     }
     let tasks = match read_tasks(&dir.join(TASKS)) {
-        Ok(t) => t,
+        Ok(t) => Some(t),
         Err(e) => {
             c.error(TASKS, &e);
-            Vec::new()
+            None
         }
     };
-    let chunks = info.as_ref().map_or(1000, |i| i.chunks_size);
     let n = s.data.len().max(s.episodes.len());
     let mut stats = Stats::new(&spec);
     let mut stats_ok = true;
@@ -212,7 +211,15 @@ pub fn validate(dir: &Path) -> Result<Report, DatasetError> {
                     }
                     Ok(f) => {
                         let fps = spec.control_rate_hz;
-                        check_frames(&mut c, &drel, &f, &rows, (episodes, frames), fps, &tasks);
+                        check_frames(
+                            &mut c,
+                            &drel,
+                            &f,
+                            &rows,
+                            (episodes, frames),
+                            fps,
+                            tasks.as_deref(),
+                        );
                         stats.add(&f);
                         frames += f.rows as u64;
                         episodes += f.episode_ranges().len() as u64;
@@ -225,7 +232,11 @@ pub fn validate(dir: &Path) -> Result<Report, DatasetError> {
         for (field, there, here) in [
             ("total_frames", i.total_frames, frames),
             ("total_episodes", i.total_episodes, episodes),
-            ("total_tasks", i.total_tasks, tasks.len() as u64),
+            (
+                "total_tasks",
+                i.total_tasks,
+                tasks.as_ref().map_or(i.total_tasks, |t| t.len() as u64),
+            ),
         ] {
             if there != here {
                 c.add(INFO, Some(field), format!("{there}, the files hold {here}"));
@@ -273,13 +284,15 @@ fn report(
     }
 }
 
-/// The spec in the footer of the first data or episode file (when `info.json` is unusable).
-fn footer_spec(dir: &Path, s: &crate::layout::Scan) -> Option<DatasetSpec> {
+/// The spec and files per chunk in the footer of the first data or episode file (when `info.json` is unusable).
+fn footer_identity(dir: &Path, s: &crate::layout::Scan) -> Option<(DatasetSpec, u64)> {
     let first = s
         .episodes
         .first()
         .map(|id| id.episodes())
         .or_else(|| s.data.first().map(|id| id.data()))?;
     let (_, kv) = crate::parquet_read::read_footer(&dir.join(first)).ok()?;
-    serde_json::from_str(kv.get(KEY_SPEC)?).ok()
+    let spec = serde_json::from_str(kv.get(KEY_SPEC)?).ok()?;
+    let layout: crate::meta::Layout = serde_json::from_str(kv.get(KEY_LAYOUT)?).ok()?;
+    Some((spec, layout.chunks_size))
 }
