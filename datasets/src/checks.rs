@@ -4,7 +4,7 @@ use crate::episodes::EpisodeRow;
 use crate::error::DatasetError;
 use crate::frames::{timestamp, FrameColumns};
 use crate::layout::{DATA_PATH_TEMPLATE, INFO, STATS, TASKS};
-use crate::meta::{features, InfoIn, CODEBASE_VERSION, FORMAT};
+use crate::meta::{checksum, features, InfoIn, CODEBASE_VERSION, FORMAT};
 use crate::spec::DatasetSpec;
 use crate::stats::{first_difference, Stats};
 use crate::validate::Problem;
@@ -234,5 +234,27 @@ pub(crate) fn check_stats(c: &mut Checker, dir: &Path, stats: &Stats, recomputab
         .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok());
     if let Some(d) = recomputed.and_then(|r| first_difference(&recorded, &r, "")) {
         c.add(STATS, None, format!("does not match the data: {d}"));
+    }
+}
+
+/// A file's bytes against its checksum in `info.json` (a file without one is named only in a finished dataset:
+/// a crash may leave completed files that `info.json` does not list yet).
+pub(crate) fn check_checksum(c: &mut Checker, dir: &Path, rel: &str, info: Option<&InfoIn>) {
+    let Some(info) = info else { return };
+    let bytes = match std::fs::read(dir.join(rel)) {
+        Ok(b) => b,
+        Err(e) => return c.add(rel, None, e.to_string()),
+    };
+    match info.vertibench.checksums.get(rel) {
+        Some(sum) if *sum == checksum(&bytes) => {}
+        Some(_) => c.add(
+            rel,
+            None,
+            format!(
+                "its bytes do not match its checksum in {INFO}: the file was changed or damaged"
+            ),
+        ),
+        None if info.vertibench.complete => c.add(rel, None, format!("no checksum in {INFO}")),
+        None => {}
     }
 }

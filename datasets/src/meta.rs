@@ -54,6 +54,10 @@ pub struct VertibenchInfo {
     pub command: String,
     pub layout: Layout,
     pub totals: Totals,
+    /// The SHA-256 of every completed data and episode metadata file (`sha256:<hex>`, by relative path), so
+    /// `validate` names a file whose bytes changed.
+    #[serde(default)]
+    pub checksums: BTreeMap<String, String>,
 }
 
 /// `meta/info.json`.
@@ -162,14 +166,8 @@ pub fn features(spec: &DatasetSpec) -> Ordered<Feature> {
 }
 
 /// Builds `info.json`'s content.
-pub fn info(
-    spec: &DatasetSpec,
-    command: &str,
-    layout: &Layout,
-    totals: Totals,
-    total_tasks: u64,
-    complete: bool,
-) -> Info {
+pub fn info(vertibench: VertibenchInfo, total_tasks: u64) -> Info {
+    let (spec, layout, totals) = (&vertibench.spec, &vertibench.layout, &vertibench.totals);
     Info {
         codebase_version: CODEBASE_VERSION.into(),
         robot_type: spec.vehicle.clone(),
@@ -183,15 +181,19 @@ pub fn info(
         data_path: DATA_PATH_TEMPLATE.into(),
         video_path: None,
         features: features(spec),
-        vertibench: VertibenchInfo {
-            format: FORMAT.into(),
-            complete,
-            spec: spec.clone(),
-            command: command.into(),
-            layout: layout.clone(),
-            totals,
-        },
+        vertibench,
     }
+}
+
+/// `sha256:<hex>` of a file's bytes.
+pub fn checksum(bytes: &[u8]) -> String {
+    use sha2::Digest;
+    let digest = sha2::Sha256::digest(bytes);
+    let mut s = String::from("sha256:");
+    for b in digest {
+        s += &format!("{b:02x}");
+    }
+    s
 }
 
 /// Reads `info.json`.

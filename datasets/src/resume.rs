@@ -10,7 +10,7 @@ use crate::episodes::{read_episodes, EpisodeRow};
 use crate::error::DatasetError;
 use crate::frames::{columns, FrameColumns};
 use crate::layout::{scan, FileId, INFO};
-use crate::meta::{differences, read_info, Layout, FORMAT};
+use crate::meta::{checksum, differences, read_info, Layout, FORMAT};
 use crate::parquet_read::{read_footer, read_table};
 use crate::plot::CardData;
 use crate::spec::DatasetSpec;
@@ -30,6 +30,7 @@ pub struct Existing {
     pub tasks: Vec<String>,
     pub stats: Stats,
     pub card: CardData,
+    pub checksums: std::collections::BTreeMap<String, String>,
     /// `info.json` says the run finished.
     pub complete: bool,
 }
@@ -140,6 +141,7 @@ pub fn load(
         tasks: Vec::new(),
         stats: Stats::new(spec),
         card: CardData::default(),
+        checksums: Default::default(),
         complete: info.as_ref().is_some_and(|i| i.vertibench.complete),
     };
     let mut frame = 0u64;
@@ -147,6 +149,20 @@ pub fn load(
         let id = FileId::nth(k, chunks);
         let epath = root.join(id.episodes());
         let rows = read_episodes(&epath, spec)?;
+        for rel in [id.data(), id.episodes()] {
+            let p = root.join(&rel);
+            let bytes = std::fs::read(&p).map_err(|e| DatasetError::io(&p, e))?;
+            let sum = checksum(&bytes);
+            let recorded = info.as_ref().and_then(|i| i.vertibench.checksums.get(&rel));
+            if recorded.is_some_and(|r| *r != sum) {
+                return Err(DatasetError::damaged(
+                    &p,
+                    "its bytes do not match its checksum in meta/info.json: restore it or remove the directory \
+                     to start over",
+                ));
+            }
+            out.checksums.insert(rel, sum);
+        }
         for r in &rows {
             let want = out.episodes.len() as u64;
             if r.index != want

@@ -8,11 +8,11 @@
 //! against a recomputation; and completeness (the finished marker, no temporary files, the card). Damaged input
 //! (truncated files, garbage JSON) is a problem in the report, never a panic.
 
-use crate::checks::{check_frames, check_info, check_stats, Checker};
+use crate::checks::{check_checksum, check_frames, check_info, check_stats, Checker};
 use crate::episodes::{read_episodes, read_tasks};
 use crate::error::DatasetError;
 use crate::frames::{columns, FrameColumns};
-use crate::layout::{scan, FileId, CARD, INFO, TASKS};
+use crate::layout::{scan, FileId, CARD, INFO, STATS, TASKS};
 use crate::meta::read_info;
 use crate::parquet_read::read_table;
 use crate::resume::{KEY_LAYOUT, KEY_SPEC};
@@ -181,50 +181,30 @@ pub fn validate(dir: &Path) -> Result<Report, DatasetError> {
                 );
             }
         }
-        if !has.0 {
-            stats_ok = false;
-            continue;
-        }
-        match read_table(&dir.join(&drel), &columns(&spec)) {
-            Err(e) => {
-                c.error(&drel, &e);
-                stats_ok = false;
+        for (rel, present) in [(&drel, has.0), (&erel, has.1)] {
+            if present {
+                check_checksum(&mut c, dir, rel, info.as_ref());
             }
-            Ok(table) => {
-                if table
-                    .metadata
-                    .get(KEY_SPEC)
-                    .and_then(|j| serde_json::from_str::<DatasetSpec>(j).ok())
-                    .as_ref()
-                    != Some(&spec)
-                {
-                    c.add(
-                        &drel,
-                        Some(KEY_SPEC),
-                        "the footer's spec is not meta/info.json's",
-                    );
-                }
-                match FrameColumns::from_table(&spec, table) {
-                    Err(m) => {
-                        c.add(&drel, None, m);
-                        stats_ok = false;
-                    }
-                    Ok(f) => {
-                        let fps = spec.control_rate_hz;
-                        check_frames(
-                            &mut c,
-                            &drel,
-                            &f,
-                            &rows,
-                            (episodes, frames),
-                            fps,
-                            tasks.as_deref(),
-                        );
-                        stats.add(&f);
-                        frames += f.rows as u64;
-                        episodes += f.episode_ranges().len() as u64;
-                    }
-                }
+        }
+        let read = if has.0 {
+            read_frames(&mut c, dir, &drel, &spec)
+        } else {
+            None
+        };
+        match read {
+            Some(f) => {
+                let fps = spec.control_rate_hz;
+                let next = (episodes, frames);
+                check_frames(&mut c, &drel, &f, &rows, next, fps, tasks.as_deref());
+                stats.add(&f);
+                frames += f.rows as u64;
+                episodes += f.episode_ranges().len() as u64;
+            }
+            None => {
+                // Go on from what the metadata says, so later files are not all reported out of place.
+                stats_ok = false;
+                frames += rows.iter().map(|r| r.length).sum::<u64>();
+                episodes += rows.len() as u64;
             }
         }
     }
@@ -251,6 +231,11 @@ pub fn validate(dir: &Path) -> Result<Report, DatasetError> {
         }
     }
     check_stats(&mut c, dir, &stats, stats_ok);
+    for rel in [TASKS, STATS] {
+        if dir.join(rel).is_file() {
+            check_checksum(&mut c, dir, rel, info.as_ref());
+        }
+    }
     let finished = info.as_ref().is_some_and(|i| i.vertibench.complete);
     if info.is_some() && !finished {
         c.add(
@@ -281,6 +266,35 @@ fn report(
         frames,
         data_files,
         problems: c.problems,
+    }
+}
+
+/// Reads a data file's frames, reporting why it cannot be read.
+fn read_frames(c: &mut Checker, dir: &Path, rel: &str, spec: &DatasetSpec) -> Option<FrameColumns> {
+    let table = match read_table(&dir.join(rel), &columns(spec)) {
+        Ok(t) => t,
+        Err(e) => {
+            c.error(rel, &e);
+            return None;
+        }
+    };
+    let footer = table
+        .metadata
+        .get(KEY_SPEC)
+        .and_then(|j| serde_json::from_str::<DatasetSpec>(j).ok());
+    if footer.as_ref() != Some(spec) {
+        c.add(
+            rel,
+            Some(KEY_SPEC),
+            "the footer's spec is not meta/info.json's",
+        );
+    }
+    match FrameColumns::from_table(spec, table) {
+        Ok(f) => Some(f),
+        Err(m) => {
+            c.add(rel, None, m);
+            None
+        }
     }
 }
 

@@ -12,7 +12,7 @@ use crate::episodes::{task_string, write_episodes, write_tasks, EpisodeRow};
 use crate::error::DatasetError;
 use crate::frames::{check_record, row_bytes, FrameColumns};
 use crate::layout::{write_atomic, FileId, INFO, STATS, TASKS};
-use crate::meta::{info, Layout, Totals};
+use crate::meta::{checksum, info, Layout, Totals, VertibenchInfo, FORMAT};
 use crate::parquet_io::write_table;
 use crate::plot::CardData;
 use crate::record::EpisodeRecord;
@@ -82,6 +82,8 @@ pub struct DatasetWriter {
     card: CardData,
     pending: FrameColumns,
     pending_rows: Vec<EpisodeRow>,
+    /// [`crate::meta::VertibenchInfo::checksums`] of the completed files.
+    checksums: BTreeMap<String, String>,
     /// `info.json` on disk says complete (a finished dataset reopened).
     info_complete: bool,
     /// Set by a failed write: the writer refuses further work (the directory stays resumable).
@@ -156,6 +158,7 @@ impl DatasetWriter {
             card: CardData::default(),
             pending: FrameColumns::new(spec),
             pending_rows: Vec::new(),
+            checksums: BTreeMap::new(),
             info_complete: false,
             failed: None,
             resumed_from: ResumePoint::default(),
@@ -171,6 +174,7 @@ impl DatasetWriter {
                 w.tasks = e.tasks;
                 w.stats = e.stats;
                 w.card = e.card;
+                w.checksums = e.checksums;
                 w.info_complete = e.complete;
                 if !e.complete {
                     // Brings meta/ up to the completed files (it may be missing or behind after a crash).
@@ -286,9 +290,11 @@ impl DatasetWriter {
         let data = self.root.join(id.data());
         let bytes = write_table(&data, frames.into_columns(&self.spec), &footer)?;
         write_atomic(&data, &bytes)?;
+        self.checksums.insert(id.data(), checksum(&bytes));
         let eps = self.root.join(id.episodes());
         let bytes = write_episodes(&eps, &self.spec, &self.pending_rows, &footer)?;
         write_atomic(&eps, &bytes)?;
+        self.checksums.insert(id.episodes(), checksum(&bytes));
         self.episodes.append(&mut self.pending_rows);
         self.files += 1;
         self.stats = stats;
@@ -311,22 +317,36 @@ impl DatasetWriter {
     fn write_info(&self, complete: bool) -> Result<(), DatasetError> {
         let path = self.root.join(INFO);
         let i = info(
-            &self.spec,
-            &self.command,
-            &self.layout,
-            self.totals(),
+            VertibenchInfo {
+                format: FORMAT.into(),
+                complete,
+                spec: self.spec.clone(),
+                command: self.command.clone(),
+                layout: self.layout.clone(),
+                totals: self.totals(),
+                checksums: self.checksums.clone(),
+            },
             self.tasks.len() as u64,
-            complete,
         );
         write_atomic(&path, &crate::json::to_bytes(&path, &i)?)
     }
 
-    /// `tasks.parquet`, `stats.json`, then `info.json` (last: it says what the others describe).
-    fn write_meta(&self, complete: bool) -> Result<(), DatasetError> {
+    /// `tasks.parquet` and `stats.json`, their checksums kept for `info.json`.
+    fn write_tasks_and_stats(&mut self) -> Result<(), DatasetError> {
         let tasks = self.root.join(TASKS);
-        write_atomic(&tasks, &write_tasks(&tasks, &self.tasks)?)?;
+        let bytes = write_tasks(&tasks, &self.tasks)?;
+        write_atomic(&tasks, &bytes)?;
+        self.checksums.insert(TASKS.into(), checksum(&bytes));
         let stats = self.root.join(STATS);
-        write_atomic(&stats, &self.stats.to_bytes(&stats)?)?;
+        let bytes = self.stats.to_bytes(&stats)?;
+        write_atomic(&stats, &bytes)?;
+        self.checksums.insert(STATS.into(), checksum(&bytes));
+        Ok(())
+    }
+
+    /// `tasks.parquet`, `stats.json`, then `info.json` (last: it says what the others describe).
+    fn write_meta(&mut self, complete: bool) -> Result<(), DatasetError> {
+        self.write_tasks_and_stats()?;
         self.write_info(complete)
     }
 
@@ -335,10 +355,7 @@ impl DatasetWriter {
         self.usable()?;
         self.commit()?;
         let totals = self.totals();
-        let tasks = self.root.join(TASKS);
-        write_atomic(&tasks, &write_tasks(&tasks, &self.tasks)?)?;
-        let stats = self.root.join(STATS);
-        write_atomic(&stats, &self.stats.to_bytes(&stats)?)?;
+        self.write_tasks_and_stats()?;
         write_card(
             &self.root,
             &CardInput {
