@@ -42,6 +42,7 @@ pub enum Kind {
 }
 
 /// A column's values, one entry per row (per value for fixed-shape features).
+/// Appending one to another of the same type: [`Data::append`].
 #[derive(Clone, Debug, PartialEq)]
 pub enum Data {
     F32(Vec<f32>),
@@ -58,9 +59,6 @@ pub enum Data {
     ListF32(Vec<f32>),
     ListF16(Vec<u16>),
 }
-
-/// Rows written per `write_batch` call for list columns (bounds the level buffers).
-const BATCH_ROWS: usize = 4096;
 
 pub(crate) fn perr(path: &Path) -> impl Fn(ParquetError) -> DatasetError + '_ {
     move |e| DatasetError::parquet(path, e)
@@ -197,20 +195,42 @@ fn opt_levels<T: Clone>(v: &[Option<T>]) -> (Vec<T>, Vec<i16>) {
     (present, def)
 }
 
-fn write_fixed<T: parquet::data_type::DataType>(
+/// Values written (or read) per batch: bounds the level buffers and the converted values of wide features.
+pub(crate) const BATCH_VALUES: usize = 1 << 16;
+
+/// Rows per batch of a column with `per_row` values a row.
+pub(crate) fn batch_rows(per_row: usize) -> usize {
+    (BATCH_VALUES / per_row.max(1)).max(1)
+}
+
+/// Writes a fixed-shape column batch by batch, converting each batch's values with `convert`.
+fn write_fixed<T: parquet::data_type::DataType, S>(
     w: &mut parquet::column::writer::ColumnWriterImpl<'_, T>,
-    values: &[T::T],
+    values: &[S],
     shape: &[usize],
+    convert: impl Fn(&[S]) -> Vec<T::T>,
 ) -> Result<(), ParquetError> {
     let n: usize = shape.iter().product();
     let pattern = rep_pattern(shape);
     let depth = shape.len() as i16;
-    for batch in values.chunks(n * BATCH_ROWS) {
+    for batch in values.chunks(n.max(1) * batch_rows(n)) {
         let def = vec![depth; batch.len()];
         let rep: Vec<i16> = pattern.iter().copied().cycle().take(batch.len()).collect();
-        w.write_batch(batch, Some(&def), Some(&rep))?;
+        w.write_batch(&convert(batch), Some(&def), Some(&rep))?;
     }
     Ok(())
+}
+
+/// float16 bits as the parquet crate's fixed-length values (slices of one buffer, no allocation per value).
+fn f16_values(bits: &[u16]) -> Vec<FixedLenByteArray> {
+    let bytes = Bytes::from(
+        bits.iter()
+            .flat_map(|b| b.to_le_bytes())
+            .collect::<Vec<u8>>(),
+    );
+    (0..bits.len())
+        .map(|i| FixedLenByteArray::from(ByteArray::from(bytes.slice(2 * i..2 * i + 2))))
+        .collect()
 }
 
 /// Serialises a table (one row group, snappy) into bytes, with `metadata` as the footer's key-value pairs.
@@ -327,17 +347,10 @@ pub fn write_table(
                     .map(drop)
             }
             (Data::ListF32(v), Kind::ListF32(shape)) => {
-                write_fixed(col.typed::<FloatType>(), &v, shape)
+                write_fixed(col.typed::<FloatType>(), &v, shape, <[f32]>::to_vec)
             }
             (Data::ListF16(v), Kind::ListF16(shape)) => {
-                let bytes =
-                    Bytes::from(v.iter().flat_map(|b| b.to_le_bytes()).collect::<Vec<u8>>());
-                let vals: Vec<FixedLenByteArray> = (0..v.len())
-                    .map(|i| {
-                        FixedLenByteArray::from(ByteArray::from(bytes.slice(2 * i..2 * i + 2)))
-                    })
-                    .collect();
-                write_fixed(col.typed::<FixedLenByteArrayType>(), &vals, shape)
+                write_fixed(col.typed::<FixedLenByteArrayType>(), &v, shape, f16_values)
             }
             _ => {
                 return Err(DatasetError::parquet(
@@ -351,4 +364,27 @@ pub fn write_table(
     }
     group.close().map_err(&err)?;
     writer.into_inner().map_err(&err)
+}
+
+impl Data {
+    /// Appends `other`'s values (same type), as a table read batch by batch is assembled.
+    pub fn append(&mut self, other: Data) -> Result<(), String> {
+        match (self, other) {
+            (Data::F32(a), Data::F32(b)) => a.extend(b),
+            (Data::F64(a), Data::F64(b)) => a.extend(b),
+            (Data::I64(a), Data::I64(b)) => a.extend(b),
+            (Data::U64(a), Data::U64(b)) => a.extend(b),
+            (Data::Bool(a), Data::Bool(b)) => a.extend(b),
+            (Data::Str(a), Data::Str(b)) => a.extend(b),
+            (Data::OptStr(a), Data::OptStr(b)) => a.extend(b),
+            (Data::OptF64(a), Data::OptF64(b)) => a.extend(b),
+            (Data::OptU64(a), Data::OptU64(b)) => a.extend(b),
+            (Data::OptBool(a), Data::OptBool(b)) => a.extend(b),
+            (Data::ListStr(a), Data::ListStr(b)) => a.extend(b),
+            (Data::ListF32(a), Data::ListF32(b)) => a.extend(b),
+            (Data::ListF16(a), Data::ListF16(b)) => a.extend(b),
+            _ => return Err("values of another type".into()),
+        }
+        Ok(())
+    }
 }

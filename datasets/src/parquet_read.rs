@@ -3,7 +3,7 @@
 //! expect) turned into an error naming the file.
 
 use crate::error::DatasetError;
-use crate::parquet_io::{column_type, perr, rep_pattern, Data, Kind};
+use crate::parquet_io::{batch_rows, column_type, perr, rep_pattern, Data, Kind};
 use parquet::column::reader::ColumnReader;
 use parquet::data_type::{ByteArray, FixedLenByteArray};
 use parquet::file::reader::{FileReader, SerializedFileReader};
@@ -124,57 +124,68 @@ fn read_table_inner(path: &Path, expected: &[(String, Kind)]) -> Result<Table, D
     }
     let rows = usize::try_from(meta.file_metadata().num_rows())
         .map_err(|_| DatasetError::parquet(path, "negative row count"))?;
-    let mut raws: Vec<Option<Raw>> = (0..expected.len()).map(|_| None).collect();
-    let mut levels: Vec<(Vec<i16>, Vec<i16>)> = vec![(Vec::new(), Vec::new()); expected.len()];
+    let mut columns: Vec<Data> = expected.iter().map(|(_, k)| empty(k)).collect();
+    let mut seen = 0usize;
     for g in 0..reader.num_row_groups() {
         let rg = reader.get_row_group(g).map_err(&err)?;
-        let group_rows = usize::try_from(rg.metadata().num_rows()).unwrap_or(0);
-        for (i, raw) in raws.iter_mut().enumerate() {
-            let (def, rep) = &mut levels[i];
-            let col = rg.get_column_reader(i).map_err(&err)?;
-            macro_rules! read {
-                ($r:expr, $variant:ident) => {{
-                    let mut r = $r;
-                    let mut v = Vec::new();
-                    let (n, _, _) = r
-                        .read_records(group_rows, Some(def), Some(rep), &mut v)
-                        .map_err(&err)?;
-                    if n != group_rows {
+        let group_rows = usize::try_from(rg.metadata().num_rows()).map_err(|_| {
+            DatasetError::parquet(path, format!("row group {g}: negative row count"))
+        })?;
+        seen += group_rows;
+        for (i, (name, kind)) in expected.iter().enumerate() {
+            let per_row = match kind {
+                Kind::ListF32(s) | Kind::ListF16(s) => s.iter().product(),
+                _ => 1,
+            };
+            let batch = batch_rows(per_row);
+            let mut col = rg.get_column_reader(i).map_err(&err)?;
+            let mut done = 0usize;
+            // Whole records, batch by batch: each batch decoded (and its lists checked) on its own.
+            while done < group_rows {
+                let want = batch.min(group_rows - done);
+                let (mut def, mut rep) = (Vec::new(), Vec::new());
+                macro_rules! read {
+                    ($r:expr, $variant:ident) => {{
+                        let mut v = Vec::new();
+                        let (n, _, _) = $r
+                            .read_records(want, Some(&mut def), Some(&mut rep), &mut v)
+                            .map_err(&err)?;
+                        (n, Raw::$variant(v))
+                    }};
+                }
+                let (n, raw) = match &mut col {
+                    ColumnReader::FloatColumnReader(r) => read!(r, F32),
+                    ColumnReader::DoubleColumnReader(r) => read!(r, F64),
+                    ColumnReader::Int64ColumnReader(r) => read!(r, I64),
+                    ColumnReader::BoolColumnReader(r) => read!(r, Bool),
+                    ColumnReader::ByteArrayColumnReader(r) => read!(r, Bytes),
+                    ColumnReader::FixedLenByteArrayColumnReader(r) => read!(r, Fixed),
+                    ColumnReader::Int32ColumnReader(_) | ColumnReader::Int96ColumnReader(_) => {
                         return Err(DatasetError::parquet(
                             path,
-                            format!(
-                                "column `{}`: {n} rows, the row group says {group_rows}",
-                                expected[i].0
-                            ),
-                        ));
+                            format!("column `{name}`: unexpected type"),
+                        ))
                     }
-                    match raw {
-                        Some(Raw::$variant(all)) => all.extend(v),
-                        _ => *raw = Some(Raw::$variant(v)),
-                    }
-                }};
-            }
-            match col {
-                ColumnReader::FloatColumnReader(r) => read!(r, F32),
-                ColumnReader::DoubleColumnReader(r) => read!(r, F64),
-                ColumnReader::Int64ColumnReader(r) => read!(r, I64),
-                ColumnReader::BoolColumnReader(r) => read!(r, Bool),
-                ColumnReader::ByteArrayColumnReader(r) => read!(r, Bytes),
-                ColumnReader::FixedLenByteArrayColumnReader(r) => read!(r, Fixed),
-                ColumnReader::Int32ColumnReader(_) | ColumnReader::Int96ColumnReader(_) => {
+                };
+                if n == 0 {
                     return Err(DatasetError::parquet(
                         path,
-                        format!("column `{}`: unexpected type", expected[i].0),
-                    ))
+                        format!("column `{name}`: {done} rows, row group {g} says {group_rows}"),
+                    ));
                 }
+                let at = |m: String| DatasetError::parquet(path, format!("column `{name}`: {m}"));
+                let first = seen - group_rows + done;
+                let data = decode(kind, Some(raw), &def, &rep, n, first).map_err(at)?;
+                columns[i].append(data).map_err(at)?;
+                done += n;
             }
         }
     }
-    let mut columns = Vec::with_capacity(expected.len());
-    for (((name, kind), raw), (def, rep)) in expected.iter().zip(raws).zip(levels) {
-        let data = decode(kind, raw, &def, &rep, rows)
-            .map_err(|m| DatasetError::parquet(path, format!("column `{name}`: {m}")))?;
-        columns.push(data);
+    if seen != rows {
+        return Err(DatasetError::parquet(
+            path,
+            format!("row groups hold {seen} rows, the footer says {rows}"),
+        ));
     }
     Ok(Table {
         rows,
@@ -213,6 +224,7 @@ fn check_fixed(
     def: &[i16],
     rep: &[i16],
     rows: usize,
+    first: usize,
 ) -> Result<(), String> {
     let n: usize = shape.iter().product();
     let pattern = rep_pattern(shape);
@@ -239,7 +251,8 @@ fn check_fixed(
             .count();
         if len != n || rep[s..end] != pattern[..] {
             return Err(format!(
-                "row {row}: {len} values, expected a list of shape {shape:?} ({n} values)"
+                "row {}: {len} values, expected a list of shape {shape:?} ({n} values)",
+                first + row
             ));
         }
     }
@@ -252,6 +265,7 @@ fn decode(
     def: &[i16],
     rep: &[i16],
     rows: usize,
+    first: usize,
 ) -> Result<Data, String> {
     let count = |n: usize| {
         if n == rows {
@@ -318,11 +332,11 @@ fn decode(
             Data::ListStr(out)
         }
         (Kind::ListF32(shape), Some(Raw::F32(v))) => {
-            check_fixed(shape, v.len(), def, rep, rows)?;
+            check_fixed(shape, v.len(), def, rep, rows, first)?;
             Data::ListF32(v)
         }
         (Kind::ListF16(shape), Some(Raw::Fixed(v))) => {
-            check_fixed(shape, v.len(), def, rep, rows)?;
+            check_fixed(shape, v.len(), def, rep, rows, first)?;
             Data::ListF16(
                 v.iter()
                     .map(|b| match b.data() {

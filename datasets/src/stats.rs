@@ -68,32 +68,12 @@ pub struct Stats {
     features: Vec<Feature>,
 }
 
-/// One frame's values of a feature, component by component.
+/// A feature's values, row-major, as stored.
 enum View<'a> {
     F32(&'a [f32]),
     F16(&'a [u16]),
     I64(&'a [i64]),
     Bool(&'a [bool]),
-}
-
-impl View<'_> {
-    #[inline]
-    fn get(&self, i: usize) -> f64 {
-        match self {
-            View::F32(v) => f64::from(v[i]),
-            View::F16(v) => f64::from(half::f16::from_bits(v[i]).to_f32()),
-            View::I64(v) => v[i] as f64,
-            View::Bool(v) => f64::from(u8::from(v[i])),
-        }
-    }
-    fn len(&self) -> usize {
-        match self {
-            View::F32(v) => v.len(),
-            View::F16(v) => v.len(),
-            View::I64(v) => v.len(),
-            View::Bool(v) => v.len(),
-        }
-    }
 }
 
 fn view<'a>(f: &'a FrameColumns, name: &str) -> View<'a> {
@@ -117,29 +97,38 @@ fn view<'a>(f: &'a FrameColumns, name: &str) -> View<'a> {
     }
 }
 
-/// Statistics of rows `rows` of one feature: two passes (sum, then squared deviations), row order.
-fn episode_stats(v: &View, d: usize, rows: std::ops::Range<usize>) -> Vec<Component> {
+/// Statistics of rows `rows` of one feature with `d` components: two passes (sum, then squared deviations), in
+/// row order.
+fn episode_stats<T: Copy>(
+    v: &[T],
+    x: impl Fn(T) -> f64,
+    d: usize,
+    rows: std::ops::Range<usize>,
+) -> Vec<Component> {
     let n = rows.len();
     let mut out = vec![Component::EMPTY; d];
-    if n == 0 || v.len() < rows.end * d {
+    let Some(values) = v.get(rows.start * d..rows.end * d) else {
+        return out;
+    };
+    if n == 0 || d == 0 {
         return out;
     }
     let mut sum = vec![0.0f64; d];
-    for r in rows.clone() {
-        for (c, s) in sum.iter_mut().enumerate() {
-            let x = v.get(r * d + c);
-            *s += x;
-            out[c].min = out[c].min.min(x);
-            out[c].max = out[c].max.max(x);
+    for row in values.chunks_exact(d) {
+        for ((s, o), &val) in sum.iter_mut().zip(out.iter_mut()).zip(row) {
+            let val = x(val);
+            *s += val;
+            o.min = o.min.min(val);
+            o.max = o.max.max(val);
         }
     }
-    for (c, s) in sum.iter().enumerate() {
-        out[c].n = n as u64;
-        out[c].mean = s / n as f64;
+    for (o, s) in out.iter_mut().zip(&sum) {
+        o.n = n as u64;
+        o.mean = s / n as f64;
     }
-    for r in rows {
-        for (c, o) in out.iter_mut().enumerate() {
-            let dx = v.get(r * d + c) - o.mean;
+    for row in values.chunks_exact(d) {
+        for (o, &val) in out.iter_mut().zip(row) {
+            let dx = x(val) - o.mean;
             o.m2 += dx * dx;
         }
     }
@@ -187,11 +176,16 @@ impl Stats {
             let v = view(frames, feat.name);
             let d = feat.comps.len();
             for (_, rows) in &ranges {
-                for (acc, e) in feat
-                    .comps
-                    .iter_mut()
-                    .zip(episode_stats(&v, d, rows.clone()))
-                {
+                let r = rows.clone();
+                let e = match v {
+                    View::F32(v) => episode_stats(v, f64::from, d, r),
+                    View::F16(v) => {
+                        episode_stats(v, |b| f64::from(half::f16::from_bits(b).to_f32()), d, r)
+                    }
+                    View::I64(v) => episode_stats(v, |i| i as f64, d, r),
+                    View::Bool(v) => episode_stats(v, |b| f64::from(u8::from(b)), d, r),
+                };
+                for (acc, e) in feat.comps.iter_mut().zip(e) {
                     acc.merge(&e);
                 }
             }
