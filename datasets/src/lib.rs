@@ -3,10 +3,12 @@
 //!
 //! - [`record`]: one episode's metadata and frames, as generators make them and the writer takes them.
 //! - [`spec`]: what a whole dataset is (kind, variant, vehicle, rates, versions, seed): its identity.
-//! - [`writer`]: [`DatasetWriter`] writes (and resumes) a dataset directory; [`card`] its `README.md`.
+//! - [`writer`]: [`DatasetWriter`] writes a dataset directory, [`resume`] reopens one; [`card`] and [`plot`] make
+//!   its `README.md` and pictures.
 //! - [`validate()`]: checks a directory against the format and names what is wrong; [`info`] summarises it.
-//! - The layout's pieces: [`layout`] (paths, atomic writes), [`frames`] (the per-frame table), [`episodes`]
-//!   (per-episode metadata, tasks), [`meta`] (`info.json`), [`stats`] (`stats.json`), [`parquet_io`].
+//! - The layout's pieces: [`layout`] (paths, atomic writes, directory scan), [`frames`] (the per-frame table),
+//!   [`episodes`] (per-episode metadata, tasks), [`meta`] (`info.json`), [`stats`] (`stats.json`), [`json`],
+//!   [`parquet_io`] and [`parquet_read`] (Parquet without Arrow).
 
 pub mod card;
 mod checks;

@@ -277,7 +277,10 @@ pub fn histogram_svg(h: &Hist, title: &str, unit: &str) -> String {
             base + 14.0
         );
     }
-    let mut note = format!("{unit}; bars {:.1} wide", h.width * merge as f64);
+    let mut note = format!(
+        "{unit}; bars {:.1} wide, heights in frames",
+        h.width * merge as f64
+    );
     if h.below + h.above > 0 {
         let _ = write!(note, "; {} below, {} above the range", h.below, h.above);
     }

@@ -322,3 +322,48 @@ fn random_dataset_names_its_task_by_policy() {
     assert_eq!(info["chunks_size"], 1000);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn the_card_draws_paths_over_the_task_sets_maps() {
+    let ts = tasks::TaskSet::committed().unwrap();
+    let mut spec = spec(DatasetKind::Random, Variant::Lite);
+    spec.task_set_version = ts.version().to_string();
+    let with_maps = || datasets::WriterOptions {
+        task_set: Some(ts.clone()),
+        ..tiny()
+    };
+    let (a, b) = (tmpdir("card-a"), tmpdir("card-b"));
+    write(&a, &spec, 8, with_maps());
+    write(&b, &spec, 8, with_maps());
+    assert_same(&a, &b);
+    let card = std::fs::read_to_string(a.join("README.md")).unwrap();
+    assert!(card.contains("over the world's map"), "{card}");
+    assert!(
+        card.contains("world 1 (3 episodes), world 2 (3 episodes), world 3 (2 episodes)"),
+        "{card}"
+    );
+    let png = image::open(a.join("card/paths.png")).unwrap();
+    assert!(
+        png.width() > 400 && png.height() > 400,
+        "{}x{}",
+        png.width(),
+        png.height()
+    );
+    let svg = std::fs::read_to_string(a.join("card/pitch.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("Pitch") && svg.contains("degrees"));
+
+    // A task set of another version than the spec's is refused when the card is drawn.
+    let c = tmpdir("card-c");
+    spec.task_set_version = "another-version".into();
+    let mut w = datasets::DatasetWriter::open_with(&c, &spec, "x", with_maps()).unwrap();
+    w.append(&record(&spec, 0)).unwrap();
+    let msg = w.finish().err().unwrap().to_string();
+    assert!(
+        msg.contains(ts.version()) && msg.contains("another-version"),
+        "{msg}"
+    );
+    assert!(!datasets::validate(&c).unwrap().complete);
+    for d in [a, b, c] {
+        std::fs::remove_dir_all(d).unwrap();
+    }
+}
