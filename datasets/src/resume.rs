@@ -86,7 +86,13 @@ pub fn load(
     }
     let info_path = root.join(INFO);
     let info = if info_path.is_file() {
-        let info = read_info(&info_path)?;
+        let info = read_info(&info_path).map_err(|e| match e {
+            DatasetError::Json { path, message } => DatasetError::Json {
+                path,
+                message: format!("{message} (remove it to rebuild it from the completed files)"),
+            },
+            e => e,
+        })?;
         if info.vertibench.format != FORMAT {
             return Err(DatasetError::json(
                 &info_path,

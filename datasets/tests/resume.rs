@@ -352,3 +352,25 @@ fn a_read_only_directory_is_a_clear_error() {
     assert!(!datasets::validate(&d).unwrap().complete);
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+#[test]
+fn a_garbage_info_json_is_named_and_removing_it_resumes() {
+    let (a, spec) = reference("garbage-info-a", Variant::Lite);
+    let c = tmpdir("garbage-info-c");
+    crash_after(&c, &spec, 6, "vb dataset generate --test");
+    std::fs::write(c.join("meta/info.json"), b"\x00\x01 not json").unwrap();
+    let msg = DatasetWriter::open_with(&c, &spec, "x", tiny())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        msg.contains("meta/info.json: invalid JSON") && msg.contains("remove it to rebuild it"),
+        "{msg}"
+    );
+    std::fs::remove_file(c.join("meta/info.json")).unwrap();
+    write(&c, &spec, N, tiny());
+    assert_same(&a, &c);
+    for d in [a, c] {
+        std::fs::remove_dir_all(d).unwrap();
+    }
+}
