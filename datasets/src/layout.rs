@@ -13,8 +13,14 @@ pub const CARD: &str = "README.md";
 pub const CARD_DIR: &str = "card";
 /// LeRobot's data path template (`meta/info.json`'s `data_path`).
 pub const DATA_PATH_TEMPLATE: &str = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet";
-/// The suffix of files being written.
+/// Files being written are `.<name>.tmp`: hidden, so readers that list a directory (pyarrow's datasets skip names
+/// starting with `.` or `_`) or glob `*.parquet` (LeRobot, the card's `data/*/*.parquet`) never see them.
 pub const TMP_SUFFIX: &str = ".tmp";
+
+/// Whether a file name is one of the writer's temporary files.
+pub fn is_temp(name: &str) -> bool {
+    name.starts_with('.') && name.ends_with(TMP_SUFFIX)
+}
 
 /// A data file's (and its episode metadata file's) place: `chunk-{chunk}/file-{file}`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -48,11 +54,12 @@ impl FileId {
     }
 }
 
-/// `path` with [`TMP_SUFFIX`] appended (same directory, so the rename is atomic).
+/// `dir/.name.tmp` for `dir/name` (same directory, so the rename is atomic).
 pub fn tmp_path(path: &Path) -> PathBuf {
-    let mut s = path.as_os_str().to_os_string();
-    s.push(TMP_SUFFIX);
-    PathBuf::from(s)
+    let mut name = std::ffi::OsString::from(".");
+    name.push(path.file_name().unwrap_or_default());
+    name.push(TMP_SUFFIX);
+    path.with_file_name(name)
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same directory, synced, then renamed: a reader sees
@@ -135,7 +142,7 @@ fn scan_chunks(
                         scan.unknown.push(frel);
                     } else if let Some(file) = number(&fname, "file-", ".parquet") {
                         files.push(FileId { chunk, file });
-                    } else if fname.ends_with(TMP_SUFFIX) {
+                    } else if is_temp(&fname) {
                         scan.temps.push(root.join(frel));
                     } else if !fname.starts_with('.') {
                         scan.unknown.push(frel);
@@ -172,9 +179,7 @@ pub fn scan(root: &Path) -> Result<Scan, DatasetError> {
                             scan.episodes = files;
                         }
                         ("info.json" | "stats.json" | "tasks.parquet", false) => {}
-                        (m, false) if m.ends_with(TMP_SUFFIX) => {
-                            scan.temps.push(root.join("meta").join(m))
-                        }
+                        (m, false) if is_temp(m) => scan.temps.push(root.join("meta").join(m)),
                         (m, _) if m.starts_with('.') => {}
                         (m, _) => scan.unknown.push(format!("meta/{m}")),
                     }
@@ -182,7 +187,7 @@ pub fn scan(root: &Path) -> Result<Scan, DatasetError> {
             }
             (CARD_DIR, true) => scan.any = true,
             (CARD, false) => scan.any = true,
-            (n, false) if n == "README.md.tmp" => scan.temps.push(root.join(n)),
+            (n, false) if n == ".README.md.tmp" => scan.temps.push(root.join(n)),
             (n, _) if n.starts_with('.') => {}
             (n, _) => scan.unknown.push(n.to_string()),
         }

@@ -97,8 +97,8 @@ fn leftovers_of_a_crash_are_cleaned_and_missing_meta_rebuilt() {
     let next = datasets::layout::FileId::nth(files as u64, 2);
     std::fs::create_dir_all(c.join(next.data()).parent().unwrap()).unwrap();
     std::fs::copy(a.join(next.data()), c.join(next.data())).unwrap();
-    std::fs::write(c.join("data/chunk-000/file-009.parquet.tmp"), b"PAR1 half").unwrap();
-    std::fs::write(c.join("meta/info.json.tmp"), b"{\"codebase").unwrap();
+    std::fs::write(c.join("data/chunk-000/.file-009.parquet.tmp"), b"PAR1 half").unwrap();
+    std::fs::write(c.join("meta/.info.json.tmp"), b"{\"codebase").unwrap();
     // And the meta files lost.
     for f in ["meta/info.json", "meta/stats.json", "meta/tasks.parquet"] {
         std::fs::remove_file(c.join(f)).unwrap();
@@ -109,7 +109,7 @@ fn leftovers_of_a_crash_are_cleaned_and_missing_meta_rebuilt() {
         report
             .problems
             .iter()
-            .any(|p| p.file == "data/chunk-000/file-009.parquet.tmp"),
+            .any(|p| p.file == "data/chunk-000/.file-009.parquet.tmp"),
         "{report}"
     );
     assert!(
@@ -118,7 +118,7 @@ fn leftovers_of_a_crash_are_cleaned_and_missing_meta_rebuilt() {
     );
     let mut w = DatasetWriter::open_with(&c, &spec, "vb dataset generate --test", tiny()).unwrap();
     assert_eq!(w.resume_point(), p, "the orphan data file does not count");
-    assert!(!c.join("data/chunk-000/file-009.parquet.tmp").exists());
+    assert!(!c.join("data/chunk-000/.file-009.parquet.tmp").exists());
     assert!(
         !c.join(next.data()).exists(),
         "the orphan data file is removed"
@@ -292,7 +292,7 @@ fn a_full_disk_is_a_clear_error_and_the_dataset_resumes() {
     let d = tmpdir("full-disk");
     let mut w = DatasetWriter::open_with(&d, &spec, "vb dataset generate --test", tiny()).unwrap();
     std::fs::create_dir_all(d.join("data/chunk-000")).unwrap();
-    let tmp = d.join("data/chunk-000/file-000.parquet.tmp");
+    let tmp = d.join("data/chunk-000/.file-000.parquet.tmp");
     std::os::unix::fs::symlink("/dev/full", &tmp).unwrap();
     let err = (0..N)
         .find_map(|i| w.append(&record(&spec, i)).err())
@@ -300,7 +300,7 @@ fn a_full_disk_is_a_clear_error_and_the_dataset_resumes() {
     let msg = err.to_string();
     assert!(matches!(err, DatasetError::Io { .. }), "{msg}");
     assert!(
-        msg.contains("file-000.parquet.tmp") && msg.contains("No space left on device"),
+        msg.contains(".file-000.parquet.tmp") && msg.contains("No space left on device"),
         "{msg}"
     );
     let again = w.append(&record(&spec, 5)).err().unwrap().to_string();
