@@ -3,32 +3,17 @@
 from __future__ import annotations
 
 import json
-import math
-import numbers
 import os
 from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from . import _core
-from ._spaces import default_task_set, task_spec
+from ._spaces import check_int, check_positive, default_task_set, task_spec
 from .planner import Planner, identity
 
 if TYPE_CHECKING:
     import pandas as pd
-
-
-def _positive(value, name: str, *, integer: bool = False):
-    """``value`` unless it is None; a TypeError or ValueError naming ``name`` unless it is a positive number."""
-    if value is None:
-        return None
-    kind = numbers.Integral if integer else numbers.Real
-    if isinstance(value, bool) or not isinstance(value, kind):
-        what = "an integer" if integer else "a number"
-        raise TypeError(f"{name} must be {what} or None, not {type(value).__name__}")
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be positive, not {value}")
-    return int(value) if integer else float(value)
 
 
 def _check_planner(planner) -> None:
@@ -41,14 +26,11 @@ def _check_planner(planner) -> None:
     if not isinstance(planner, Planner):
         raise TypeError("planner must be a vertibench.Planner (an instance of a subclass) or the name of a built-in "
                         f"planner such as \"pid\", not {type(planner).__name__}")
-    _positive(planner.control_rate_hz, "planner.control_rate_hz")
-    size = planner.crop_size
-    if isinstance(size, bool) or not isinstance(size, numbers.Integral) or size < 0:
-        raise ValueError(f"planner.crop_size must be a non-negative integer, not {size!r}")
-    if size > 0:
-        _positive(planner.crop_resolution, "planner.crop_resolution")
+    check_positive(planner.control_rate_hz, "planner.control_rate_hz")
+    if check_int(planner.crop_size, "planner.crop_size", 0, 512) > 0:
+        check_positive(planner.crop_resolution, "planner.crop_resolution")
     if not isinstance(planner.name, str) or not planner.name:
-        raise ValueError(f"planner.name must be a non-empty string, not {planner.name!r}")
+        raise ValueError(f"planner.name={planner.name!r} must be a non-empty string")
 
 
 def evaluate(
@@ -93,13 +75,20 @@ def evaluate(
     import pandas as pd
 
     _check_planner(planner)
-    scale = _positive(scale, "scale")
-    step_timeout = _positive(step_timeout, "step_timeout")
-    num_threads = _positive(num_threads, "num_threads", integer=True)
+    if scale is not None:
+        scale = check_positive(scale, "scale")
+    if step_timeout is not None:
+        step_timeout = check_positive(step_timeout, "step_timeout")
+    if num_threads is not None:
+        num_threads = check_int(num_threads, "num_threads", 1)
     if rules not in ("paper", "release"):
-        raise ValueError(f"rules must be 'paper' or 'release', not {rules!r}")
-    if not isinstance(vehicle, str):
-        raise TypeError(f"vehicle must be a vehicle's name (see vertibench.vehicles()), not {type(vehicle).__name__}")
+        raise ValueError(f"rules={rules!r} is not 'paper' or 'release'")
+    known = list(_core.vehicles())
+    if vehicle not in known:
+        raise ValueError(f"vehicle={vehicle!r} is not a vehicle of the catalogue: {', '.join(known)}")
+    if task_set is not None and not (Path(task_set) / "manifest.json").is_file():
+        raise ValueError(f"task_set={str(task_set)!r} holds no task set (no manifest.json): give a directory made "
+                         "by vertibench.tasks.generate or vb tasks generate, or None for the benchmark's")
     out = Path(out)
     table, complete = _core.evaluate(
         planner,
