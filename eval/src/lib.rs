@@ -2,7 +2,9 @@
 //!
 //! - [`run`]: episodes in parallel on all cores (rayon), each appended as one JSON line to `results.jsonl` as soon
 //!   as it finishes (flushed), so an interrupted evaluation resumes where it stopped: finished task ids are skipped,
-//!   a torn last line is ignored and nothing is counted twice.
+//!   a torn last line is ignored and nothing is counted twice; [`identity`] (`planner.json`) keeps another planner
+//!   from resuming it. [`prepare`] and [`Prepared::run`] split it for callers that report what a resume keeps or
+//!   cancel a running evaluation.
 //! - [`summary`]: success rate with a 95% Wilson interval, traversal time (successes only), roll and pitch, failure
 //!   mix, each broken down by elevation level, semantics kind and obstacle density; semantics success standardised
 //!   over levels; and the paired density contrasts on matched tasks (same terrain group and start/goal pair).
@@ -14,6 +16,7 @@
 //! - [`catalog`]: the benchmark as the service tier sees it, built from the physics crates for the binary that wires
 //!   the services.
 
+pub mod identity;
 pub mod move_off;
 pub mod run;
 
@@ -21,8 +24,9 @@ use contracts::Catalog;
 
 // The results' types and files live in the `results` crate (shared with the service); re-exported here so local
 // evaluation reads as one crate.
+pub use identity::{PlannerIdentity, PlannerKind, IDENTITY_FILE};
 pub use results::{charts, compare, parquet_file, report, summary, EpisodeRow, ResultsError};
-pub use run::{run, run_with, EvalConfig, PlannerFactory, SIM_VERSION};
+pub use run::{prepare, run, run_with, EvalConfig, PlannerFactory, Prepared, SIM_VERSION};
 
 /// Errors of the evaluator; each names the file or the parameter.
 #[derive(Debug, thiserror::Error)]

@@ -1,12 +1,16 @@
 //! Running the episodes of an evaluation, resumably.
 
+use crate::identity::{self, PlannerIdentity};
 use crate::{io_err, EpisodeRow, EvalError};
 use contracts::{RecordedOutcome, TaskId};
 use rayon::prelude::*;
 use sim_core::episode::EpisodeConfig;
-use sim_core::planner::Planner;
+use sim_core::planner::{Action, Planner, VehicleState};
+use sim_core::vehicle::VehicleSpec;
+use sim_core::EpisodeObserver;
 use std::collections::BTreeSet;
 use std::io::Write;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -19,7 +23,10 @@ pub use sim_core::SIM_VERSION;
 /// What to evaluate.
 #[derive(Clone, Debug)]
 pub struct EvalConfig {
+    /// The planner's label in the rows: a built-in's name (for [`run`]) or the planner's own `name`.
     pub planner: String,
+    /// Which planner runs, checked against the `planner.json` of `out` on resume; `None`: the built-in `planner`.
+    pub identity: Option<PlannerIdentity>,
     pub task_dir: PathBuf,
     /// `all`, or a comma-separated list of world ids (`17`), task ids (`w017-t3`) and named splits ([`SPLITS`]).
     pub tasks: String,
@@ -27,6 +34,8 @@ pub struct EvalConfig {
     /// World scale; `None` = the vehicle's own scale.
     pub scale: Option<f64>,
     pub out: PathBuf,
+    /// How the caller names `out` in messages: `--out` (`vb eval`), `out=` (Python).
+    pub out_param: String,
     pub episode: EpisodeConfig,
 }
 
@@ -65,29 +74,52 @@ pub type PlannerFactory<'a> = &'a (dyn Fn() -> Box<dyn Planner> + Sync);
 
 /// Runs (or resumes) an evaluation of the built-in planner `cfg.planner` and returns every row of it.
 pub fn run(cfg: &EvalConfig, progress: Progress<'_>) -> Result<Vec<EpisodeRow>, EvalError> {
-    if baselines::by_name(&cfg.planner).is_none() {
-        return Err(EvalError::Param {
-            field: "planner".into(),
-            message: format!(
-                "unknown planner `{}` (built-in: {})",
-                cfg.planner,
-                baselines::NAMES.join(", ")
-            ),
-        });
-    }
+    check_builtin(&cfg.planner)?;
     let make = || baselines::by_name(&cfg.planner).expect("checked above");
     run_with(cfg, &make, &AtomicBool::new(false), progress)
 }
 
+/// An error unless `name` is a built-in planner.
+pub fn check_builtin(name: &str) -> Result<(), EvalError> {
+    match baselines::by_name(name) {
+        Some(_) => Ok(()),
+        None => Err(EvalError::Param {
+            field: "planner".into(),
+            message: format!(
+                "unknown planner `{name}` (built-in: {})",
+                baselines::NAMES.join(", ")
+            ),
+        }),
+    }
+}
+
 /// Runs (or resumes) an evaluation of the planners `make` returns (one per episode; the rows are labelled
-/// `cfg.planner`), in parallel on the current rayon pool. Once `cancel` is set no new episode starts and the ones
-/// that finish are not recorded, so a resumed evaluation runs them again; the rows recorded so far are returned.
+/// `cfg.planner`), in parallel on the current rayon pool: [`prepare`], then [`Prepared::run`].
 pub fn run_with(
     cfg: &EvalConfig,
     make: PlannerFactory<'_>,
     cancel: &AtomicBool,
     progress: Progress<'_>,
 ) -> Result<Vec<EpisodeRow>, EvalError> {
+    prepare(cfg)?.run(make, cancel, progress)
+}
+
+/// An evaluation ready to run: its parameters checked, the rows it keeps from `results.jsonl` read and checked
+/// against its configuration and planner, `planner.json` written and `results.jsonl` open for appending.
+pub struct Prepared<'a> {
+    cfg: &'a EvalConfig,
+    vehicle: VehicleSpec,
+    scale: f64,
+    set: TaskSet,
+    selected: Vec<(u32, u32)>,
+    rows: Vec<EpisodeRow>,
+    todo: Vec<(u32, u32)>,
+    results_path: PathBuf,
+    file: std::fs::File,
+}
+
+/// Checks `cfg` and what its output directory holds, and prepares the evaluation (see [`Prepared`]).
+pub fn prepare(cfg: &EvalConfig) -> Result<Prepared<'_>, EvalError> {
     let vehicle = sim_core::vehicle::vehicle_by_name(&cfg.vehicle)?;
     let scale = cfg.scale.unwrap_or(vehicle.scale);
     if !(scale.is_finite() && scale > 0.0) {
@@ -100,14 +132,15 @@ pub fn run_with(
     let selected = select(&set, &cfg.tasks)?;
     std::fs::create_dir_all(&cfg.out).map_err(|e| io_err(&cfg.out, e))?;
     let results_path = cfg.out.join("results.jsonl");
-    let mut rows = read_results(&results_path)?;
-    // A crash can leave a torn last line: cut it off before appending, so new lines start on a line of their own.
-    if let Ok(text) = std::fs::read_to_string(&results_path) {
-        if !text.is_empty() && !text.ends_with('\n') {
-            let keep = text.rfind('\n').map_or(0, |i| i + 1);
-            std::fs::write(&results_path, &text[..keep]).map_err(|e| io_err(&results_path, e))?;
-        }
-    }
+    let rows = read_results(&results_path)?;
+    let again = |what: String| EvalError::Param {
+        field: "out".into(),
+        message: format!(
+            "{} holds results of {what}; use another {} (or delete it)",
+            cfg.out.display(),
+            cfg.out_param
+        ),
+    };
     // Rows of another configuration cannot be mixed in.
     if let Some(r) = rows.first() {
         if r.planner != cfg.planner
@@ -117,10 +150,35 @@ pub fn run_with(
             || r.sim_version != SIM_VERSION
             || r.rules != cfg.episode.rules()
         {
-            return Err(EvalError::Param {
-                field: "out".into(),
-                message: format!("{} holds results of planner {} / vehicle {} / scale {} / task set {} / {} / {} rules; use another --out", results_path.display(), r.planner, r.vehicle, r.scale, r.task_set_version, r.sim_version, r.rules.as_str()),
-            });
+            return Err(again(format!(
+                "planner {} / vehicle {} / scale {} / task set {} / {} / {} rules",
+                r.planner,
+                r.vehicle,
+                r.scale,
+                r.task_set_version,
+                r.sim_version,
+                r.rules.as_str()
+            )));
+        }
+    }
+    // Nor rows of another planner under the same label.
+    let identity = cfg
+        .identity
+        .clone()
+        .unwrap_or_else(|| PlannerIdentity::builtin(&cfg.planner));
+    if !rows.is_empty() {
+        if let Some(stored) = identity::read(&cfg.out)? {
+            if !stored.same(&identity) {
+                return Err(again(stored.difference(&identity)));
+            }
+        }
+    }
+    identity::write(&cfg.out, &identity)?;
+    // A crash can leave a torn last line: cut it off before appending, so new lines start on a line of their own.
+    if let Ok(text) = std::fs::read_to_string(&results_path) {
+        if !text.is_empty() && !text.ends_with('\n') {
+            let keep = text.rfind('\n').map_or(0, |i| i + 1);
+            std::fs::write(&results_path, &text[..keep]).map_err(|e| io_err(&results_path, e))?;
         }
     }
     let done: BTreeSet<TaskId> = rows.iter().map(|r| r.task_id).collect();
@@ -134,68 +192,135 @@ pub fn run_with(
         .append(true)
         .open(&results_path)
         .map_err(|e| io_err(&results_path, e))?;
-    let file = Mutex::new(file);
-    let total = selected.len();
-    let finished = AtomicUsize::new(total - todo.len());
-    let start = Instant::now();
-    let new_rows: Vec<Result<Option<EpisodeRow>, EvalError>> = todo
-        .par_iter()
-        .map(|&(w, t)| {
-            if cancel.load(Ordering::SeqCst) {
-                return Ok(None);
-            }
-            let world = set.world(w, scale)?;
-            let task = set
-                .tasks(w, scale)?
-                .into_iter()
-                .nth(t as usize)
-                .ok_or(tasks::TasksError::UnknownWorld(w))?;
-            let mut planner = make();
-            let t0 = Instant::now();
-            let r = sim_core::run_episode(&world, &task, &vehicle, planner.as_mut(), &cfg.episode);
-            if cancel.load(Ordering::SeqCst) {
-                return Ok(None);
-            }
-            let row = EpisodeRow {
-                task_id: TaskId::new(w, t),
-                world_id: w,
-                task_index: t,
-                level: world.level,
-                semantics: world.semantics,
-                density: world.density,
-                terrain: set.world_meta(w)?.terrain,
-                planner: cfg.planner.clone(),
-                vehicle: vehicle.name.clone(),
-                scale,
-                seed: cfg.episode.seed,
-                task_set_version: set.version().into(),
-                sim_version: SIM_VERSION.into(),
-                rules: cfg.episode.rules(),
-                outcome: RecordedOutcome::Episode(r.outcome),
-                reason: r.reason,
-                detail: r.detail,
-                metrics: r.metrics,
-                wall_time_s: t0.elapsed().as_secs_f64(),
-            };
-            let line = serde_json::to_string(&row).map_err(|e| io_err(&results_path, e))? + "\n";
-            {
-                let mut f = file
-                    .lock()
-                    .map_err(|_| io_err(&results_path, "results file lock poisoned"))?;
-                f.write_all(line.as_bytes())
-                    .and_then(|_| f.flush())
-                    .map_err(|e| io_err(&results_path, e))?;
-            }
-            let n = finished.fetch_add(1, Ordering::SeqCst) + 1;
-            progress(n, total, start.elapsed().as_secs_f64());
-            Ok(Some(row))
-        })
-        .collect();
-    for r in new_rows {
-        rows.extend(r?);
+    Ok(Prepared {
+        cfg,
+        vehicle,
+        scale,
+        set,
+        selected,
+        rows,
+        todo,
+        results_path,
+        file,
+    })
+}
+
+/// Stops an episode at its next control step once the evaluation is cancelled.
+struct CancelOnFlag<'a>(&'a AtomicBool);
+
+impl EpisodeObserver for CancelOnFlag<'_> {
+    fn on_control_step(&mut self, _: &VehicleState, _: &Action) -> ControlFlow<()> {
+        if self.0.load(Ordering::SeqCst) {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
     }
-    let keep: BTreeSet<TaskId> = selected.iter().map(|&(w, t)| TaskId::new(w, t)).collect();
-    rows.retain(|r| keep.contains(&r.task_id));
-    rows.sort_by_key(|r| (r.world_id, r.task_index));
-    Ok(rows)
+}
+
+impl Prepared<'_> {
+    /// Episodes of the selection whose results `out` already holds (a resumed evaluation keeps them).
+    pub fn kept(&self) -> usize {
+        self.selected.len() - self.todo.len()
+    }
+
+    /// Episodes of the selection.
+    pub fn total(&self) -> usize {
+        self.selected.len()
+    }
+
+    /// Runs the episodes left, in parallel on the current rayon pool, each with a planner from `make`, and returns
+    /// every row of the selection. Once `cancel` is set no new episode starts, the running ones stop at their next
+    /// control step and are not recorded (a resumed evaluation runs them again); the rows recorded so far are
+    /// returned.
+    pub fn run(
+        self,
+        make: PlannerFactory<'_>,
+        cancel: &AtomicBool,
+        progress: Progress<'_>,
+    ) -> Result<Vec<EpisodeRow>, EvalError> {
+        let Prepared {
+            cfg,
+            vehicle,
+            scale,
+            set,
+            selected,
+            mut rows,
+            todo,
+            results_path,
+            file,
+        } = self;
+        let file = Mutex::new(file);
+        let total = selected.len();
+        let finished = AtomicUsize::new(total - todo.len());
+        let start = Instant::now();
+        let new_rows: Vec<Result<Option<EpisodeRow>, EvalError>> = todo
+            .par_iter()
+            .map(|&(w, t)| {
+                if cancel.load(Ordering::SeqCst) {
+                    return Ok(None);
+                }
+                let world = set.world(w, scale)?;
+                let task = set
+                    .tasks(w, scale)?
+                    .into_iter()
+                    .nth(t as usize)
+                    .ok_or(tasks::TasksError::UnknownWorld(w))?;
+                let mut planner = make();
+                let t0 = Instant::now();
+                let r = sim_core::run_episode_observed(
+                    &world,
+                    &task,
+                    &vehicle,
+                    planner.as_mut(),
+                    &cfg.episode,
+                    &mut CancelOnFlag(cancel),
+                );
+                if cancel.load(Ordering::SeqCst) {
+                    return Ok(None);
+                }
+                let row = EpisodeRow {
+                    task_id: TaskId::new(w, t),
+                    world_id: w,
+                    task_index: t,
+                    level: world.level,
+                    semantics: world.semantics,
+                    density: world.density,
+                    terrain: set.world_meta(w)?.terrain,
+                    planner: cfg.planner.clone(),
+                    vehicle: vehicle.name.clone(),
+                    scale,
+                    seed: cfg.episode.seed,
+                    task_set_version: set.version().into(),
+                    sim_version: SIM_VERSION.into(),
+                    rules: cfg.episode.rules(),
+                    outcome: RecordedOutcome::Episode(r.outcome),
+                    reason: r.reason,
+                    detail: r.detail,
+                    metrics: r.metrics,
+                    wall_time_s: t0.elapsed().as_secs_f64(),
+                };
+                let line =
+                    serde_json::to_string(&row).map_err(|e| io_err(&results_path, e))? + "\n";
+                {
+                    let mut f = file
+                        .lock()
+                        .map_err(|_| io_err(&results_path, "results file lock poisoned"))?;
+                    f.write_all(line.as_bytes())
+                        .and_then(|_| f.flush())
+                        .map_err(|e| io_err(&results_path, e))?;
+                }
+                let n = finished.fetch_add(1, Ordering::SeqCst) + 1;
+                progress(n, total, start.elapsed().as_secs_f64());
+                Ok(Some(row))
+            })
+            .collect();
+        for r in new_rows {
+            rows.extend(r?);
+        }
+        let keep: BTreeSet<TaskId> = selected.iter().map(|&(w, t)| TaskId::new(w, t)).collect();
+        rows.retain(|r| keep.contains(&r.task_id));
+        rows.sort_by_key(|r| (r.world_id, r.task_index));
+        Ok(rows)
+    }
 }

@@ -7,11 +7,13 @@ use std::path::Path;
 fn cfg(out: &Path, tasks: &str) -> EvalConfig {
     EvalConfig {
         planner: "pid".into(),
+        identity: None,
         task_dir: tasks::TaskSet::default_dir(),
         tasks: tasks.into(),
         vehicle: "hmmwv".into(),
         scale: None,
         out: out.to_path_buf(),
+        out_param: "--out".into(),
         episode: EpisodeConfig {
             max_time: 20.0,
             ..Default::default()

@@ -41,6 +41,10 @@ def test_ppo_runs_on_the_adapter_and_its_policy_drives_as_a_planner(tmp_path):
     model.learn(256)
     df, _ = vb.evaluate(PolicyPlanner(model), "w001-t0", out=tmp_path / "policy", progress=False)
     assert df.reason[0] != "planner_crash", df.detail[0]
+    # Trained further, it is another planner: its results do not mix with the first one's.
+    model.learn(128)
+    with pytest.raises(ValueError, match="out="):
+        vb.evaluate(PolicyPlanner(model), "w001-t0,w001-t1", out=tmp_path / "policy", progress=False)
 
 
 def test_env_observation_rebuilds_the_environments_observation_from_a_planners():

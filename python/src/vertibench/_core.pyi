@@ -80,7 +80,10 @@ def evaluate(
     scale: float | None = None,
     rules: str = "paper",
     progress: bool = True,
-) -> dict[str, list[Any]]: ...
+    identity: str | None = None,
+    step_timeout: float | None = None,
+    num_threads: int | None = None,
+) -> tuple[dict[str, list[Any]], bool]: ...
 def raw_throughput(
     num_envs: int,
     steps: int,

@@ -3,9 +3,10 @@
 A planner drives one episode at a time. :meth:`Planner.reset` gets the task (start, goal, global path, factors), the
 vehicle's facts and the ground-truth maps of the world; :meth:`Planner.act` gets an :class:`Observation` at the
 planner's control rate (``control_rate_hz``) and returns an :class:`Action` (or a ``(steering, throttle, brake)``
-tuple). Simulated time is frozen while the planner thinks. An exception fails the episode with reason
-``planner_crash`` (its traceback is the episode's detail); an out-of-range or NaN action fails it with reason
-``invalid_action``.
+tuple). Simulated time is frozen while the planner thinks, but not the wall clock: a call past its deadline
+(:func:`vertibench.evaluate`'s ``step_timeout``; the service's per-step deadline) fails the episode with reason
+``planner_timeout``. An exception fails the episode with reason ``planner_crash`` (its traceback is the episode's
+detail); an out-of-range or NaN action fails it with reason ``invalid_action``.
 
 The same planner runs in-process with :func:`vertibench.evaluate` and on the benchmark service with :func:`serve`
 (``vb-submit exec -- python my_planner.py``).
@@ -13,6 +14,9 @@ The same planner runs in-process with :func:`vertibench.evaluate` and on the ben
 
 from __future__ import annotations
 
+import functools
+import hashlib
+import json
 import math
 from dataclasses import dataclass
 
@@ -91,12 +95,45 @@ class Action:
 
 class Planner:
     """Base class of Python planners: override :meth:`reset` and :meth:`act`; set the class attributes ``name``,
-    ``control_rate_hz`` and, for map crops in every observation, ``crop_size`` and ``crop_resolution`` (m)."""
+    ``control_rate_hz`` and, for map crops in every observation, ``crop_size`` and ``crop_resolution`` (m).
+
+    A planner's identity is its class (``module.qualname``), its ``name`` and either its ``version`` (when set) or
+    its :meth:`params`. :func:`vertibench.evaluate` stores it with the results and resumes an evaluation only with
+    the same planner, so episodes of two planners never mix in one ``out=``."""
 
     name: str = "python"
     control_rate_hz: float = 20.0
     crop_size: int = 0
     crop_resolution: float = 1.0
+    #: An explicit version (a string or a number): when set, it stands for the planner's parameters in its
+    #: identity (bump it when the planner changes; :meth:`params` is then not looked at).
+    version: str | int | None = None
+
+    def __init_subclass__(cls, **kwargs):
+        # Records the parameters a subclass's own constructor set, once it returns (see `params`).
+        super().__init_subclass__(**kwargs)
+        for method in ("__init__", "__post_init__"):
+            if method in cls.__dict__:
+                setattr(cls, method, _recording(cls, cls.__dict__[method]))
+
+    def __init__(self):
+        _record_params(self)
+
+    def __post_init__(self):
+        # A dataclass's generated constructor calls this.
+        _record_params(self)
+
+    def params(self) -> dict:
+        """The planner's declared parameters, part of its identity (hashed) unless it sets ``version``.
+
+        By default: its public instance attributes (names without a leading ``_``) as its constructor set them,
+        those whose values are JSON data (numbers, strings, booleans, None, and lists, tuples and string-keyed dicts
+        of them) or numpy arrays and scalars (an array counts by its dtype, shape and bytes); other values (a
+        model object, a file handle) are left out. State set later, in :meth:`reset` or :meth:`act`, is not a
+        parameter. Override it to return a dict of JSON data (or set ``version``) when that is not what tells two
+        configurations of the planner apart."""
+        recorded = self.__dict__.get("_vb_params")
+        return dict(recorded) if recorded is not None else _json_params(self)
 
     def reset(self, task: Task, vehicle: dict, maps: Maps) -> None:
         """Prepares for a new episode (``vehicle``: name, scale, wheelbase, track, length, width, max_steer,
@@ -105,6 +142,91 @@ class Planner:
     def act(self, obs: Observation):
         """Returns the next :class:`Action` (or a ``(steering, throttle, brake)`` tuple)."""
         raise NotImplementedError("a Planner must implement act()")
+
+
+class _NotJson(Exception):
+    pass
+
+
+def _json_value(v):
+    """``v`` as JSON data (numpy arrays by dtype, shape and SHA-256 of their bytes); :class:`_NotJson` if it is not
+    data."""
+    if v is None or isinstance(v, (bool, int, float, str)):
+        return v
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        if v.dtype.hasobject:
+            raise _NotJson
+        digest = hashlib.sha256(np.ascontiguousarray(v).tobytes()).hexdigest()
+        return {"ndarray": {"dtype": v.dtype.str, "shape": list(v.shape), "sha256": digest}}
+    if isinstance(v, (list, tuple)):
+        return [_json_value(x) for x in v]
+    if isinstance(v, dict):
+        if not all(isinstance(k, str) for k in v):
+            raise _NotJson
+        return {k: _json_value(x) for k, x in v.items()}
+    raise _NotJson
+
+
+def _json_params(planner) -> dict:
+    """The public instance attributes of ``planner`` that are JSON data (see :meth:`Planner.params`)."""
+    out = {}
+    for k, v in vars(planner).items():
+        if k.startswith("_"):
+            continue
+        try:
+            out[k] = _json_value(v)
+        except _NotJson:
+            pass
+    return out
+
+
+def _record_params(planner) -> None:
+    planner.__dict__["_vb_params"] = _json_params(planner)
+
+
+def _recording(cls, f):
+    """``f`` (a constructor of ``cls``), then the parameters it set recorded when ``cls`` is the instance's class
+    (a subclass's constructor records after its own)."""
+
+    @functools.wraps(f)
+    def wrapper(self, *args, **kwargs):
+        f(self, *args, **kwargs)
+        if type(self) is cls:
+            _record_params(self)
+
+    return wrapper
+
+
+def identity(planner: Planner) -> dict:
+    """The planner's identity as :func:`vertibench.evaluate` stores it (``planner.json`` in ``out``): ``kind``,
+    ``name``, ``class`` and either ``version`` or ``params_sha256``: the SHA-256 of ``control_rate_hz``,
+    ``crop_size``, ``crop_resolution`` and :meth:`Planner.params` as sorted, compact JSON (with ``params``
+    themselves when they are short)."""
+    cls = type(planner)
+    d = {"kind": "python", "name": str(planner.name), "class": f"{cls.__module__}.{cls.__qualname__}"}
+    version = getattr(planner, "version", None)
+    if version is not None:
+        d["version"] = str(version)
+        return d
+    params = planner.params()
+    if not isinstance(params, dict):
+        raise TypeError(f"{cls.__qualname__}.params() must return a dict, not {type(params).__name__}")
+    # The settings the benchmark reads count as parameters too.
+    settings = {"control_rate_hz": planner.control_rate_hz, "crop_size": planner.crop_size,
+                "crop_resolution": planner.crop_resolution}
+    try:
+        params = {k: _json_value(v) for k, v in settings.items()} | {
+            str(k): _json_value(v) for k, v in params.items()}
+    except _NotJson:
+        raise TypeError(f"{cls.__qualname__}.params() must return a dict of JSON data (numbers, strings, lists, "
+                        "dicts, numpy arrays)") from None
+    text = json.dumps(params, sort_keys=True, separators=(",", ":"))
+    d["params_sha256"] = hashlib.sha256(text.encode()).hexdigest()
+    if len(text) <= 4096:
+        d["params"] = params
+    return d
 
 
 def action_tuple(a) -> tuple[float, float, float]:

@@ -112,6 +112,18 @@ class PolicyPlanner(Planner):
         low, high = model.action_space.low, model.action_space.high
         self._low, self._high = low.astype(np.float64), high.astype(np.float64)
 
+    def params(self) -> dict:
+        """Its settings, the policy's weights and the observation normalisation's statistics (arrays count by
+        their bytes): a retrained policy is another planner to :func:`vertibench.evaluate`'s resume."""
+        p = super().params()
+        p["policy"] = self.model.policy.parameters_to_vector()
+        rms = getattr(self.vec_normalize, "obs_rms", None)
+        if isinstance(rms, dict):
+            p["obs_rms"] = {k: [r.mean, r.var] for k, r in rms.items()}
+        elif rms is not None:
+            p["obs_rms"] = [rms.mean, rms.var]
+        return p
+
     def reset(self, task, vehicle, maps):
         self.goal = task.goal
 

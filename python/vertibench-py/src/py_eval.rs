@@ -1,125 +1,49 @@
 //! In-process evaluation: `vertibench.evaluate` runs a Python planner (or a built-in one) on the benchmark with
 //! `vb eval`'s own runner and writes `vb eval`'s files. A Python planner is called back at its control rate, one
 //! episode at a time; simulated time is frozen while it thinks, as in every benchmark episode.
+//!
+//! The episodes run on an evaluation thread in a rayon pool of this call's own (never the global pool, which does
+//! not survive `os.fork()`). The calling thread stays in Python: it runs a Python planner's calls
+//! ([`planner`]), prints progress through `sys.stderr` and checks for signals every 50 ms, so Ctrl-C stops the
+//! evaluation within a second and what finished is kept, written and returned.
 
-use crate::convert::vehicle_info;
-use numpy::ndarray::Array2;
-use numpy::IntoPyArray;
-use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
+mod planner;
+
+use planner::{Answered, Call, Caller, Proxy, Shared};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use sim_core::episode::EpisodeConfig;
-use sim_core::observe::{self, CropSpec};
-use sim_core::planner::{Action, Observation, Planner, PlannerContext, PlannerError};
-use sim_core::world::World;
-use std::io::Write;
-use std::path::PathBuf;
+use sim_core::observe::CropSpec;
+use sim_core::planner::Planner;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
+use std::thread::ScopedJoinHandle;
+use std::time::Duration;
 
-/// A Python planner seen from the episode runner. `glue` is `vertibench.planner`, whose `_core_reset` and
-/// `_core_act` turn the runner's plain values into the SDK's types and back.
-struct PyPlanner {
-    obj: Py<PyAny>,
-    glue: Py<PyAny>,
-    rate: f64,
-    crop: Option<CropSpec>,
-    world: Option<World>,
-    interrupted: Arc<AtomicBool>,
+/// How often the calling thread checks for signals while it waits.
+const SIGNAL_CHECK: Duration = Duration::from_millis(50);
+
+/// What the evaluation thread tells the calling thread.
+enum ToCaller {
+    /// The evaluation is prepared: `kept` of its `total` episodes were already in `out`.
+    Started {
+        kept: usize,
+        total: usize,
+    },
+    Progress {
+        done: usize,
+        total: usize,
+        secs: f64,
+    },
+    Call(Call),
+    Done(Result<Vec<eval::EpisodeRow>, eval::EvalError>),
 }
 
-impl PyPlanner {
-    /// A Python exception as the planner's failure; Ctrl-C stops the evaluation instead.
-    fn failure(&self, py: Python<'_>, e: PyErr) -> PlannerError {
-        if e.is_instance_of::<PyKeyboardInterrupt>(py) {
-            self.interrupted.store(true, Ordering::SeqCst);
-            return PlannerError::Other("interrupted".into());
-        }
-        let tb = e
-            .traceback(py)
-            .and_then(|t| t.format().ok())
-            .unwrap_or_default();
-        PlannerError::Crashed(format!("{tb}{e}"))
-    }
-
-    fn reset_py(&mut self, py: Python<'_>, ctx: &PlannerContext<'_>) -> PyResult<()> {
-        let (t, w) = (ctx.task, ctx.world);
-        let task = crate::convert::task(py, t, w)?;
-        let maps = crate::convert::maps(py, w)?;
-        let vehicle = vehicle_info(py, ctx.vehicle)?;
-        self.glue.call_method1(
-            py,
-            "_core_reset",
-            (&self.obj, task, vehicle, maps, ctx.sim_dt),
-        )?;
-        self.world = self.crop.map(|_| w.clone());
-        Ok(())
-    }
-
-    fn act_py(&mut self, py: Python<'_>, obs: &Observation) -> PyResult<Action> {
-        let s = &obs.state;
-        let state = [
-            s.time,
-            s.position[0],
-            s.position[1],
-            s.position[2],
-            s.roll,
-            s.pitch,
-            s.yaw,
-            s.velocity[0],
-            s.velocity[1],
-            s.velocity[2],
-            s.angular_velocity[0],
-            s.angular_velocity[1],
-            s.angular_velocity[2],
-            s.speed,
-            s.steering,
-        ];
-        let crops = match (&self.crop, &self.world) {
-            (Some(c), Some(w)) => {
-                let n = c.size * c.size;
-                let (mut e, mut m, mut o) = (vec![0f32; n], vec![0u8; n], vec![0u8; n]);
-                observe::elevation_crop(w, s, c, &mut e);
-                observe::semantics_crop(w, s, c, &mut m);
-                observe::obstacle_crop(w, s, c, &mut o);
-                let sq = |v| Array2::from_shape_vec((c.size, c.size), v);
-                let err = |e: numpy::ndarray::ShapeError| PyRuntimeError::new_err(e.to_string());
-                Some((
-                    sq(e).map_err(err)?.into_pyarray(py),
-                    Array2::from_shape_vec((c.size, c.size), m)
-                        .map_err(err)?
-                        .into_pyarray(py),
-                    Array2::from_shape_vec((c.size, c.size), o)
-                        .map_err(err)?
-                        .into_pyarray(py),
-                ))
-            }
-            _ => None,
-        };
-        let a: (f64, f64, f64) = self
-            .glue
-            .call_method1(py, "_core_act", (&self.obj, state.to_vec(), crops))?
-            .extract(py)?;
-        Ok(Action {
-            steering: a.0,
-            throttle: a.1,
-            brake: a.2,
-        })
-    }
-}
-
-impl Planner for PyPlanner {
-    fn name(&self) -> &str {
-        "python"
-    }
-    fn control_rate_hz(&self) -> f64 {
-        self.rate
-    }
-    fn reset(&mut self, ctx: &PlannerContext<'_>) -> Result<(), PlannerError> {
-        Python::attach(|py| self.reset_py(py, ctx).map_err(|e| self.failure(py, e)))
-    }
-    fn act(&mut self, obs: &Observation) -> Result<Action, PlannerError> {
-        Python::attach(|py| self.act_py(py, obs).map_err(|e| self.failure(py, e)))
+impl From<Call> for ToCaller {
+    fn from(c: Call) -> Self {
+        ToCaller::Call(c)
     }
 }
 
@@ -145,12 +69,121 @@ fn table<'py>(py: Python<'py>, rows: &[eval::EpisodeRow]) -> PyResult<Bound<'py,
     Ok(d)
 }
 
+/// An evaluation error as the Python exception users expect.
+fn py_error(e: eval::EvalError) -> PyErr {
+    match e {
+        eval::EvalError::Io { .. } | eval::EvalError::Results(_) => {
+            PyOSError::new_err(e.to_string())
+        }
+        _ => PyValueError::new_err(e.to_string()),
+    }
+}
+
+/// Writes `text` to Python's `sys.stderr` (a notebook shows it), when there is one.
+fn say(py: Python<'_>, text: &str) -> PyResult<()> {
+    let err = py.import("sys")?.getattr("stderr")?;
+    if err.is_none() {
+        return Ok(());
+    }
+    err.call_method1("write", (text,))?;
+    err.call_method0("flush")?;
+    Ok(())
+}
+
+/// The calling thread while the evaluation runs: it answers a Python planner's calls, prints, and stops the
+/// evaluation on a signal, keeping a signal handler's error other than `KeyboardInterrupt` to raise once the
+/// finished episodes are written.
+struct Watch<'a> {
+    cancel: &'a AtomicBool,
+    caller: Option<&'a Caller>,
+    out: &'a Path,
+    progress: bool,
+    raised: Option<PyErr>,
+    /// Episodes of the evaluation (known once it started).
+    total: usize,
+    /// Whether a progress line is on the screen.
+    shown: bool,
+}
+
+impl Watch<'_> {
+    /// An exception raised in the calling thread by a signal handler: the evaluation stops.
+    fn signal(&mut self, py: Python<'_>, e: PyErr) {
+        self.cancel.store(true, Ordering::SeqCst);
+        if !e.is_instance_of::<PyKeyboardInterrupt>(py) && self.raised.is_none() {
+            self.raised = Some(e);
+        }
+    }
+
+    /// Serves the evaluation thread until it is done; its result.
+    fn serve(
+        &mut self,
+        py: Python<'_>,
+        mut rx: Receiver<ToCaller>,
+        worker: &ScopedJoinHandle<'_, ()>,
+    ) -> PyResult<Vec<eval::EpisodeRow>> {
+        loop {
+            let (msg, back) = py.detach(move || (rx.recv_timeout(SIGNAL_CHECK), rx));
+            rx = back;
+            let msg = match msg {
+                Ok(m) => Some(m),
+                // The thread sends `Done` before it ends; if it ended without, it panicked.
+                Err(_) if worker.is_finished() => match rx.try_recv() {
+                    Ok(m) => Some(m),
+                    Err(_) => return Err(PyRuntimeError::new_err(THREAD_FAILED)),
+                },
+                Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => None,
+            };
+            let handled = match msg {
+                Some(ToCaller::Done(r)) => return r.map_err(py_error),
+                Some(m) => self.handle(py, m),
+                None => Ok(()),
+            };
+            // Printing runs Python code, where Ctrl-C may land too.
+            if let Err(e) = handled.and_then(|_| py.check_signals()) {
+                self.signal(py, e);
+            }
+        }
+    }
+
+    fn handle(&mut self, py: Python<'_>, msg: ToCaller) -> PyResult<()> {
+        match msg {
+            ToCaller::Call(c) => match self.caller {
+                Some(caller) if !self.cancel.load(Ordering::SeqCst) => {
+                    if let Answered::Interrupted = caller.call(py, c) {
+                        self.signal(py, PyKeyboardInterrupt::new_err(()));
+                    }
+                }
+                _ => planner::refuse(c),
+            },
+            ToCaller::Started { kept, total } => {
+                self.total = total;
+                if kept > 0 {
+                    let out = self.out.display();
+                    say(py, &format!("vertibench.evaluate: resuming in {out}: keeping the {kept} of {total} episodes it holds\n"))?;
+                }
+            }
+            ToCaller::Progress { done, total, secs } => {
+                if self.progress && (done.is_multiple_of(10) || done == total) {
+                    self.shown = true;
+                    say(py, &format!("\r{done}/{total} episodes, {secs:.0} s "))?;
+                }
+            }
+            ToCaller::Done(_) => {}
+        }
+        Ok(())
+    }
+}
+
+const THREAD_FAILED: &str = "the evaluation thread failed (a bug: please report it)";
+
 /// Runs an evaluation and writes `vb eval`'s files to `out`; returns its episode table (`episodes.csv`'s columns
-/// at full precision, then `detail`). `planner` is
-/// the name of a built-in planner (run in parallel) or a `vertibench.planner.Planner` (run one episode at a time).
+/// at full precision, then `detail`) and whether every selected episode finished (false after Ctrl-C). `planner`
+/// is the name of a built-in planner (run in parallel on `num_threads` threads) or a
+/// `vertibench.planner.Planner` (run one episode at a time in the calling thread, `identity` its
+/// `eval::PlannerIdentity` as JSON, each call failed with reason `planner_timeout` past `step_timeout` seconds).
 #[pyfunction]
 #[pyo3(signature = (planner, out, task_dir, tasks="all", vehicle="hmmwv", scale=None, rules="paper",
-    progress=true))]
+    progress=true, identity=None, step_timeout=None, num_threads=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate<'py>(
     py: Python<'py>,
@@ -162,7 +195,10 @@ pub fn evaluate<'py>(
     scale: Option<f64>,
     rules: &str,
     progress: bool,
-) -> PyResult<Bound<'py, PyDict>> {
+    identity: Option<&str>,
+    step_timeout: Option<f64>,
+    num_threads: Option<usize>,
+) -> PyResult<(Bound<'py, PyDict>, bool)> {
     let episode = match rules {
         "paper" => EpisodeConfig::default(),
         "release" => EpisodeConfig::release(),
@@ -172,67 +208,144 @@ pub fn evaluate<'py>(
             )))
         }
     };
+    let step_timeout = match step_timeout {
+        None => None,
+        Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
+        Some(s) => {
+            return Err(PyValueError::new_err(format!(
+                "step_timeout must be a positive number of seconds or None, not {s}"
+            )))
+        }
+    };
+    if num_threads == Some(0) {
+        return Err(PyValueError::new_err("num_threads must be at least 1"));
+    }
     let builtin: Option<String> = planner.extract().ok();
-    let name = match &builtin {
-        Some(n) => n.clone(),
-        None => planner.getattr("name")?.extract::<String>()?,
+    let (name, identity) = match &builtin {
+        Some(n) => {
+            eval::run::check_builtin(n).map_err(py_error)?;
+            (n.clone(), eval::PlannerIdentity::builtin(n))
+        }
+        None => {
+            let id: eval::PlannerIdentity = serde_json::from_str(identity.unwrap_or("null"))
+                .map_err(|e| PyValueError::new_err(format!("invalid planner identity: {e}")))?;
+            (planner.getattr("name")?.extract::<String>()?, id)
+        }
     };
     let cfg = eval::EvalConfig {
         planner: name,
+        identity: Some(identity),
         task_dir,
         tasks: tasks.to_string(),
         vehicle: vehicle.to_string(),
         scale,
         out: out.clone(),
+        out_param: "out=".into(),
         episode,
     };
-    let report = |done: usize, total: usize, secs: f64| {
-        if progress && (done.is_multiple_of(10) || done == total) {
-            eprint!("\r{done}/{total} episodes, {secs:.0} s ");
-            let _ = std::io::stderr().flush();
-        }
+    let threads = match builtin {
+        Some(_) => num_threads.unwrap_or(0),
+        None => 1,
     };
-    let interrupted = Arc::new(AtomicBool::new(false));
-    let rows = match builtin {
-        Some(_) => py.detach(|| eval::run(&cfg, &report)),
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("vb-evaluate-{i}"))
+        .build()
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    let (to_caller, from_worker) = mpsc::channel::<ToCaller>();
+    let caller = match builtin {
+        Some(_) => None,
+        None => Some(Caller {
+            glue: py.import("vertibench.planner")?.into_any().unbind(),
+            shared: Shared::new(py, step_timeout)?,
+        }),
+    };
+    let rate: f64 = match builtin {
+        Some(_) => 0.0,
+        None => planner.getattr("control_rate_hz")?.extract()?,
+    };
+    let crop = match builtin {
+        Some(_) => None,
         None => {
-            let glue: Py<PyAny> = py.import("vertibench.planner")?.into_any().unbind();
-            let rate: f64 = planner.getattr("control_rate_hz")?.extract()?;
             let size: usize = planner.getattr("crop_size")?.extract()?;
             let resolution: f64 = planner.getattr("crop_resolution")?.extract()?;
-            let crop = (size > 0).then_some(CropSpec { size, resolution });
-            let obj = planner.clone().unbind();
-            let make = || -> Box<dyn Planner> {
-                Python::attach(|py| {
-                    Box::new(PyPlanner {
-                        obj: obj.clone_ref(py),
-                        glue: glue.clone_ref(py),
-                        rate,
-                        crop,
-                        world: None,
-                        interrupted: interrupted.clone(),
-                    })
-                })
-            };
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(1)
-                .build()
-                .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-            py.detach(|| pool.install(|| eval::run_with(&cfg, &make, &interrupted, &report)))
+            (size > 0).then_some(CropSpec { size, resolution })
         }
-    }
-    .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    if progress {
-        eprintln!();
-    }
-    if interrupted.load(Ordering::SeqCst) {
-        return Err(PyKeyboardInterrupt::new_err(format!(
-            "evaluation interrupted after {} episodes; run it again with the same out= to resume",
-            rows.len()
-        )));
-    }
+    };
+    let obj = planner.clone().unbind();
+    let make = || -> Box<dyn Planner> {
+        match &caller {
+            None => baselines::by_name(&cfg.planner).expect("checked above"),
+            Some(c) => Box::new(Proxy {
+                obj: Python::attach(|py| obj.clone_ref(py)),
+                to_caller: to_caller.clone(),
+                shared: c.shared.clone(),
+                rate,
+                crop,
+                world: None,
+            }),
+        }
+    };
+    let cancel = AtomicBool::new(false);
+    let mut watch = Watch {
+        cancel: &cancel,
+        caller: caller.as_ref(),
+        out: &out,
+        progress,
+        raised: None,
+        total: 0,
+        shown: false,
+    };
+    let result = std::thread::scope(|s| {
+        let tx = to_caller.clone();
+        let worker = s.spawn(|| {
+            let tx = tx;
+            let r = pool.install(|| {
+                let prepared = eval::prepare(&cfg)?;
+                let _ = tx.send(ToCaller::Started {
+                    kept: prepared.kept(),
+                    total: prepared.total(),
+                });
+                let report = |done, total, secs| {
+                    let _ = tx.send(ToCaller::Progress { done, total, secs });
+                };
+                prepared.run(&make, &cancel, &report)
+            });
+            let _ = tx.send(ToCaller::Done(r));
+        });
+        let r = watch.serve(py, from_worker, &worker);
+        match py.detach(|| worker.join()) {
+            Ok(()) => r,
+            Err(_) => Err(PyRuntimeError::new_err(THREAD_FAILED)),
+        }
+    });
+    let rows = result?;
+    let total = watch.total;
+    let complete = rows.len() == total;
     let summary = eval::summary::summarise(&rows);
     py.detach(|| eval::report::write(&out, &rows, &summary))
-        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-    table(py, &rows)
+        .map_err(|e| PyOSError::new_err(e.to_string()))?;
+    let mut note = String::new();
+    if watch.shown {
+        note.push('\n');
+    }
+    if !complete {
+        note += &format!("vertibench.evaluate: interrupted; {} of {total} episodes are kept in {}: call evaluate again with the same out= to resume\n", rows.len(), out.display());
+    }
+    if !note.is_empty() {
+        if let Err(e) = say(py, &note) {
+            watch.signal(py, e);
+        }
+    }
+    // Another Ctrl-C while stopping changes nothing (the finished episodes are returned); handled here, it is not
+    // raised at the caller's next line instead.
+    if cancel.load(Ordering::SeqCst) {
+        if let Err(e) = py.check_signals() {
+            watch.signal(py, e);
+        }
+    }
+    if let Some(e) = watch.raised {
+        return Err(e);
+    }
+    Ok((table(py, &rows)?, complete))
 }

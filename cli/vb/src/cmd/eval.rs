@@ -46,6 +46,7 @@ pub fn run(a: EvalArgs) -> anyhow::Result<()> {
         EpisodeConfig::default()
     };
     let cfg = eval::EvalConfig {
+        identity: Some(eval::PlannerIdentity::builtin(&a.planner)),
         planner: a.planner,
         task_dir: a
             .task_dir
@@ -55,6 +56,7 @@ pub fn run(a: EvalArgs) -> anyhow::Result<()> {
         vehicle: a.vehicle,
         scale: a.scale,
         out: a.out.clone(),
+        out_param: "--out".into(),
         episode,
     };
     let start = std::time::Instant::now();
