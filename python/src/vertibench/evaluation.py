@@ -72,7 +72,10 @@ def evaluate(
     stderr and runs only the missing episodes; ``out`` holding another planner's (or configuration's) results is
     refused with a ValueError.
     """
-    import pandas as pd
+    try:
+        import pandas as pd
+    except ImportError:
+        raise ImportError("evaluate returns a pandas DataFrame: pip install pandas (or 'vertibench[analysis]')") from None
 
     _check_planner(planner)
     if scale is not None:
