@@ -3,7 +3,9 @@
 //!
 //! - [`record`]: one episode's metadata and frames, as generators make them and the writer takes them.
 //! - [`spec`]: what a whole dataset is (kind, variant, vehicle, rates, versions, seed): its identity.
+//! - [`generate`]: the episodes of the random, expert and failures datasets, on training worlds, into a sink.
 
+pub mod generate;
 pub mod record;
 pub mod spec;
 
