@@ -204,6 +204,8 @@ pub struct GenerateSummary {
     /// Frames (and simulated seconds) in the main sink, resumed ones included.
     pub kept_frames: u64,
     pub kept_seconds: f64,
+    /// Simulated seconds of every episode this call ran, kept or not.
+    pub simulated_seconds: f64,
     /// Whether the main sink reached `hours` (a `failures` run may run out of evaluation episodes first).
     pub reached_hours: bool,
     /// Where a later run would continue.

@@ -22,6 +22,8 @@ struct Output {
     main: Option<EpisodeRecord>,
     window: Option<EpisodeRecord>,
     outcome: Outcome,
+    /// Frames the episode ran, kept or not.
+    frames: u64,
 }
 
 /// Everything an episode reads.
@@ -123,6 +125,7 @@ fn episode(ctx: &Ctx<'_>, i: u64) -> Result<Output, GenerateError> {
             );
             Ok(Output {
                 outcome: main.meta.outcome,
+                frames: main.frames.len() as u64,
                 window: failure_window(&main, period, "random", i),
                 main: Some(main),
             })
@@ -131,18 +134,20 @@ fn episode(ctx: &Ctx<'_>, i: u64) -> Result<Output, GenerateError> {
             let planner = &cfg.planners[0];
             let t = expert_task(src, i, &mut rng)?;
             let rec = planner_record(ctx, cfg.kind, &t, planner, seed)?;
-            let outcome = rec.meta.outcome;
+            let (outcome, frames) = (rec.meta.outcome, rec.frames.len() as u64);
             if outcome.is_success() {
                 return Ok(Output {
                     main: Some(rec),
                     window: None,
                     outcome,
+                    frames,
                 });
             }
             Ok(Output {
                 main: None,
                 window: failure_window(&rec, period, &source_name(cfg.kind, planner), i),
                 outcome,
+                frames,
             })
         }
         DatasetKind::Failures => {
@@ -152,6 +157,7 @@ fn episode(ctx: &Ctx<'_>, i: u64) -> Result<Output, GenerateError> {
             let rec = planner_record(ctx, cfg.kind, &t, planner, seed)?;
             Ok(Output {
                 outcome: rec.meta.outcome,
+                frames: rec.frames.len() as u64,
                 main: failure_window(&rec, period, &source_name(cfg.kind, planner), i % n),
                 window: None,
             })
@@ -203,18 +209,21 @@ pub fn run(
         failure_windows: 0,
         kept_frames,
         kept_seconds: 0.0,
+        simulated_seconds: 0.0,
         reached_hours: false,
         next: *resume,
         outcomes: Default::default(),
         windows: Default::default(),
     };
     let mut next_index = first;
+    let mut simulated = 0u64;
     let limit = match (end, cut) {
         (Some(e), Some(c)) => Some(e.min(c + 1)),
         (e, c) => e.or(c.map(|c| c + 1)),
     };
     let mut consume = |i: u64, out: Output| -> Result<bool, GenerateError> {
         s.episodes_run += 1;
+        simulated += out.frames;
         *s.outcomes.entry(out.outcome.to_string()).or_default() += 1;
         if let (true, Some(rec)) = (i >= resume.main_next, &out.main) {
             sink.append(rec).map_err(|source| GenerateError::Sink {
@@ -275,6 +284,7 @@ pub fn run(
     }
     s.kept_frames = kept_frames;
     s.kept_seconds = kept_frames as f64 * ctx.plan.period;
+    s.simulated_seconds = simulated as f64 * ctx.plan.period;
     s.reached_hours = kept_frames >= target;
     s.next = Resume {
         main_next: next_index.max(resume.main_next),
