@@ -215,6 +215,7 @@ pub fn run(
         outcomes: Default::default(),
         windows: Default::default(),
     };
+    let give_up = n_tasks.max(100);
     let mut next_index = first;
     let mut simulated = 0u64;
     let limit = match (end, cut) {
@@ -233,6 +234,11 @@ pub fn run(
             })?;
             kept_frames += rec.frames.len() as u64;
             s.kept_episodes += 1;
+            if let Some(fw) = &rec.meta.failure {
+                *s.windows
+                    .entry(class_name(fw.class).to_string())
+                    .or_default() += 1;
+            }
             if cut.is_none() && kept_frames >= target {
                 cut = Some(i);
             }
@@ -252,17 +258,13 @@ pub fn run(
                     .or_default() += 1;
             }
         }
-        if let Some(fw) = out.main.as_ref().and_then(|r| r.meta.failure.as_ref()) {
-            *s.windows
-                .entry(class_name(fw.class).to_string())
-                .or_default() += 1;
-        }
         next_index = i + 1;
-        if cfg.kind == DatasetKind::Expert && next_index == n_tasks && kept_frames == 0 {
+        // An expert that never succeeds would run for ever.
+        if cfg.kind == DatasetKind::Expert && next_index == give_up && kept_frames == 0 {
             return Err(GenerateError::param(
                 "planners",
                 format!(
-                    "planner `{}` succeeded on none of the task set's {n_tasks} tasks: no demonstrations to keep",
+                    "planner `{}` succeeded in none of the first {give_up} episodes: no demonstrations to keep",
                     cfg.planners[0]
                 ),
             ));
