@@ -4,6 +4,7 @@
 
 mod bench;
 mod convert;
+mod crops;
 mod obs;
 mod py_eval;
 mod py_vec;
@@ -44,6 +45,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(task_data::task_set_info, m)?)?;
     m.add_function(wrap_pyfunction!(vehicles, m)?)?;
     m.add_class::<py_vec::VecCore>()?;
+    m.add_class::<crops::CropMaker>()?;
     m.add_function(wrap_pyfunction!(py_eval::evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(bench::raw_throughput, m)?)?;
     Ok(())
