@@ -25,6 +25,7 @@ mod plan;
 pub mod random;
 pub mod recorder;
 mod run;
+pub mod sinks;
 pub mod source;
 mod stream;
 
@@ -124,6 +125,9 @@ pub enum GenerateError {
     Tasks(#[from] tasks::TasksError),
     #[error(transparent)]
     Vehicle(#[from] sim_core::vehicle::VehicleError),
+    /// Reading what a dataset holds (resuming).
+    #[error(transparent)]
+    Dataset(#[from] crate::DatasetError),
     #[error("invalid parameter `{field}`: {message}")]
     Param { field: String, message: String },
     /// The benchmark's own task set without `allow_benchmark_tasks`.
@@ -150,7 +154,8 @@ impl GenerateError {
     }
 }
 
-/// Where a run starts: from scratch ([`Resume::default`]) or after what its sinks already hold.
+/// Where a run starts: from scratch ([`Resume::default`]) or after what its sinks already hold
+/// ([`Resume::from_writers`] reads it from the dataset writers, [`Resume::from_sinks`] from the last records).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Resume {
     /// The first episode index whose record the main sink does not hold.
@@ -208,6 +213,9 @@ pub struct GenerateSummary {
     pub simulated_seconds: f64,
     /// Whether the main sink reached `hours` (a `failures` run may run out of evaluation episodes first).
     pub reached_hours: bool,
+    /// Records (episodes or windows) dropped because their frames held non-finite values (a diverged
+    /// simulation, `numerical_failure`), or none.
+    pub dropped: u64,
     /// Where a later run would continue.
     pub next: Resume,
     /// How the episodes simulated by this call ended (outcome after the rollover rule), and the windows' classes.

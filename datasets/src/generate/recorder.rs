@@ -25,6 +25,25 @@ pub struct Recorded {
     pub period: f64,
 }
 
+/// Whether frames can be written: at least one, every value finite (state, goal, wheels, action, reward terms as
+/// float32, crops as float16). An episode whose simulation diverged can hold infinities or NaN in its last frames.
+pub fn writable(f: &Frames) -> bool {
+    const F16_MAX: f32 = 65504.0;
+    let fin = |v: &[f32]| v.iter().all(|x| x.is_finite());
+    let crop = |v: &Option<Vec<f32>>| {
+        v.as_ref()
+            .is_none_or(|v| v.iter().all(|x| x.abs() <= F16_MAX))
+    };
+    !f.is_empty()
+        && fin(f.state.as_flattened())
+        && fin(f.goal.as_flattened())
+        && fin(&f.wheels)
+        && fin(f.action.as_flattened())
+        && fin(f.reward_terms.as_flattened())
+        && crop(&f.elevation)
+        && crop(&f.semantics)
+}
+
 /// Frames of an episode of at most `max_time` s at `period` s a frame, with room for the last step.
 pub fn frame_capacity(max_time: f64, period: f64) -> usize {
     (max_time / period).ceil().max(0.0) as usize + 2

@@ -5,7 +5,7 @@ use super::expert::{drive_planner, expert_task, set_task, EpisodeTask};
 use super::failures::{class_name, failure_window, source_name};
 use super::plan::Plan;
 use super::random::{draw, drive_sinusoid};
-use super::recorder::Recorded;
+use super::recorder::{writable, Recorded};
 use super::source::Source;
 use super::stream::ordered;
 use super::*;
@@ -211,6 +211,7 @@ pub fn run(
         kept_seconds: 0.0,
         simulated_seconds: 0.0,
         reached_hours: false,
+        dropped: 0,
         next: *resume,
         outcomes: Default::default(),
         windows: Default::default(),
@@ -222,7 +223,14 @@ pub fn run(
         (Some(e), Some(c)) => Some(e.min(c + 1)),
         (e, c) => e.or(c.map(|c| c + 1)),
     };
-    let mut consume = |i: u64, out: Output| -> Result<bool, GenerateError> {
+    let mut consume = |i: u64, mut out: Output| -> Result<bool, GenerateError> {
+        // A diverged simulation's frames cannot be written: the episode is dropped (and counted).
+        for r in [&mut out.main, &mut out.window] {
+            if r.as_ref().is_some_and(|r| !writable(&r.frames)) {
+                *r = None;
+                s.dropped += 1;
+            }
+        }
         s.episodes_run += 1;
         simulated += out.frames;
         *s.outcomes.entry(out.outcome.to_string()).or_default() += 1;
