@@ -1,56 +1,25 @@
 //! The generators on a small training set (seed 7, worlds 1, 10 and 19: low relief, sparse obstacles, rigid,
 //! deformable and mixed ground): determinism across thread counts, resume, the random protocol, failure windows,
-//! expert filtering, the training-set rule and the recorded observation.
+//! expert filtering and the recorded observation (`generate_rules.rs`: the training-set rule and option checks).
 
 use anyhow::Result;
 use datasets::generate::failures::{failure_window, window_frames};
 use datasets::generate::random::{drive_sinusoid, RandomStart, Sinusoid};
-use datasets::generate::source::BENCHMARK_TASK_SET_VERSION;
 use datasets::generate::*;
-use datasets::record::{GOAL_FIELDS, STATE_FIELDS};
 use datasets::{DatasetKind, EpisodeRecord, FailureClass, Variant};
 use sim_core::episode::{EpisodeConfig, Outcome};
 use sim_core::observe::{goal_vector, relative_elevation_crop, state_vector, CropSpec};
 use sim_core::vehicle::vehicle_by_name;
 use sim_core::world::{Heightmap, Semantic, Surface, World};
 use sim_core::EpisodeRun;
-use std::path::{Path, PathBuf};
-use std::sync::{Arc, OnceLock};
-use tasks::generate::HeightSource;
+use std::sync::Arc;
 use tasks::TaskSet;
 
+mod gen_support;
+use gen_support::{config, training_set};
+
 /// Period of a frame at 20 Hz for the HMMWV (13 physics steps of 4 ms).
-const PERIOD: f64 = 0.052;
-
-fn training_set() -> &'static Path {
-    static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let tmp = Path::new(env!("CARGO_TARGET_TMPDIR"));
-        // Sets of earlier runs whose process is gone are removed.
-        for e in std::fs::read_dir(tmp).into_iter().flatten().flatten() {
-            let name = e.file_name().to_string_lossy().to_string();
-            if let Some(pid) = name.strip_prefix("datasets-generate-") {
-                if !Path::new("/proc").join(pid).exists() {
-                    let _ = std::fs::remove_dir_all(e.path());
-                }
-            }
-        }
-        let dir = tmp.join(format!("datasets-generate-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        let source = swae::SwaeSource::committed().expect("committed weights");
-        let records = tasks::generate::generate(7, &[1, 10, 19], &source).expect("generation");
-        tasks::format::save(&dir, Some(7), &source.name(), &records).expect("save");
-        dir
-    })
-}
-
-fn config(kind: DatasetKind, hours: f64) -> GenerateConfig {
-    let mut cfg = GenerateConfig::new(kind, training_set(), hours);
-    cfg.seed = 11;
-    cfg.max_time = 12.0;
-    cfg.threads = 2;
-    cfg
-}
+const PERIOD: f64 = gen_support::PERIOD;
 
 struct Out {
     main: Vec<EpisodeRecord>,
@@ -71,15 +40,6 @@ fn generate(cfg: &GenerateConfig, resume: &Resume, with_failures: bool) -> Resul
 
 fn frames(recs: &[EpisodeRecord]) -> u64 {
     recs.iter().map(|r| r.frames.len() as u64).sum()
-}
-
-#[test]
-fn shared_names_and_the_benchmark_version() -> Result<()> {
-    assert_eq!(STATE_FIELDS, sim_core::observe::STATE_FIELDS);
-    assert_eq!(GOAL_FIELDS, sim_core::observe::GOAL_FIELDS);
-    assert_eq!(TaskSet::committed()?.version(), BENCHMARK_TASK_SET_VERSION);
-    assert_eq!(episode_index(5, episode_seed(5, 123_456)), 123_456);
-    Ok(())
 }
 
 #[test]
@@ -465,69 +425,4 @@ fn sdk_goal(s: &sim_core::planner::VehicleState, goal: [f64; 2]) -> [f64; 3] {
     let (dx, dy) = (goal[0] - s.position[0], goal[1] - s.position[1]);
     let (sn, c) = s.yaw.sin_cos();
     [c * dx + sn * dy, -sn * dx + c * dy, dx.hypot(dy)]
-}
-
-#[test]
-fn the_benchmark_set_is_refused_unless_allowed_and_then_marked() -> Result<()> {
-    let mut cfg = GenerateConfig::new(DatasetKind::Random, TaskSet::default_dir(), 1.0);
-    let err = spec(&cfg).expect_err("refused").to_string();
-    assert!(
-        err.contains("vb tasks generate --seed 7") && err.contains("--allow-benchmark-tasks"),
-        "{err}"
-    );
-    let mut sink = Vec::new();
-    assert!(matches!(
-        run(&cfg, &Resume::default(), &mut sink, None, &|_| {}),
-        Err(GenerateError::BenchmarkTasks(_))
-    ));
-    cfg.allow_benchmark_tasks = true;
-    let s = spec(&cfg)?;
-    assert!(s.analysis_only && s.task_set_version == BENCHMARK_TASK_SET_VERSION);
-    // A training set is not analysis-only, flag or not.
-    let mut cfg = config(DatasetKind::Random, 1.0);
-    cfg.allow_benchmark_tasks = true;
-    let s = spec(&cfg)?;
-    assert!(!s.analysis_only && s.task_set_seed == Some(7) && s.wheels == 4 && s.seed == 11);
-    assert!((s.control_rate_hz - 1.0 / PERIOD).abs() < 1e-9);
-    Ok(())
-}
-
-#[test]
-fn bad_options_are_refused_with_their_name() -> Result<()> {
-    let bad = |f: &dyn Fn(&mut GenerateConfig), field: &str| {
-        let mut cfg = config(DatasetKind::Expert, 1.0);
-        f(&mut cfg);
-        let e = spec(&cfg).expect_err("refused").to_string();
-        assert!(e.contains(field), "{e}");
-    };
-    bad(&|c| c.hours = 0.0, "hours");
-    bad(&|c| c.hours = f64::NAN, "hours");
-    bad(&|c| c.planners = vec!["astar".into()], "planners");
-    bad(
-        &|c| c.planners = vec!["pid".into(), "eh".into()],
-        "planners",
-    );
-    bad(&|c| c.control_rate_hz = 10.0, "control_rate_hz");
-    bad(&|c| c.crop_size = 0, "crop_size");
-    bad(&|c| c.scale = Some(2.0), "scale");
-    bad(&|c| c.vehicle = "tank".into(), "tank");
-    let cfg = config(DatasetKind::Failures, 1.0);
-    let (mut a, mut b) = (Vec::new(), Vec::new());
-    let e = run(&cfg, &Resume::default(), &mut a, Some(&mut b), &|_| {}).expect_err("refused");
-    assert!(e.to_string().contains("failures"), "{e}");
-    Ok(())
-}
-
-#[test]
-fn contact_count_is_the_simulators() -> Result<()> {
-    let flat = World::uniform(
-        Heightmap::from_fn(1.0, |_, _| 0.0),
-        Semantic::Dirt,
-        Surface::Rigid { friction: 0.8 },
-    );
-    for v in sim_core::vehicle::builtin_vehicles() {
-        let sim = sim_core::Simulation::new(&flat, &v, 0.0, 0.0, 0.0);
-        assert_eq!(contact_count(&v), sim.wheels().count(), "{}", v.name);
-    }
-    Ok(())
 }
