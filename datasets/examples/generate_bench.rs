@@ -9,8 +9,10 @@
 //! process, so other load on the machine does not count against it).
 
 use anyhow::{bail, Context, Result};
-use datasets::generate::{run, EpisodeSink, GenerateConfig, Resume, SinkError};
-use datasets::{DatasetKind, EpisodeRecord, Variant};
+use datasets::generate::{
+    failures_spec, run, spec, EpisodeSink, GenerateConfig, Resume, SinkError,
+};
+use datasets::{DatasetKind, DatasetWriter, EpisodeRecord, Variant};
 use std::time::Instant;
 
 #[derive(Default)]
@@ -63,10 +65,30 @@ fn main() -> Result<()> {
         cfg.planners = p.split(',').map(str::to_string).collect();
     }
     let (mut main, mut failures) = (Count::default(), Count::default());
-    let feed: Option<&mut dyn EpisodeSink> =
-        (kind != DatasetKind::Failures).then_some(&mut failures as _);
     let (t0, c0) = (Instant::now(), cpu_seconds()?);
-    let s = run(&cfg, &Resume::default(), &mut main, feed, &|_| {})?;
+    // With VB_BENCH_OUT=DIR the episodes go through the LeRobot v3 writer into DIR/main and DIR/failures.
+    let s = match std::env::var_os("VB_BENCH_OUT") {
+        None => {
+            let feed: Option<&mut dyn EpisodeSink> =
+                (kind != DatasetKind::Failures).then_some(&mut failures as _);
+            run(&cfg, &Resume::default(), &mut main, feed, &|_| {})?
+        }
+        Some(out) => {
+            let out = std::path::Path::new(&out);
+            let mut m = DatasetWriter::open(&out.join("main"), &spec(&cfg)?, "generate_bench")?;
+            let mut f = DatasetWriter::open(
+                &out.join("failures"),
+                &failures_spec(&cfg)?,
+                "generate_bench",
+            )?;
+            let feed: Option<&mut dyn EpisodeSink> =
+                (kind != DatasetKind::Failures).then_some(&mut f as _);
+            let s = run(&cfg, &Resume::default(), &mut m, feed, &|_| {})?;
+            main.episodes = m.finish()?.episodes;
+            failures.episodes = f.finish()?.episodes;
+            s
+        }
+    };
     let (wall, cpu) = (t0.elapsed().as_secs_f64(), cpu_seconds()? - c0);
     let kept_h = s.kept_seconds / 3600.0;
     let sim_h = s.simulated_seconds / 3600.0;
