@@ -3,6 +3,8 @@
 //!
 //! - [`record`]: one episode's metadata and frames, as generators make them and the writer takes them.
 //! - [`spec`]: what a whole dataset is (kind, variant, vehicle, rates, versions, seed): its identity.
+//! - [`generate`]: the episodes of the random, expert and failures datasets, on training worlds, into a sink
+//!   ([`generate::EpisodeSink`], which [`DatasetWriter`] implements).
 //! - [`writer`]: [`DatasetWriter`] writes a dataset directory, [`resume`] reopens one; [`card`] and [`plot`] make
 //!   its `README.md` and pictures.
 //! - [`validate()`]: checks a directory against the format and names what is wrong; [`info`] summarises it.
@@ -15,6 +17,7 @@ mod checks;
 pub mod episodes;
 pub mod error;
 pub mod frames;
+pub mod generate;
 pub mod json;
 pub mod layout;
 pub mod meta;

@@ -122,7 +122,20 @@ impl EpisodeRun {
         vehicle: &VehicleSpec,
         cfg: &EpisodeConfig,
     ) -> Self {
-        let (x0, y0, yaw) = start_pose(task);
+        let (_, _, yaw) = start_pose(task);
+        EpisodeRun::new_heading(world, task, vehicle, cfg, yaw)
+    }
+
+    /// [`EpisodeRun::new_shared`] with the vehicle facing `yaw` (rad) instead of the goal: the datasets' random
+    /// exploration starts in any direction.
+    pub fn new_heading(
+        world: Arc<World>,
+        task: &Task,
+        vehicle: &VehicleSpec,
+        cfg: &EpisodeConfig,
+        yaw: f64,
+    ) -> Self {
+        let (x0, y0) = (task.start[0], task.start[1]);
         let sim = Simulation::new_shared(world, vehicle, x0, y0, yaw);
         let world = sim.world();
         let dt = sim.dt();

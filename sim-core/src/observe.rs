@@ -114,6 +114,51 @@ pub fn obstacle_crop(world: &World, state: &VehicleState, spec: &CropSpec, out: 
     }
 }
 
+/// Names of [`state_vector`]'s entries, in order (world frame, SI units, angles in rad): the Python SDK's
+/// `state` and the datasets' `observation.state`.
+pub const STATE_FIELDS: [&str; 15] = [
+    "x", "y", "z", "roll", "pitch", "yaw", "vx", "vy", "vz", "wx", "wy", "wz", "speed", "steering",
+    "time",
+];
+
+/// Names of [`goal_vector`]'s entries: the goal in the vehicle's heading frame (m ahead, m to the left) and its
+/// horizontal distance (m).
+pub const GOAL_FIELDS: [&str; 3] = ["ahead", "left", "distance"];
+
+/// The vehicle's state as one vector ([`STATE_FIELDS`]): what the Python SDK's environments observe and the
+/// datasets record.
+pub fn state_vector(s: &VehicleState) -> [f64; 15] {
+    let [x, y, z] = s.position;
+    let [vx, vy, vz] = s.velocity;
+    let [wx, wy, wz] = s.angular_velocity;
+    [
+        x, y, z, s.roll, s.pitch, s.yaw, vx, vy, vz, wx, wy, wz, s.speed, s.steering, s.time,
+    ]
+}
+
+/// The goal `(x, y)` in the vehicle's heading frame ([`GOAL_FIELDS`]): m ahead, m to the left (rotated by the yaw
+/// only) and the horizontal distance.
+pub fn goal_vector(s: &VehicleState, goal: [f64; 2]) -> [f64; 3] {
+    let (dx, dy) = (goal[0] - s.position[0], goal[1] - s.position[1]);
+    let (sn, c) = s.yaw.sin_cos();
+    [c * dx + sn * dy, -sn * dx + c * dy, dx.hypot(dy)]
+}
+
+/// [`elevation_crop`] relative to the height of the vehicle's reference point (crop minus its `z`, in `f32`): the
+/// elevation the Python SDK observes and the datasets record.
+pub fn relative_elevation_crop(
+    world: &World,
+    state: &VehicleState,
+    spec: &CropSpec,
+    out: &mut [f32],
+) {
+    elevation_crop(world, state, spec, out);
+    let z = state.position[2] as f32;
+    out.iter_mut()
+        .take(spec.size * spec.size)
+        .for_each(|h| *h -= z);
+}
+
 /// Semantic label id of every heightmap sample, `grid[iy * nx + ix]`.
 pub fn semantics_grid(world: &World) -> Vec<u8> {
     sample_grid(world, |x, y| world.patch_at(x, y).semantic.id())

@@ -36,15 +36,44 @@ fn wrap(a: f64) -> f64 {
     a.sin().atan2(a.cos())
 }
 
+/// The baselines' speed loop: PI control of the forward speed to a target, normalised by the target, to throttle
+/// (positive output) or brake at half strength (negative output). Called once per control step at `rate_hz`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SpeedControl {
+    /// Target speed, m/s.
+    pub target: f64,
+    rate_hz: f64,
+    integral: f64,
+}
+
+impl SpeedControl {
+    /// A loop to `target` m/s, called at `rate_hz`, with no integral yet.
+    pub fn new(target: f64, rate_hz: f64) -> Self {
+        SpeedControl {
+            target,
+            rate_hz,
+            integral: 0.0,
+        }
+    }
+
+    /// Throttle and brake for the measured forward speed `speed` (m/s): P gain 1, I gain 0.3 (integral clamped to
+    /// +-2 m), both per m/s of target.
+    pub fn command(&mut self, speed: f64) -> (f64, f64) {
+        let err = self.target - speed;
+        self.integral = (self.integral + err / self.rate_hz).clamp(-2.0, 2.0);
+        let u = (1.0 * err + 0.3 * self.integral) / self.target.max(1e-6);
+        (u.clamp(0.0, 1.0), (-u).clamp(0.0, 1.0) * 0.5)
+    }
+}
+
 /// Shared path-tracking and speed-control state.
 #[derive(Clone, Debug, Default)]
 struct Tracker {
     path: Vec<[f64; 2]>,
     progress: usize,
     scale: f64,
-    speed: f64,
+    speed: SpeedControl,
     steering: f64,
-    integral: f64,
     skid: bool,
 }
 
@@ -55,9 +84,8 @@ impl Tracker {
         self.path = ctx.task.path.clone();
         self.progress = 0;
         self.scale = ctx.world.scale;
-        self.speed = ctx.vehicle.nominal_speed;
+        self.speed = SpeedControl::new(ctx.vehicle.nominal_speed, Self::RATE);
         self.steering = 0.0;
-        self.integral = 0.0;
         self.skid = ctx.vehicle.skid_steer;
     }
 
@@ -78,13 +106,11 @@ impl Tracker {
     fn act(&mut self, obs: &Observation, heading_error: f64) -> Action {
         let target = heading_error.clamp(-1.0, 1.0);
         self.steering += (target - self.steering).clamp(-0.5, 0.5);
-        let err = self.speed - obs.state.speed;
-        self.integral = (self.integral + err / Self::RATE).clamp(-2.0, 2.0);
-        let u = (1.0 * err + 0.3 * self.integral) / self.speed.max(1e-6);
+        let (throttle, brake) = self.speed.command(obs.state.speed);
         Action {
             steering: self.steering,
-            throttle: u.clamp(0.0, 1.0),
-            brake: (-u).clamp(0.0, 1.0) * 0.5,
+            throttle,
+            brake,
         }
     }
 }

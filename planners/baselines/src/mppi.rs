@@ -105,7 +105,7 @@ impl Planner for Mppi {
         );
         self.tracker.progress = progress;
         let normal = Normal::new(0.0, SIGMA).map_err(|e| PlannerError::Other(e.to_string()))?;
-        let v = self.tracker.speed.max(0.5 * s.speed.abs());
+        let v = self.tracker.speed.target.max(0.5 * s.speed.abs());
         let d0 = (goal[0] - s.position[0])
             .hypot(goal[1] - s.position[1])
             .max(1e-3);

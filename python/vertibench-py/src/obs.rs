@@ -1,18 +1,14 @@
 //! The environments' observation: the vehicle's state and the goal as vectors, and heading-aligned map crops
 //! (sim-core's `observe`, the same crops the planner protocol sends), written into per-environment buffers.
 
-use sim_core::observe::{elevation_crop, obstacle_crop, semantics_crop, CropSpec};
+use sim_core::observe::{
+    goal_vector, obstacle_crop, relative_elevation_crop, semantics_crop, state_vector, CropSpec,
+};
 use sim_core::planner::VehicleState;
 use sim_core::world::World;
 
-/// Names of the `state` vector's entries, in order (world frame, SI units, angles in rad).
-pub const STATE_FIELDS: [&str; 15] = [
-    "x", "y", "z", "roll", "pitch", "yaw", "vx", "vy", "vz", "wx", "wy", "wz", "speed", "steering",
-    "time",
-];
-/// Names of the `goal` vector's entries: the goal in the vehicle's heading frame (m ahead, m to the left) and its
-/// horizontal distance (m).
-pub const GOAL_FIELDS: [&str; 3] = ["ahead", "left", "distance"];
+/// Names of the `state` and `goal` vectors' entries (sim-core's, shared with the datasets).
+pub use sim_core::observe::{GOAL_FIELDS, STATE_FIELDS};
 
 /// One environment's observation.
 #[derive(Clone, Debug)]
@@ -45,19 +41,11 @@ impl ObsBuf {
         goal: [f64; 2],
         crop: Option<&CropSpec>,
     ) {
-        let [x, y, z] = s.position;
-        let [vx, vy, vz] = s.velocity;
-        let [wx, wy, wz] = s.angular_velocity;
-        self.state = [
-            x, y, z, s.roll, s.pitch, s.yaw, vx, vy, vz, wx, wy, wz, s.speed, s.steering, s.time,
-        ];
-        let (dx, dy) = (goal[0] - x, goal[1] - y);
-        let (sn, c) = s.yaw.sin_cos();
-        self.goal = [c * dx + sn * dy, -sn * dx + c * dy, dx.hypot(dy)];
+        // The same functions the datasets record with (sim-core's `observe`), so both see identical values.
+        self.state = state_vector(s);
+        self.goal = goal_vector(s, goal);
         if let Some(spec) = crop {
-            elevation_crop(world, s, spec, &mut self.elevation);
-            let z = z as f32;
-            self.elevation.iter_mut().for_each(|h| *h -= z);
+            relative_elevation_crop(world, s, spec, &mut self.elevation);
             semantics_crop(world, s, spec, &mut self.semantics);
             obstacle_crop(world, s, spec, &mut self.obstacles);
         }
