@@ -14,6 +14,7 @@
 
 pub mod card;
 mod checks;
+pub mod cli;
 pub mod episodes;
 pub mod error;
 pub mod frames;

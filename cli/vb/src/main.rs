@@ -26,6 +26,9 @@ enum Command {
     /// Run single simulated episodes.
     #[command(subcommand)]
     Sim(cmd::sim::SimCmd),
+    /// Generate, check and summarise the datasets (expert, random exploration, failure cases; LeRobot v3).
+    #[command(subcommand)]
+    Dataset(cmd::dataset::DatasetCmd),
     /// Evaluate a planner on the task set, locally and in parallel.
     Eval(cmd::eval::EvalArgs),
     /// Compare two evaluation results on the same tasks with paired statistics.
@@ -97,6 +100,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Terrain(c) => cmd::terrain::run(c),
         Command::Sim(c) => cmd::sim::run(c),
         Command::Eval(a) => cmd::eval::run(a),
+        Command::Dataset(c) => cmd::dataset::run(c),
         Command::Compare(a) => cmd::compare::run(a),
         Command::Leaderboard(a) => cmd::leaderboard::run(a),
         Command::Bench(c) => cmd::bench::run(c),

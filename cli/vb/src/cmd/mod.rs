@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod bench_service;
 pub mod compare;
+pub mod dataset;
 pub mod eval;
 pub mod leaderboard;
 pub mod net_args;
