@@ -76,6 +76,8 @@ pub fn columns() -> Vec<(String, Kind)> {
         ("failure_source_episode", OptU64),
         ("failure_start_time", OptF64),
         ("failure_short", OptBool),
+        ("final_state", ListF64(vec![15])),
+        ("final_goal", ListF64(vec![3])),
         ("vehicle", Str),
         ("scale", F64),
         ("sim_version", Str),
@@ -154,6 +156,8 @@ pub fn write_episodes(
         ),
         Data::OptF64(rows.iter().map(|r| fail(r).map(|f| f.start_time)).collect()),
         Data::OptBool(rows.iter().map(|r| fail(r).map(|f| f.short)).collect()),
+        Data::ListF64(rows.iter().flat_map(|r| r.meta.final_state).collect()),
+        Data::ListF64(rows.iter().flat_map(|r| r.meta.final_goal).collect()),
         strs(&|_| spec.vehicle.clone()),
         f64s(&|_| spec.scale),
         strs(&|_| spec.sim_version.clone()),
@@ -181,6 +185,16 @@ impl Cols {
         match &self.0[i] {
             Data::F64(v) => v.get(row).copied().unwrap_or_default(),
             _ => 0.0,
+        }
+    }
+    /// Row `row` of a fixed-shape float64 column of `N` values a row (zeros when absent).
+    fn f64s<const N: usize>(&self, i: usize, row: usize) -> [f64; N] {
+        match &self.0[i] {
+            Data::ListF64(v) => v
+                .get(row * N..(row + 1) * N)
+                .and_then(|s| <[f64; N]>::try_from(s).ok())
+                .unwrap_or([0.0; N]),
+            _ => [0.0; N],
         }
     }
     fn str(&self, i: usize, row: usize) -> &str {
@@ -277,6 +291,8 @@ pub fn read_episodes(path: &Path, spec: &DatasetSpec) -> Result<Vec<EpisodeRow>,
             outcome: parse(path, r, "outcome", Outcome::parse(c.str(23, r)))?,
             reason: parse(path, r, "reason", EndReason::parse(c.str(24, r)))?,
             failure,
+            final_state: c.f64s(30, r),
+            final_goal: c.f64s(31, r),
         };
         let file = FileId {
             chunk: unsigned(path, r, "data/chunk_index", c.i64(3, r))?,

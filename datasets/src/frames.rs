@@ -8,14 +8,14 @@ use crate::record::EpisodeRecord;
 use crate::spec::{DatasetSpec, Variant};
 
 /// Largest finite float16 value: crops beyond it cannot be stored.
-const F16_MAX: f32 = 65504.0;
+const F16_MAX: f64 = 65504.0;
 
 /// A spec's frame columns, in file order.
 pub fn columns(spec: &DatasetSpec) -> Vec<(String, Kind)> {
     let list = |n: usize| Kind::ListF32(vec![n]);
     let mut c = vec![
-        ("observation.state", list(15)),
-        ("observation.goal", list(3)),
+        ("observation.state", Kind::ListF64(vec![15])),
+        ("observation.goal", Kind::ListF64(vec![3])),
         ("observation.wheels", Kind::ListF32(vec![spec.wheels, 4])),
     ];
     if spec.variant == Variant::Full {
@@ -46,8 +46,8 @@ pub struct FrameColumns {
     pub wheels: usize,
     /// Crop side (full variant), 0 without crops.
     pub crop: usize,
-    pub state: Vec<f32>,
-    pub goal: Vec<f32>,
+    pub state: Vec<f64>,
+    pub goal: Vec<f64>,
     pub wheel_values: Vec<f32>,
     pub elevation: Vec<u16>,
     pub semantics: Vec<u16>,
@@ -71,19 +71,25 @@ pub fn timestamp(frame: u64, fps: f64) -> f32 {
 
 /// Bytes a frame takes uncompressed: what the data-file size threshold counts.
 pub fn row_bytes(spec: &DatasetSpec) -> u64 {
-    let floats = 15 + 3 + 4 * spec.wheels as u64 + 3 + 1 + 4 + 1;
+    let doubles = 15 + 3;
+    let floats = 4 * spec.wheels as u64 + 3 + 1 + 4 + 1;
     let crops = match spec.variant {
         Variant::Full => 2 * 2 * (spec.crop.size as u64).pow(2),
         Variant::Lite => 0,
     };
-    4 * floats + 3 + 8 * 4 + crops
+    8 * doubles + 4 * floats + 3 + 8 * 4 + crops
 }
 
-fn finite(episode: u64, field: &str, values: &[f32], limit: f32) -> Result<(), DatasetError> {
-    match values
-        .iter()
-        .position(|v| !v.is_finite() || v.abs() > limit)
-    {
+fn finite<T: Copy + Into<f64> + std::fmt::Display>(
+    episode: u64,
+    field: &str,
+    values: &[T],
+    limit: f64,
+) -> Result<(), DatasetError> {
+    match values.iter().position(|&v| {
+        let v: f64 = v.into();
+        !v.is_finite() || v.abs() > limit
+    }) {
         None => Ok(()),
         Some(i) => Err(DatasetError::record(
             episode,
@@ -91,7 +97,7 @@ fn finite(episode: u64, field: &str, values: &[f32], limit: f32) -> Result<(), D
             format!(
                 "value {i} is {} (values must be finite{})",
                 values[i],
-                if limit < f32::MAX {
+                if limit < f64::MAX {
                     " and within float16's range"
                 } else {
                     ""
@@ -137,15 +143,15 @@ pub fn check_record(
     same_len(episode, "terminated", f.terminated.len(), n)?;
     same_len(episode, "truncated", f.truncated.len(), n)?;
     same_len(episode, "wheels", f.wheels.len(), n * spec.wheels * 4)?;
-    finite(episode, "state", f.state.as_flattened(), f32::MAX)?;
-    finite(episode, "goal", f.goal.as_flattened(), f32::MAX)?;
-    finite(episode, "wheels", &f.wheels, f32::MAX)?;
-    finite(episode, "action", f.action.as_flattened(), f32::MAX)?;
+    finite(episode, "state", f.state.as_flattened(), f64::MAX)?;
+    finite(episode, "goal", f.goal.as_flattened(), f64::MAX)?;
+    finite(episode, "wheels", &f.wheels, f64::MAX)?;
+    finite(episode, "action", f.action.as_flattened(), f64::MAX)?;
     finite(
         episode,
         "reward_terms",
         f.reward_terms.as_flattened(),
-        f32::MAX,
+        f64::MAX,
     )?;
     let cells = n * spec.crop.size * spec.crop.size;
     for (field, crop) in [("elevation", &f.elevation), ("semantics", &f.semantics)] {
@@ -180,6 +186,8 @@ pub fn check_record(
             "start, goal and policy parameters must be finite",
         ));
     }
+    finite(episode, "final_state", &m.final_state, f64::MAX)?;
+    finite(episode, "final_goal", &m.final_goal, f64::MAX)?;
     if let Some(w) = &m.failure {
         if !w.start_time.is_finite() {
             return Err(DatasetError::record(
@@ -264,8 +272,8 @@ impl FrameColumns {
     /// The columns for [`crate::parquet_io::write_table`], in [`columns`]' order.
     pub fn into_columns(self, spec: &DatasetSpec) -> Vec<(String, Kind, Data)> {
         let mut data = vec![
-            Data::ListF32(self.state),
-            Data::ListF32(self.goal),
+            Data::ListF64(self.state),
+            Data::ListF64(self.goal),
             Data::ListF32(self.wheel_values),
         ];
         if spec.variant == Variant::Full {
@@ -299,8 +307,8 @@ impl FrameColumns {
         let names = columns(spec);
         for ((name, _), data) in names.iter().zip(table.columns) {
             match (name.as_str(), data) {
-                ("observation.state", Data::ListF32(v)) => out.state = v,
-                ("observation.goal", Data::ListF32(v)) => out.goal = v,
+                ("observation.state", Data::ListF64(v)) => out.state = v,
+                ("observation.goal", Data::ListF64(v)) => out.goal = v,
                 ("observation.wheels", Data::ListF32(v)) => out.wheel_values = v,
                 ("observation.elevation", Data::ListF16(v)) => out.elevation = v,
                 ("observation.semantics", Data::ListF16(v)) => out.semantics = v,

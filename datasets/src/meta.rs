@@ -119,11 +119,11 @@ pub fn features(spec: &DatasetSpec) -> Ordered<Feature> {
     let mut f = vec![
         (
             "observation.state",
-            feature("float32", vec![15], names(&STATE_FIELDS)),
+            feature("float64", vec![15], names(&STATE_FIELDS)),
         ),
         (
             "observation.goal",
-            feature("float32", vec![3], names(&GOAL_FIELDS)),
+            feature("float64", vec![3], names(&GOAL_FIELDS)),
         ),
         (
             "observation.wheels",

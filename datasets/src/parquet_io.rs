@@ -37,6 +37,8 @@ pub enum Kind {
     ListStr,
     /// A fixed-shape float32 feature (row-major values, `shape.len()` nested lists).
     ListF32(Vec<usize>),
+    /// A fixed-shape float64 feature (row-major values, `shape.len()` nested lists).
+    ListF64(Vec<usize>),
     /// A fixed-shape float16 feature, values as IEEE half bits.
     ListF16(Vec<usize>),
 }
@@ -57,6 +59,7 @@ pub enum Data {
     OptBool(Vec<Option<bool>>),
     ListStr(Vec<Vec<String>>),
     ListF32(Vec<f32>),
+    ListF64(Vec<f64>),
     ListF16(Vec<u16>),
 }
 
@@ -125,6 +128,7 @@ pub fn column_type(name: &str, kind: &Kind) -> Result<Type, ParquetError> {
         Kind::OptBool => leaf(name, Physical::BOOLEAN, O, None),
         Kind::ListStr => nested(name, &[0], Physical::BYTE_ARRAY, Some(LogicalType::String)),
         Kind::ListF32(shape) => nested(name, shape, Physical::FLOAT, None),
+        Kind::ListF64(shape) => nested(name, shape, Physical::DOUBLE, None),
         Kind::ListF16(shape) => nested(
             name,
             shape,
@@ -184,6 +188,7 @@ fn rows_of(data: &Data, kind: &Kind) -> usize {
         (Data::OptBool(v), _) => v.len(),
         (Data::ListStr(v), _) => v.len(),
         (Data::ListF32(v), Kind::ListF32(s)) => v.len() / per(s),
+        (Data::ListF64(v), Kind::ListF64(s)) => v.len() / per(s),
         (Data::ListF16(v), Kind::ListF16(s)) => v.len() / per(s),
         _ => usize::MAX,
     }
@@ -349,6 +354,9 @@ pub fn write_table(
             (Data::ListF32(v), Kind::ListF32(shape)) => {
                 write_fixed(col.typed::<FloatType>(), &v, shape, <[f32]>::to_vec)
             }
+            (Data::ListF64(v), Kind::ListF64(shape)) => {
+                write_fixed(col.typed::<DoubleType>(), &v, shape, <[f64]>::to_vec)
+            }
             (Data::ListF16(v), Kind::ListF16(shape)) => {
                 write_fixed(col.typed::<FixedLenByteArrayType>(), &v, shape, f16_values)
             }
@@ -382,6 +390,7 @@ impl Data {
             (Data::OptBool(a), Data::OptBool(b)) => a.extend(b),
             (Data::ListStr(a), Data::ListStr(b)) => a.extend(b),
             (Data::ListF32(a), Data::ListF32(b)) => a.extend(b),
+            (Data::ListF64(a), Data::ListF64(b)) => a.extend(b),
             (Data::ListF16(a), Data::ListF16(b)) => a.extend(b),
             _ => return Err("values of another type".into()),
         }

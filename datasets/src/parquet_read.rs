@@ -134,7 +134,7 @@ fn read_table_inner(path: &Path, expected: &[(String, Kind)]) -> Result<Table, D
         seen += group_rows;
         for (i, (name, kind)) in expected.iter().enumerate() {
             let per_row = match kind {
-                Kind::ListF32(s) | Kind::ListF16(s) => s.iter().product(),
+                Kind::ListF32(s) | Kind::ListF64(s) | Kind::ListF16(s) => s.iter().product(),
                 _ => 1,
             };
             let batch = batch_rows(per_row);
@@ -335,6 +335,10 @@ fn decode(
             check_fixed(shape, v.len(), def, rep, rows, first)?;
             Data::ListF32(v)
         }
+        (Kind::ListF64(shape), Some(Raw::F64(v))) => {
+            check_fixed(shape, v.len(), def, rep, rows, first)?;
+            Data::ListF64(v)
+        }
         (Kind::ListF16(shape), Some(Raw::Fixed(v))) => {
             check_fixed(shape, v.len(), def, rep, rows, first)?;
             Data::ListF16(
@@ -364,6 +368,7 @@ fn empty(kind: &Kind) -> Data {
         Kind::OptBool => Data::OptBool(Vec::new()),
         Kind::ListStr => Data::ListStr(Vec::new()),
         Kind::ListF32(_) => Data::ListF32(Vec::new()),
+        Kind::ListF64(_) => Data::ListF64(Vec::new()),
         Kind::ListF16(_) => Data::ListF16(Vec::new()),
     }
 }

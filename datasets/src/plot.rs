@@ -82,9 +82,9 @@ impl CardData {
     pub fn add(&mut self, frames: &FrameColumns, rows: &[EpisodeRow]) {
         let s = &frames.state;
         for r in 0..frames.rows.min(s.len() / 15) {
-            self.speed.add(f64::from(s[r * 15 + 12]));
-            self.roll.add(f64::from(s[r * 15 + 3]).to_degrees());
-            self.pitch.add(f64::from(s[r * 15 + 4]).to_degrees());
+            self.speed.add(s[r * 15 + 12]);
+            self.roll.add(s[r * 15 + 3].to_degrees());
+            self.pitch.add(s[r * 15 + 4].to_degrees());
         }
         for ((_, range), row) in frames.episode_ranges().into_iter().zip(rows) {
             let w = row.meta.world_id;
@@ -104,10 +104,10 @@ impl CardData {
             let mut points: Vec<[f64; 2]> = range
                 .clone()
                 .step_by(step)
-                .map(|r| [f64::from(s[r * 15]), f64::from(s[r * 15 + 1])])
+                .map(|r| [s[r * 15], s[r * 15 + 1]])
                 .collect();
             if let Some(last) = range.clone().last() {
-                points.push([f64::from(s[last * 15]), f64::from(s[last * 15 + 1])]);
+                points.push([s[last * 15], s[last * 15 + 1]]);
             }
             lines.push(PathLine {
                 episode: row.index,

@@ -79,16 +79,21 @@ pub struct EpisodeMeta {
     pub reason: EndReason,
     /// For the failures dataset: the window's label and source.
     pub failure: Option<FailureWindow>,
+    /// The episode's final observation, the one after its last action (gymnasium's terminal observation; with the
+    /// frames' observations, the T+1 observations a Minari export needs): [`STATE_FIELDS`] and [`GOAL_FIELDS`].
+    /// A failure window's is its source episode's (its frames are the source's last ones).
+    pub final_state: [f64; 15],
+    pub final_goal: [f64; 3],
 }
 
 /// An episode's frames, column-wise; frame `t` holds the observation at control step `t`, the action taken then,
 /// and what the step produced (`next.*`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Frames {
-    /// [`STATE_FIELDS`] per frame.
-    pub state: Vec<[f32; 15]>,
+    /// [`STATE_FIELDS`] per frame, as the SDK observes it (float64, unrounded).
+    pub state: Vec<[f64; 15]>,
     /// [`GOAL_FIELDS`] per frame.
-    pub goal: Vec<[f32; 3]>,
+    pub goal: Vec<[f64; 3]>,
     /// [`WHEEL_FIELDS`] per wheel per frame: `wheels * 4` values a frame.
     pub wheels: Vec<f32>,
     pub action: Vec<[f32; 3]>,

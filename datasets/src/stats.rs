@@ -12,6 +12,8 @@ use serde_json::Value;
 /// How a feature's values are stored (and so how its min and max are written).
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Dtype {
+    /// float64: min and max written as such.
+    Double,
     Float,
     Int,
     Bool,
@@ -70,6 +72,7 @@ pub struct Stats {
 
 /// A feature's values, row-major, as stored.
 enum View<'a> {
+    F64(&'a [f64]),
     F32(&'a [f32]),
     F16(&'a [u16]),
     I64(&'a [i64]),
@@ -78,8 +81,8 @@ enum View<'a> {
 
 fn view<'a>(f: &'a FrameColumns, name: &str) -> View<'a> {
     match name {
-        "observation.state" => View::F32(&f.state),
-        "observation.goal" => View::F32(&f.goal),
+        "observation.state" => View::F64(&f.state),
+        "observation.goal" => View::F64(&f.goal),
         "observation.wheels" => View::F32(&f.wheel_values),
         "observation.elevation" => View::F16(&f.elevation),
         "observation.semantics" => View::F16(&f.semantics),
@@ -144,8 +147,8 @@ impl Stats {
             dtype,
         };
         let mut features = vec![
-            f("observation.state", vec![15], Dtype::Float),
-            f("observation.goal", vec![3], Dtype::Float),
+            f("observation.state", vec![15], Dtype::Double),
+            f("observation.goal", vec![3], Dtype::Double),
             f("observation.wheels", vec![spec.wheels, 4], Dtype::Float),
         ];
         if spec.variant == Variant::Full {
@@ -178,6 +181,7 @@ impl Stats {
             for (_, rows) in &ranges {
                 let r = rows.clone();
                 let e = match v {
+                    View::F64(v) => episode_stats(v, |x| x, d, r),
                     View::F32(v) => episode_stats(v, f64::from, d, r),
                     View::F16(v) => {
                         episode_stats(v, |b| f64::from(half::f16::from_bits(b).to_f32()), d, r)
@@ -206,6 +210,7 @@ impl Stats {
         if self.count() > 0 {
             for f in &self.features {
                 let num = |x: f64| match f.dtype {
+                    Dtype::Double => Num::D(x),
                     Dtype::Float => Num::F(x as f32),
                     Dtype::Int => Num::I(x as i64),
                     Dtype::Bool => Num::B(x != 0.0),
@@ -227,10 +232,11 @@ impl Stats {
     }
 }
 
-/// A min or max as its feature's type writes it (float32 in its shortest form, integer, boolean).
+/// A min or max as its feature's type writes it (float64, float32 in its shortest form, integer, boolean).
 #[derive(Clone, Copy, Debug, Serialize)]
 #[serde(untagged)]
 enum Num {
+    D(f64),
     F(f32),
     I(i64),
     B(bool),

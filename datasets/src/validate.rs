@@ -163,6 +163,21 @@ pub fn validate(dir: &Path) -> Result<Report, DatasetError> {
             Vec::new()
         };
         for r in &rows {
+            for (field, v) in [
+                ("final_state", &r.meta.final_state[..]),
+                ("final_goal", &r.meta.final_goal[..]),
+            ] {
+                if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                    c.add(
+                        &erel,
+                        Some(field),
+                        format!(
+                            "episode {}: value {i} is {} (values must be finite)",
+                            r.index, v[i]
+                        ),
+                    );
+                }
+            }
             if r.file != id {
                 c.add(
                     &erel,

@@ -126,7 +126,7 @@ fn random_steering_follows_the_drawn_sinusoid() -> Result<()> {
         assert!((0.2..1.0).contains(&a) && (2.0..10.0).contains(&t) && (0.0..6.3).contains(&phi));
         assert_eq!(p["speed"], 2.0);
         for (s, act) in r.frames.state.iter().zip(&r.frames.action) {
-            let want = a * (std::f64::consts::TAU * s[14] as f64 / t + phi).sin();
+            let want = a * (std::f64::consts::TAU * s[14] / t + phi).sin();
             assert!((act[0] as f64 - want).abs() < 1e-4, "{} vs {want}", act[0]);
         }
     }
@@ -169,7 +169,7 @@ fn the_speed_loop_holds_2_mps_on_flat_rigid_ground() -> Result<()> {
         .state
         .iter()
         .filter(|s| s[14] >= 10.0)
-        .map(|s| s[12] as f64)
+        .map(|s| s[12])
         .collect();
     let mean = speeds.iter().sum::<f64>() / speeds.len() as f64;
     let worst = speeds.iter().map(|v| (v - 2.0).abs()).fold(0.0, f64::max);
@@ -209,6 +209,11 @@ fn failure_windows_are_the_last_10_s_or_the_whole_short_episode() -> Result<()> 
     assert_eq!(
         w.frames.state[..],
         long.frames.state[len - w.frames.len()..]
+    );
+    // The window ends where its source did: the same final observation.
+    assert_eq!(
+        (w.meta.final_state, w.meta.final_goal),
+        (long.meta.final_state, long.meta.final_goal)
     );
     let f = w.meta.failure.as_ref().expect("labelled");
     assert!(
@@ -373,14 +378,15 @@ fn check_with_planner(
         sim_core::observe::elevation_crop(world, &s, &crop, &mut sdk);
         sdk.iter_mut().for_each(|h| *h -= s.position[2] as f32);
         assert_eq!(ours, sdk);
+        // The SDK's float64 values, bit for bit (not rounded to float32).
         assert_eq!(
-            rec.frames.state[k],
-            sdk_state(&s).map(|v| v as f32),
+            rec.frames.state[k].map(f64::to_bits),
+            sdk_state(&s).map(f64::to_bits),
             "frame {k}"
         );
         assert_eq!(
-            rec.frames.goal[k],
-            sdk_goal(&s, task.goal).map(|v| v as f32),
+            rec.frames.goal[k].map(f64::to_bits),
+            sdk_goal(&s, task.goal).map(f64::to_bits),
             "frame {k}"
         );
         let wheels: Vec<f32> = run
@@ -408,6 +414,17 @@ fn check_with_planner(
         );
         assert_eq!(rec.frames.terminated[k], t.terminated);
     }
+    // The final observation: the state after the last frame's action.
+    let s = run.state();
+    assert_eq!(
+        rec.meta.final_state.map(f64::to_bits),
+        sdk_state(&s).map(f64::to_bits)
+    );
+    assert_eq!(
+        rec.meta.final_goal.map(f64::to_bits),
+        sdk_goal(&s, task.goal).map(f64::to_bits)
+    );
+    assert_ne!(rec.meta.final_state, rec.frames.state[rec.frames.len() - 1]);
     Ok(())
 }
 

@@ -222,13 +222,29 @@ fn bad_records_are_refused_and_the_writer_goes_on() {
     let e = w.append(&r).err().unwrap().to_string();
     assert_eq!(e, "episode 0: field `wheels`: 319 values, expected 320");
     let mut r = record(&spec, 0);
-    r.frames.state[3][4] = f32::NAN;
+    r.frames.state[3][4] = f64::NAN;
     assert!(w
         .append(&r)
         .err()
         .unwrap()
         .to_string()
         .contains("field `state`: value 49 is NaN"));
+    let mut r = record(&spec, 0);
+    r.meta.final_state[14] = f64::INFINITY;
+    assert!(w
+        .append(&r)
+        .err()
+        .unwrap()
+        .to_string()
+        .contains("field `final_state`: value 14 is inf"));
+    let mut r = record(&spec, 0);
+    r.meta.final_goal[0] = f64::NAN;
+    assert!(w
+        .append(&r)
+        .err()
+        .unwrap()
+        .to_string()
+        .contains("field `final_goal`: value 0 is NaN"));
     let mut r = record(&spec, 0);
     r.frames.elevation = Some(vec![0.0; 36 * r.frames.len()]);
     assert!(w

@@ -25,6 +25,17 @@ fn floats(l: &List) -> Vec<f32> {
     (0..l.len()).map(|k| l.get_float(k).unwrap()).collect()
 }
 
+/// A float64 list's values, as bits (the pose must come back bit for bit).
+fn double_bits(l: &List) -> Vec<u64> {
+    (0..l.len())
+        .map(|k| l.get_double(k).unwrap().to_bits())
+        .collect()
+}
+
+fn bits(v: &[f64]) -> Vec<u64> {
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
 fn nested_floats(l: &List, inner: usize) -> Vec<f32> {
     let mut out = Vec::new();
     for k in 0..l.len() {
@@ -92,6 +103,14 @@ fn check_data(dir: &Path, spec: &DatasetSpec, n: u64) {
             r#"{"period":4.5,"speed":2.0}"#
         );
         assert_eq!(ep.get_string(col(ep, "vehicle")).unwrap(), "test-rover");
+        assert_eq!(
+            double_bits(ep.get_list(col(ep, "final_state")).unwrap()),
+            bits(&rec.meta.final_state)
+        );
+        assert_eq!(
+            double_bits(ep.get_list(col(ep, "final_goal")).unwrap()),
+            bits(&rec.meta.final_goal)
+        );
         let task_id = ep.get_string(col(ep, "task_id")).ok().cloned();
         assert_eq!(task_id, rec.meta.task_id.map(|t| t.to_string()));
         let task = ep
@@ -117,12 +136,12 @@ fn check_data(dir: &Path, spec: &DatasetSpec, n: u64) {
             let r = &frames[g];
             let list = |name: &str| r.get_list(col(r, name)).unwrap();
             assert_eq!(
-                floats(list("observation.state")),
-                rec.frames.state[t].to_vec()
+                double_bits(list("observation.state")),
+                bits(&rec.frames.state[t])
             );
             assert_eq!(
-                floats(list("observation.goal")),
-                rec.frames.goal[t].to_vec()
+                double_bits(list("observation.goal")),
+                bits(&rec.frames.goal[t])
             );
             assert_eq!(
                 nested_floats(list("observation.wheels"), 4),
@@ -232,6 +251,9 @@ fn roundtrip(kind: DatasetKind, variant: Variant, n: u64) {
         info["features"]["observation.state"]["names"],
         serde_json::json!(STATE_FIELDS)
     );
+    assert_eq!(info["features"]["observation.state"]["dtype"], "float64");
+    assert_eq!(info["features"]["observation.goal"]["dtype"], "float64");
+    assert_eq!(info["features"]["action"]["dtype"], "float32");
     assert_eq!(
         info["features"]["observation.wheels"]["shape"],
         serde_json::json!([4, 4])

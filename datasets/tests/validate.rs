@@ -158,22 +158,41 @@ fn meta_files_are_checked() {
     // A data file with another schema: the column is named.
     let rel = "data/chunk-000/file-000.parquet";
     let mut cols = columns(&spec);
-    cols[0].1 = datasets::parquet_io::Kind::ListF32(vec![14]);
+    cols[0].1 = datasets::parquet_io::Kind::ListF64(vec![14]);
     let path = d.join(rel);
     let f = FrameColumns::from_table(&spec, read_table(&path, &columns(&spec)).unwrap()).unwrap();
     let rows = f.rows;
     let mut data: Vec<_> = f.into_columns(&spec);
+    let state = data[0].clone();
     data[0] = (
         cols[0].0.clone(),
         cols[0].1.clone(),
-        Data::ListF32(vec![0.5; 14 * rows]),
+        Data::ListF64(vec![0.5; 14 * rows]),
     );
-    std::fs::write(&path, write_table(&path, data, &[]).unwrap()).unwrap();
+    std::fs::write(&path, write_table(&path, data.clone(), &[]).unwrap()).unwrap();
     let (_, text) = problems(&d);
     assert!(
         text.contains(&format!(
             "{rel}: column `observation.state`: row 0: 14 values, expected a list of shape [15]"
         )),
+        "{text}"
+    );
+    // The state as float32 (the format's former type): the column's type is named.
+    let Data::ListF64(v) = &state.2 else {
+        panic!("state is float64")
+    };
+    data[0] = (
+        state.0.clone(),
+        datasets::parquet_io::Kind::ListF32(vec![15]),
+        Data::ListF32(v.iter().map(|&x| x as f32).collect()),
+    );
+    std::fs::write(&path, write_table(&path, data, &[]).unwrap()).unwrap();
+    let (_, text) = problems(&d);
+    assert!(
+        text.contains(&format!(
+            "{rel}: schema: column `observation.state`: expected"
+        )) && text.contains("DOUBLE")
+            && text.contains("FLOAT"),
         "{text}"
     );
     std::fs::remove_dir_all(&d).unwrap();
@@ -242,4 +261,59 @@ fn incomplete_and_foreign_directories_are_reported() {
     for x in [d, e] {
         std::fs::remove_dir_all(x).unwrap();
     }
+}
+
+/// Each episode's final observation: read back, and a non-finite value or a list of another length is named.
+#[test]
+fn final_observations_are_checked() {
+    use datasets::episodes::{columns as episode_columns, read_episodes, write_episodes};
+    let (d, spec) = dataset("final-observation", Variant::Lite);
+    let rel = "meta/episodes/chunk-000/file-000.parquet";
+    let path = d.join(rel);
+    let table = read_table(&path, &episode_columns()).unwrap();
+    let footer: Vec<(String, String)> = table.metadata.clone().into_iter().collect();
+    let mut rows = read_episodes(&path, &spec).unwrap();
+    for r in &rows {
+        let want = record(&spec, r.index).meta;
+        assert_eq!(
+            r.meta.final_state.map(f64::to_bits),
+            want.final_state.map(f64::to_bits)
+        );
+        assert_eq!(
+            r.meta.final_goal.map(f64::to_bits),
+            want.final_goal.map(f64::to_bits)
+        );
+    }
+    rows[0].meta.final_state[2] = f64::NAN;
+    rows[0].meta.final_goal[1] = f64::INFINITY;
+    std::fs::write(&path, write_episodes(&path, &spec, &rows, &footer).unwrap()).unwrap();
+    let (r, text) = problems(&d);
+    assert!(!r.is_ok());
+    assert!(
+        text.contains("`final_state`: episode 0: value 2 is NaN (values must be finite)"),
+        "{text}"
+    );
+    assert!(
+        text.contains("`final_goal`: episode 0: value 1 is inf (values must be finite)"),
+        "{text}"
+    );
+
+    // A final goal of 2 values instead of 3.
+    let mut cols: Vec<_> = episode_columns()
+        .into_iter()
+        .zip(read_table(&path, &episode_columns()).unwrap().columns)
+        .map(|((n, k), d)| (n, k, d))
+        .collect();
+    let i = cols.iter().position(|(n, _, _)| n == "final_goal").unwrap();
+    cols[i].1 = datasets::parquet_io::Kind::ListF64(vec![2]);
+    cols[i].2 = Data::ListF64(vec![0.25; 2 * rows.len()]);
+    std::fs::write(&path, write_table(&path, cols, &footer).unwrap()).unwrap();
+    let (_, text) = problems(&d);
+    assert!(
+        text.contains(&format!(
+            "{rel}: column `final_goal`: row 0: 2 values, expected a list of shape [3]"
+        )),
+        "{text}"
+    );
+    std::fs::remove_dir_all(&d).unwrap();
 }

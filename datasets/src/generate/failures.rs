@@ -76,6 +76,8 @@ pub fn failure_window(
     let n = window_frames(period);
     let len = rec.frames.len();
     let from = len.saturating_sub(n);
+    // The window's frames are the source's last ones, so its final observation (`meta.final_state`, `final_goal`)
+    // is the source's, kept by the clone.
     let mut meta = rec.meta.clone();
     meta.kind = DatasetKind::Failures;
     meta.failure = Some(FailureWindow {

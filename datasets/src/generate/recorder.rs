@@ -5,7 +5,7 @@
 //! (planner reset, its control rate, act, control, advance), so an episode ends exactly as under `vb eval`.
 //! Frames are allocated once per episode, for the longest episode the time limit allows.
 
-use crate::record::Frames;
+use crate::record::{EpisodeRecord, Frames};
 use contracts::{EndReason, Outcome};
 use sim_core::observe::{
     goal_vector, relative_elevation_crop, semantics_crop, state_vector, CropSpec,
@@ -21,22 +21,31 @@ pub struct Recorded {
     pub outcome: Outcome,
     pub reason: EndReason,
     pub detail: String,
+    /// The final observation, after the last action (gymnasium's terminal observation): the SDK's state and goal
+    /// vectors of the state the episode ended in.
+    pub final_state: [f64; 15],
+    pub final_goal: [f64; 3],
     /// Simulated seconds between two frames.
     pub period: f64,
 }
 
-/// Whether frames can be written: at least one, every value finite (state, goal, wheels, action, reward terms as
-/// float32, crops as float16). An episode whose simulation diverged can hold infinities or NaN in its last frames.
-pub fn writable(f: &Frames) -> bool {
+/// Whether an episode can be written: at least one frame, every value finite (state, goal and the final observation
+/// as float64, wheels, action, reward terms as float32, crops as float16). An episode whose simulation diverged can
+/// hold infinities or NaN in its last frames and its final observation.
+pub fn writable(rec: &EpisodeRecord) -> bool {
     const F16_MAX: f32 = 65504.0;
+    let f = &rec.frames;
     let fin = |v: &[f32]| v.iter().all(|x| x.is_finite());
+    let fin64 = |v: &[f64]| v.iter().all(|x| x.is_finite());
     let crop = |v: &Option<Vec<f32>>| {
         v.as_ref()
             .is_none_or(|v| v.iter().all(|x| x.abs() <= F16_MAX))
     };
     !f.is_empty()
-        && fin(f.state.as_flattened())
-        && fin(f.goal.as_flattened())
+        && fin64(f.state.as_flattened())
+        && fin64(f.goal.as_flattened())
+        && fin64(&rec.meta.final_state)
+        && fin64(&rec.meta.final_goal)
         && fin(&f.wheels)
         && fin(f.action.as_flattened())
         && fin(f.reward_terms.as_flattened())
@@ -68,18 +77,27 @@ pub fn drive(
         spec: &spec,
         sim_dt: run.dt(),
     };
-    let failed = |reason: EndReason, detail: String, period: f64| Recorded {
-        frames: Frames::default(),
-        outcome: Outcome::PlannerFailure,
-        reason,
-        detail,
-        period,
+    let observed = |run: &EpisodeRun| {
+        let s = run.state();
+        (state_vector(&s), goal_vector(&s, task.goal))
+    };
+    let failed = |run: &EpisodeRun, reason: EndReason, detail: String| {
+        let (final_state, final_goal) = observed(run);
+        Recorded {
+            frames: Frames::default(),
+            outcome: Outcome::PlannerFailure,
+            reason,
+            detail,
+            final_state,
+            final_goal,
+            period: run.control_period(),
+        }
     };
     if let Err(e) = planner.reset(&ctx) {
-        return failed(e.reason(), e.to_string(), run.control_period());
+        return failed(&run, e.reason(), e.to_string());
     }
     if let Err(detail) = run.set_control_rate(planner.control_rate_hz()) {
-        return failed(EndReason::PlannerError, detail, run.control_period());
+        return failed(&run, EndReason::PlannerError, detail);
     }
     let period = run.control_period();
     let wheels = run.simulation().wheels().count();
@@ -114,12 +132,16 @@ pub fn drive(
             break;
         }
     }
+    // The state after the last advance (the last frame's action applied, or none when the loop stopped before it).
+    let (final_state, final_goal) = observed(&run);
     let r = run.finish();
     Recorded {
         frames: rec.frames,
         outcome: r.outcome,
         reason: r.reason,
         detail: r.detail,
+        final_state,
+        final_goal,
         period,
     }
 }
@@ -158,8 +180,9 @@ impl<'a> Recorder<'a> {
     /// Appends the observation part of a frame (state, goal, wheels, crops).
     fn observe(&mut self, run: &EpisodeRun, s: &VehicleState, world: &World, goal: [f64; 2]) {
         let f = &mut self.frames;
-        f.state.push(state_vector(s).map(|v| v as f32));
-        f.goal.push(goal_vector(s, goal).map(|v| v as f32));
+        // The SDK's float64 values, unrounded: a lite dataset's crops are rebuilt from the recorded pose.
+        f.state.push(state_vector(s));
+        f.goal.push(goal_vector(s, goal));
         for w in run.simulation().wheels().take(self.wheels) {
             f.wheels.extend_from_slice(&[
                 w.sinkage as f32,

@@ -66,6 +66,8 @@ fn record(
             outcome: rec.outcome,
             reason: rec.reason,
             failure: None,
+            final_state: rec.final_state,
+            final_goal: rec.final_goal,
         },
         frames: rec.frames,
     }
@@ -226,7 +228,7 @@ pub fn run(
     let mut consume = |i: u64, mut out: Output| -> Result<bool, GenerateError> {
         // A diverged simulation's frames cannot be written: the episode is dropped (and counted).
         for r in [&mut out.main, &mut out.window] {
-            if r.as_ref().is_some_and(|r| !writable(&r.frames)) {
+            if r.as_ref().is_some_and(|r| !writable(r)) {
                 *r = None;
                 s.dropped += 1;
             }

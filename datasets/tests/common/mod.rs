@@ -74,21 +74,26 @@ pub fn record(spec: &DatasetSpec, i: u64) -> EpisodeRecord {
         Outcome::Stuck => EndReason::Stuck,
         _ => EndReason::Timeout,
     };
-    let mut state = Vec::with_capacity(n);
-    for t in 0..n {
-        let mut s = [0f32; 15];
+    // Frame `t`'s state; `t == n` is the final observation. float64 values that float32 cannot hold (the pose is
+    // stored unrounded).
+    let state_at = |t: usize| {
+        let mut s = [0f64; 15];
         for (c, v) in s.iter_mut().enumerate() {
-            *v = val(i, t, 0, c);
+            *v = f64::from(val(i, t, 0, c)) + 1e-10 * c as f64;
         }
         // Plausible positions, angles and speeds for the card's pictures.
-        s[0] = (i as f32) * 2.0 + t as f32 * 0.25 - 10.0;
-        s[1] = (t as f32 * 0.3).sin() * 3.0 + i as f32;
-        s[3] = (t as f32 * 0.1).sin() * 0.2;
-        s[4] = (t as f32 * 0.07).cos() * 0.1;
-        s[12] = 1.0 + t as f32 * 0.05;
-        s[14] = t as f32 / FPS as f32;
-        state.push(s);
-    }
+        s[0] = (i as f64) * 2.0 + t as f64 * 0.25 - 10.0 + 1e-12;
+        s[1] = (t as f64 * 0.3).sin() * 3.0 + i as f64;
+        s[3] = (t as f64 * 0.1).sin() * 0.2;
+        s[4] = (t as f64 * 0.07).cos() * 0.1;
+        s[5] = (t as f64 * 0.05).sin() * std::f64::consts::PI;
+        s[12] = 1.0 + t as f64 * 0.05;
+        s[14] = t as f64 / FPS;
+        s
+    };
+    let goal_at =
+        |t: usize| -> [f64; 3] { std::array::from_fn(|c| f64::from(val(i, t, 1, c)) / 3.0) };
+    let state: Vec<[f64; 15]> = (0..n).map(state_at).collect();
     let arr = |f: usize| -> Vec<[f32; 3]> {
         (0..n)
             .map(|t| std::array::from_fn(|c| val(i, t, f, c)))
@@ -103,7 +108,7 @@ pub fn record(spec: &DatasetSpec, i: u64) -> EpisodeRecord {
     };
     let frames = Frames {
         state,
-        goal: arr(1),
+        goal: (0..n).map(goal_at).collect(),
         wheels: (0..n)
             .flat_map(|t| (0..spec.wheels * 4).map(move |c| val(i, t, 2, c)))
             .collect(),
@@ -152,6 +157,8 @@ pub fn record(spec: &DatasetSpec, i: u64) -> EpisodeRecord {
         outcome,
         reason,
         failure,
+        final_state: state_at(n),
+        final_goal: goal_at(n),
     };
     EpisodeRecord { meta, frames }
 }
