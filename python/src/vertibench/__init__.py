@@ -19,7 +19,7 @@ from typing import Sequence
 import gymnasium as gym
 from gymnasium.vector import AutoresetMode
 
-from . import _core, tasks
+from . import _core, datasets, tasks
 from ._spaces import (
     ACTION_FIELDS,
     DEFAULT_REWARD,
@@ -141,6 +141,7 @@ _register()
 __all__ = [
     "ENV_ID",
     "__version__",
+    "datasets",
     "tasks",
     "ACTION_FIELDS",
     "AutoresetMode",
