@@ -6,13 +6,9 @@ use contracts::{ElevationLevel, EndReason, ObstacleDensity, Outcome, SemanticsKi
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-/// The SDK's 15 state fields, in order (`vertibench.STATE_FIELDS`).
-pub const STATE_FIELDS: [&str; 15] = [
-    "x", "y", "z", "roll", "pitch", "yaw", "vx", "vy", "vz", "wx", "wy", "wz", "speed", "steering",
-    "time",
-];
-/// The goal in the vehicle's heading frame (`vertibench.GOAL_FIELDS`).
-pub const GOAL_FIELDS: [&str; 3] = ["ahead", "left", "distance"];
+/// The SDK's 15 state fields and the goal in the vehicle's heading frame, in order (sim-core's, which the SDK's
+/// `vertibench.STATE_FIELDS` and `GOAL_FIELDS` are too).
+pub use sim_core::observe::{GOAL_FIELDS, STATE_FIELDS};
 /// Per wheel (or track contact), in the vehicle's wheel order.
 pub const WHEEL_FIELDS: [&str; 4] = ["sinkage", "slip", "normal_load", "contact"];
 pub const ACTION_FIELDS: [&str; 3] = ["steering", "throttle", "brake"];

@@ -215,12 +215,12 @@ def open(path: str | os.PathLike, task_set: str | os.PathLike | None = None) -> 
 
 
 def to_minari(path: str | os.PathLike, dataset_id: str, *, task_set: str | os.PathLike | None = None,
-              crops: bool | None = None, description: str | None = None):
+              crops: bool = True, description: str | None = None):
     """Exports the dataset at ``path`` to Minari (its Arrow layout) as ``dataset_id`` (e.g.
     ``"vertibench/nav/random-v0"``) under ``$MINARI_DATASETS_PATH``, with the environment's spaces and spec, so
     ``minari.load_dataset(dataset_id)`` reads it and ``recover_environment()`` makes the environment. Observations
-    are the environment's (``state``, ``goal`` and, when ``crops`` (default: the dataset's crop size), ``elevation``
-    and ``semantics`` crops), ``T + 1`` per episode with the final one recorded in the episode's metadata."""
+    are the environment's (``state``, ``goal`` and, with ``crops``, its ``elevation``, ``semantics`` and ``obstacles``
+    crops of the dataset's crop size, rebuilt from each pose), ``T + 1`` per episode with the final one recorded in the episode's metadata."""
     try:
         import minari
         from minari.data_collector import EpisodeBuffer
@@ -233,7 +233,6 @@ def to_minari(path: str | os.PathLike, dataset_id: str, *, task_set: str | os.Pa
 
     ds = open(path, task_set)
     size = int(ds.spec["crop"]["size"])
-    crops = True if crops is None else crops
     obs_space = observation_space(size if crops else 0)
     buffers = []
     for _, row in ds.episodes.iterrows():

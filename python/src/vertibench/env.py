@@ -10,7 +10,7 @@ from gymnasium.utils import EzPickle
 
 from . import _core
 from .planner import Maps, make_task
-from ._spaces import REWARD_TERMS, action_space, check_action_shape, core_kwargs, observation_space
+from ._spaces import REWARD_TERMS, action_space, check_action_shape, check_int, core_kwargs, observation_space
 
 
 class VertibenchEnv(gym.Env, EzPickle):
@@ -59,10 +59,8 @@ class VertibenchEnv(gym.Env, EzPickle):
             raise ValueError(f"give task= (one task) or tasks= (a selection), not both: task={task!r}, tasks={tasks!r}")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode={render_mode!r} is not None or 'rgb_array'")
-        if isinstance(render_ppm, bool) or not isinstance(render_ppm, int) or not 1 <= render_ppm <= 16:
-            raise ValueError(f"render_ppm={render_ppm!r} must be an int in 1..16")
         self.render_mode = render_mode
-        self.render_ppm = render_ppm
+        self.render_ppm = check_int(render_ppm, "render_ppm", 1, 16)
         self._view = None
         self._core = _core.VecCore(
             1,

@@ -62,7 +62,7 @@ class VertibenchVectorEnv(VectorEnv, EzPickle):
         if task_order not in ("random", "cycle"):
             raise ValueError(f"task_order={task_order!r} is not 'random' or 'cycle'")
         try:
-            mode = AutoresetMode(autoreset_mode) if isinstance(autoreset_mode, str) else AutoresetMode(autoreset_mode)
+            mode = AutoresetMode(autoreset_mode)
         except ValueError:
             modes = [m.value for m in AutoresetMode]
             raise ValueError(f"autoreset_mode={autoreset_mode!r} is not one of {modes}") from None

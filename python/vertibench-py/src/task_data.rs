@@ -59,8 +59,8 @@ pub fn benchmark_dir(cache: &Path) -> Result<PathBuf, String> {
     let tmp = root.join(format!(".{version}.{}.tmp", std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
     write_files(&tmp).map_err(|e| io(&tmp, e))?;
-    if dir.exists() && !holds(&dir, &version) {
-        // An incomplete or changed copy (a crash mid-write, or an edit): replace it.
+    if dir.exists() {
+        // An incomplete or changed copy (a crash mid-write, or an edit; it failed the check above): replace it.
         std::fs::remove_dir_all(&dir).map_err(|e| io(&dir, e))?;
     }
     match std::fs::rename(&tmp, &dir) {
