@@ -77,6 +77,51 @@ pub fn try_get(port: u16) -> Option<u16> {
     std::str::from_utf8(&head[9..12]).ok()?.parse().ok()
 }
 
+/// A kept-alive HTTP/1.1 connection that the server answered, so it holds one of the server's slots, with its
+/// answer read to the end. A connection the server closed instead (the slot a just-closed probe held had not been
+/// given back yet) is replaced, until `limit`.
+pub fn held_http(port: u16, limit: Duration) -> TcpStream {
+    let t0 = Instant::now();
+    loop {
+        let mut s = connect(port);
+        s.set_read_timeout(Some(Duration::from_secs(30))).ok();
+        if s.write_all(b"GET /api/submissions HTTP/1.1\r\nHost: localhost\r\n\r\n")
+            .is_ok()
+            && read_answer(&mut s)
+        {
+            s.set_read_timeout(Some(Duration::from_millis(100))).ok();
+            return s;
+        }
+        assert!(
+            t0.elapsed() < limit,
+            "no kept-alive connection answered within {limit:?}"
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+}
+
+/// Reads one HTTP/1.1 answer with a Content-Length to its end; false if the connection closed first.
+fn read_answer(s: &mut TcpStream) -> bool {
+    let mut buf = Vec::new();
+    let mut byte = [0u8; 1];
+    while !buf.ends_with(b"\r\n\r\n") {
+        match s.read(&mut byte) {
+            Ok(1) => buf.push(byte[0]),
+            _ => return false,
+        }
+    }
+    let head = String::from_utf8_lossy(&buf).to_ascii_lowercase();
+    let Some(len) = head
+        .lines()
+        .find_map(|l| l.strip_prefix("content-length:"))
+        .and_then(|v| v.trim().parse::<usize>().ok())
+    else {
+        return false;
+    };
+    let mut body = vec![0u8; len];
+    s.read_exact(&mut body).is_ok()
+}
+
 /// GET / until it answers 200 (the server may still be closing the connections a test let go).
 pub fn get_ok_within(port: u16, limit: Duration) {
     let t0 = Instant::now();

@@ -116,9 +116,10 @@ fn the_leaderboard_closes_connections_beyond_its_limit_and_answers_again_once_th
             "3",
         ],
     );
-    // wait_port's probe may still hold a slot for a moment.
+    // wait_port's and get_ok_within's probes may still hold a slot for a moment: each held connection is one the
+    // server answered, so all three slots are theirs.
     get_ok_within(port, Duration::from_secs(10));
-    let mut held: Vec<TcpStream> = (0..3).map(|_| connect(port)).collect();
+    let mut held: Vec<TcpStream> = (0..3).map(|_| held_http(port, CLOSED_BY)).collect();
     std::thread::sleep(Duration::from_millis(500));
     let fds = open_fds(lb.child.id());
     // One more is closed at once, and so are 200 more: the server keeps no descriptor for them.
