@@ -219,3 +219,17 @@ def test_bad_input_is_a_clear_error(tmp_path):
         p = cli(*args, check=False)
         assert p.returncode != 0 and words in p.stderr, (args, p.stderr)
         assert "Traceback" not in p.stderr
+
+
+def test_rollout_sampling_matches_the_update_distribution():
+    from vertibench.train.policy import ActorCritic
+
+    torch.manual_seed(1)
+    model = ActorCritic()
+    vec = np.random.default_rng(0).normal(size=(5, 12)).astype(np.float32)
+    crop = np.random.default_rng(1).normal(size=(5, 2, 16, 16)).astype(np.float32)
+    a, logp, v = model.sample(vec, crop)
+    with torch.no_grad():
+        dist, value = model.dist_and_value(torch.from_numpy(vec), torch.from_numpy(crop))
+        assert np.allclose(dist.log_prob(torch.from_numpy(a)).sum(-1).numpy(), logp, atol=1e-5)
+        assert np.allclose(value.numpy(), v) and not np.allclose(a, dist.mean.numpy())

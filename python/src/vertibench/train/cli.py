@@ -13,7 +13,7 @@ from dataclasses import replace
 
 from .ppo import PPOConfig
 
-DEFAULT_STEPS = 20_000_000
+DEFAULT_STEPS = 8_000_000
 
 
 def parser() -> argparse.ArgumentParser:
@@ -30,12 +30,12 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--rollout", type=int, default=PPOConfig.rollout, help="steps per environment per update")
     ap.add_argument("--minibatch", type=int, default=PPOConfig.minibatch)
     ap.add_argument("--eval-episodes", type=int, default=100, help="held-out episodes per learning-curve point")
-    ap.add_argument("--eval-every", type=int, default=20, help="updates between evaluations")
+    ap.add_argument("--eval-every", type=int, default=50, help="updates between evaluations")
     ap.add_argument("--gate-episodes", type=int, default=50,
                     help="held-out episodes per MCL gate (the issue asks at least 50; less only for quick tests)")
     ap.add_argument("--checkpoint-every", type=int, default=10, help="updates between checkpoints")
     ap.add_argument("--control-rate", type=float, default=20.0, help="control rate, Hz (the policy's metadata)")
-    ap.add_argument("--threads", type=int, default=min(2, os.cpu_count() or 1), help="torch threads")
+    ap.add_argument("--threads", type=int, default=min(2, os.cpu_count() or 1), help="torch threads in PPO updates (rollouts use one: the environments step in Rust threads)")
     ap.add_argument("--resume", action="store_true", help="require OUT's checkpoint (resumed anyway when there)")
     return ap
 

@@ -35,7 +35,7 @@ class RunSpec:
     steps: int
     seed: int = 0
     eval_episodes: int = 100
-    eval_every: int = 20
+    eval_every: int = 50
     gate_episodes: int = 50
     checkpoint_every: int = 10
     control_rate_hz: float = 20.0
@@ -63,7 +63,7 @@ class Trainer:
         self.task_set = Path(self.info.path)
         self.out = Path(spec.out)
         self.out.mkdir(parents=True, exist_ok=True)
-        torch.set_num_threads(spec.threads)
+        torch.set_num_threads(1)
         torch.manual_seed(spec.seed)
         self.rng = np.random.default_rng(spec.seed)
         self.split = Split.of(select(self.task_set, "all"))
@@ -96,7 +96,7 @@ class Trainer:
             ids = select(self.task_set, spec)
             stages.append([index[t] for t in ids if t in index])
             held = [t for t in ids if t not in index]
-            self.stage_held_out.append(list(np.random.default_rng(self.spec.seed).permutation(held)))
+            self.stage_held_out.append([str(t) for t in np.random.default_rng(self.spec.seed).permutation(held)])
             if not held:
                 raise TrainError(f"MCL stage {spec!r} has no held-out task in {self.task_set}")
         return cur.Manual(stages, budget=self.spec.steps, min_episodes=self.spec.gate_episodes)
@@ -150,19 +150,15 @@ class Trainer:
         ep_ret = np.zeros(cfg.envs)
         acc = np.zeros((cfg.envs, 2))  # PLR: positive value loss sum and step count of each running episode
         t = self._timer
+        start = time.perf_counter() - self.wall
         vec, crop = t("features", lambda: inputs(obs, thr))
         if not self.curve:
             self._evaluate()
-        start = time.perf_counter() - self.wall
         while self.step < self.spec.steps:
             ends: list[tuple[int, int, int]] = []  # (env, rollout step, level)
             for k in range(cfg.rollout):
                 t0 = time.perf_counter()
-                with torch.no_grad():
-                    dist, value = self.model.dist_and_value(torch.from_numpy(vec), torch.from_numpy(crop))
-                    a = dist.sample()
-                    logp = dist.log_prob(a).sum(-1)
-                a_np = a.numpy()
+                a_np, logp, value = self.model.sample(vec, crop)
                 t1 = time.perf_counter()
                 self.times["inference"] += t1 - t0
                 act = env_action(a_np)
@@ -179,7 +175,7 @@ class Trainer:
                         v_end = self.model.value(torch.from_numpy(vec2[cut]), torch.from_numpy(crop2[cut]))
                     rs[cut] += cfg.gamma * v_end.numpy()
                 buf.vec[k], buf.crop[k], buf.action[k] = vec, crop, a_np
-                buf.logp[k], buf.value[k], buf.reward[k], buf.done[k] = logp.numpy(), value.numpy(), rs, done
+                buf.logp[k], buf.value[k], buf.reward[k], buf.done[k] = logp, value, rs, done
                 self.step += cfg.envs
                 if done.any():
                     ended = np.flatnonzero(done)
@@ -194,7 +190,7 @@ class Trainer:
                     thr[done] = 0.0
                     t2 = time.perf_counter()
                     obs, _ = env.reset(options={"reset_mask": done, "tasks": picks})
-                    self.times["env"] += time.perf_counter() - t2
+                    self.times["env_reset"] += time.perf_counter() - t2
                     v_new, c_new = t("features", lambda: inputs(obs, thr, ended))
                     vec2[ended], crop2[ended] = v_new, c_new
                 vec, crop = vec2, crop2
@@ -204,17 +200,19 @@ class Trainer:
             buf.gae(last_v, cfg.gamma, cfg.lam)
             if isinstance(self.curriculum, cur.PLR):
                 self._score_levels(buf, ends, acc)
+            torch.set_num_threads(self.spec.threads)  # the update uses the cores; rollouts leave them to Rust
             stats = update(self.model, self.opt, buf, cfg, self.rng)
+            torch.set_num_threads(1)
             self.times["update"] += time.perf_counter() - t0
             self.updates += 1
-            if isinstance(self.curriculum, cur.Manual) and self.curriculum.check_deadline(self.step):
-                print(f"vertibench.train: mcl stage {self.curriculum.stage} not passed within its budget share; "
-                      f"advancing at step {self.step:,}", file=sys.stderr)
             self.wall = time.perf_counter() - start
             last = self.step >= self.spec.steps
             if self.updates % self.spec.eval_every == 0 or last:
                 self._evaluate(stats)
                 self.wall = time.perf_counter() - start
+            if isinstance(self.curriculum, cur.Manual) and self.curriculum.check_deadline(self.step):
+                print(f"vertibench.train: mcl stage {self.curriculum.stage} not passed within its budget share; "
+                      f"advancing at step {self.step:,}", file=sys.stderr)
             if self.updates % self.spec.checkpoint_every == 0 or last:
                 self._save()
         self.wall = time.perf_counter() - start

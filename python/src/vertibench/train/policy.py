@@ -25,6 +25,7 @@ N_CROP: int = 16 * 3 * 3
 #: Initial log standard deviation of the Gaussian policy: std 0.6 explores the whole action range without sending
 #: most samples to its clipped ends, as std 1 would.
 INIT_LOG_STD: float = -0.5
+_HALF_LOG_2PI = 0.5 * math.log(2 * math.pi)
 
 
 def _init(layer: nn.Module, gain: float) -> nn.Module:
@@ -86,6 +87,17 @@ class ActorCritic(nn.Module):
         mean = self.pi(x)
         std = self.log_std.exp().expand_as(mean)
         return torch.distributions.Normal(mean, std), self.vf(x).squeeze(-1)
+
+    @torch.inference_mode()
+    def sample(self, vec: np.ndarray, crop: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A rollout step: sampled (unclipped) actions, their log-probabilities and the values, as NumPy arrays
+        (the Gaussian written out: :meth:`dist_and_value` costs more than the network at these batch sizes)."""
+        x = self.features(torch.from_numpy(vec), torch.from_numpy(crop))
+        mean = self.pi(x)
+        noise = torch.randn_like(mean)
+        a = mean + self.log_std.exp() * noise
+        logp = (-0.5 * noise.pow(2) - self.log_std - _HALF_LOG_2PI).sum(-1)
+        return a.numpy(), logp.numpy(), self.vf(x).squeeze(-1).numpy()
 
     def value(self, vec: torch.Tensor, crop: torch.Tensor) -> torch.Tensor:
         return self.vf(self.features(vec, crop)).squeeze(-1)

@@ -140,7 +140,7 @@ def update(model: ActorCritic, opt: torch.optim.Optimizer, buf: Rollout, cfg: PP
                     lr_ = logp - logp_old[i]
                     stats["approx_kl"].append(float(((lr_.exp() - 1) - lr_).mean()))
                     stats["clip_frac"].append(float(((ratio - 1).abs() > cfg.clip).float().mean()))
-                stats["pg_loss"].append(float(pg))
-                stats["v_loss"].append(float(v_loss))
-                stats["entropy"].append(float(ent))
+                stats["pg_loss"].append(float(pg.detach()))
+                stats["v_loss"].append(float(v_loss.detach()))
+                stats["entropy"].append(float(ent.detach()))
     return {k: float(np.mean(v)) if v else 0.0 for k, v in stats.items()}

@@ -11,6 +11,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 import torch
+from gymnasium.vector import AutoresetMode
 
 from .. import _core
 from .. import tasks as task_sets
@@ -100,7 +101,7 @@ def make_env(n: int, task_ids: Sequence[str], task_set: Path, control_rate_hz: f
     """``n`` environments over ``task_ids`` with the policy's crops (16 cells, default resolution); the caller resets
     ended environments (autoreset disabled) and picks their tasks."""
     return VertibenchVectorEnv(n, tasks=list(task_ids), task_set=task_set, crop_size=_core.POLICY_CROP_SIZE,
-                               autoreset_mode="disabled", control_rate_hz=control_rate_hz)
+                               autoreset_mode=AutoresetMode.DISABLED, control_rate_hz=control_rate_hz)
 
 
 def env_action(steer_throttle: np.ndarray) -> np.ndarray:
