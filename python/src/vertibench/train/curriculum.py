@@ -103,7 +103,7 @@ class Manual:
 
     def sample(self, rng: np.random.Generator) -> int:
         tasks = self.stages[self.stage]
-        return int(tasks[rng.integers(len(tasks))])
+        return int(tasks[int(rng.integers(len(tasks)))])
 
     def deadline(self) -> int:
         """The step at which the current stage advances even if its gate has not passed: its start plus the
@@ -162,7 +162,8 @@ class PLR:
         if temperature <= 0 or not 0 <= staleness <= 1 or not 0 <= replay_prob <= 1:
             raise ValueError("PLR needs temperature > 0 and staleness, replay_prob in [0, 1]")
         self.n = n_levels
-        self.temperature, self.staleness, self.replay_prob, self.min_seen = temperature, staleness, replay_prob, min_seen
+        self.temperature, self.staleness = temperature, staleness
+        self.replay_prob, self.min_seen = replay_prob, min_seen
         self.scores = np.zeros(n_levels)
         self.seen = np.zeros(n_levels, dtype=bool)
         self.last_drawn = np.zeros(n_levels, dtype=np.int64)

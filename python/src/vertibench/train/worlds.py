@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 import torch
@@ -111,12 +111,9 @@ def env_action(steer_throttle: np.ndarray) -> np.ndarray:
     return a
 
 
-def evaluate(model: ActorCritic, env: VertibenchVectorEnv, inputs: Inputs, tasks: Sequence[str],
-             on_time: Callable[[str, float], None] | None = None) -> dict[str, float]:
+def evaluate(model: ActorCritic, env: VertibenchVectorEnv, inputs: Inputs, tasks: Sequence[str]) -> dict[str, float]:
     """Runs one deterministic episode (``clamp(mean)``) on each of ``tasks`` (repeats allowed) in ``env`` and
     returns ``success`` (rate), ``return`` (mean undiscounted return) and ``episodes``."""
-    import time
-
     n = env.num_envs
     queue = list(tasks)
     k = len(queue)
@@ -131,24 +128,20 @@ def evaluate(model: ActorCritic, env: VertibenchVectorEnv, inputs: Inputs, tasks
     successes, returns, finished = 0, [], 0
     while finished < k:
         vec, crop = inputs(obs, thr)
-        t0 = time.perf_counter()
         with torch.no_grad():
             a = model.act(torch.from_numpy(vec), torch.from_numpy(crop)).numpy()
-        t1 = time.perf_counter()
         act = env_action(a)
         obs, r, term, trunc, info = env.step(act)
-        if on_time:
-            on_time("eval_inference", t1 - t0)
         thr = act[:, 1].copy()
         ret += r
         done = term | trunc
         if not done.any():
             continue
         picks: list[str | None] = [None] * n
-        for i in np.flatnonzero(done):
+        for i in map(int, np.flatnonzero(done)):
             if slot_task[i] is not None:
                 finished += 1
-                successes += bool(info["success"][i])
+                successes += int(bool(info["success"][i]))
                 returns.append(float(ret[i]))
             if nxt < k:
                 slot_task[i], picks[i] = nxt, queue[nxt]
