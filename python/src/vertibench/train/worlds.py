@@ -93,8 +93,9 @@ class Inputs:
             return a if rows is None else np.ascontiguousarray(a[rows])
 
         thr = np.ascontiguousarray(last_throttle if rows is None else last_throttle[rows], dtype=np.float64)
-        return _core.policy_features(pick(obs["state"]), pick(obs["goal"]), thr, pick(obs["elevation"]),
-                                     pick(obs["obstacles"]), self.scale, self.nominal_speed)
+        vec, crop = _core.policy_features(pick(obs["state"]), pick(obs["goal"]), thr, pick(obs["elevation"]),
+                                          pick(obs["obstacles"]), self.scale, self.nominal_speed)
+        return np.require(vec, np.float32, "CW"), np.require(crop, np.float32, "CW")
 
 
 def make_env(n: int, task_ids: Sequence[str], task_set: Path, control_rate_hz: float) -> VertibenchVectorEnv:
