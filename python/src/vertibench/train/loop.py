@@ -76,7 +76,6 @@ class Trainer:
         self.times: dict[str, float] = defaultdict(float)
         self.curve: list[dict[str, Any]] = []
         self.recent: list[bool] = []
-        self.gate_offset = 0
         ck = self.out / CHECKPOINT
         if ck.exists():
             self._load(ck)
@@ -96,7 +95,7 @@ class Trainer:
             ids = select(self.task_set, spec)
             stages.append([index[t] for t in ids if t in index])
             held = [t for t in ids if t not in index]
-            self.stage_held_out.append([str(t) for t in np.random.default_rng(self.spec.seed).permutation(held)])
+            self.stage_held_out.append(held)
             if not held:
                 raise TrainError(f"MCL stage {spec!r} has no held-out task in {self.task_set}")
         return cur.Manual(stages, budget=self.spec.steps, min_episodes=self.spec.gate_episodes)
@@ -117,7 +116,6 @@ class Trainer:
         self.step, self.updates, self.episodes = ck["step"], ck["updates"], ck["episodes"]
         self.wall, self.curve, self.recent = ck["wall"], ck["curve"], ck["recent"]
         self.times.update(ck["times"])
-        self.gate_offset = ck["gate_offset"]
         print(f"vertibench.train: resuming {self.spec.system} from {path} at step {self.step:,}", file=sys.stderr)
 
     def _save(self) -> None:
@@ -127,7 +125,7 @@ class Trainer:
             "retstd": self.retstd.state_dict(), "rng": self.rng.bit_generator.state,
             "torch_rng": torch.get_rng_state(), "step": self.step, "updates": self.updates,
             "episodes": self.episodes, "wall": self.wall, "curve": self.curve, "recent": self.recent,
-            "times": dict(self.times), "gate_offset": self.gate_offset,
+            "times": dict(self.times),
         }
         tmp = self.out / f".{CHECKPOINT}.{os.getpid()}.tmp"
         torch.save(ck, tmp)
@@ -258,9 +256,8 @@ class Trainer:
             c = self.curriculum
             row["stage"] = c.stage + 1
             held_s = self.stage_held_out[c.stage]
-            g = [held_s[(self.gate_offset + j) % len(held_s)] for j in range(self.spec.gate_episodes)]
-            self.gate_offset += self.spec.gate_episodes
-            gate = evaluate(self.model, self.eval_env, self.inputs, g)
+            reps = -(-self.spec.gate_episodes // len(held_s))  # every held-out task of the stage, equally often
+            gate = evaluate(self.model, self.eval_env, self.inputs, held_s * reps)
             row["gate_success"] = gate["success"]
             if c.gate(gate["success"], int(gate["episodes"]), self.step):
                 print(f"vertibench.train: mcl stage {c.stage} passed ({gate['success']:.0%} on "

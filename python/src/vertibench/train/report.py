@@ -67,7 +67,8 @@ def write_all(tr: "Trainer", meta: dict[str, Any]) -> dict[str, Any]:
     if isinstance(tr.curriculum, cur.Manual):
         for r in tr.curriculum.records:
             stages.append(dict(r.__dict__, selection=cur.MCL_STAGES[r.stage],
-                               threshold=cur.MCL_THRESHOLDS[r.stage]))
+                               threshold=cur.MCL_THRESHOLDS[r.stage],
+                               held_out_tasks=len(tr.stage_held_out[r.stage])))
             marks.append((r.start_step, f"stage {r.stage + 1}"))
     plot_curve(tr.curve, out / "curve.png", f"{spec.system}: seed {spec.seed}, {tr.step:,} steps", marks)
     train_s = sum(v for k, v in tr.times.items() if k != "eval")
@@ -141,11 +142,14 @@ def card_markdown(c: dict[str, Any]) -> str:
         "",
     ]
     if "mcl_stages" in c:
-        lines += ["## MCL stages", "", "| stage | tasks | threshold | start | end | last gate | ended |",
-                  "|---|---|---|---|---|---|---|"]
+        lines += ["## MCL stages", "", "Gates: deterministic episodes on every held-out task of the stage, each "
+                  "equally often, at least the gate's episode count in all.", "",
+                  "| stage | tasks | held-out tasks | threshold | start | end | last gate | ended |",
+                  "|---|---|---|---|---|---|---|---|"]
         for s in c["mcl_stages"]:
             gate = "" if s["success"] is None else f"{s['success']:.2f} on {s['episodes']}"
-            lines.append(f"| {s['stage'] + 1} | `{s['selection']}` | {s['threshold']} | {s['start_step']:,} | "
+            lines.append(f"| {s['stage'] + 1} | `{s['selection']}` | {s['held_out_tasks']} | {s['threshold']} | "
+                         f"{s['start_step']:,} | "
                          f"{'' if s['end_step'] is None else format(s['end_step'], ',')} | {gate} | {s['ended']} |")
         forced = [s for s in c["mcl_stages"] if s["ended"] == "forced"]
         if forced:
