@@ -215,6 +215,7 @@ def test_bad_input_is_a_clear_error(tmp_path):
         (["rl", "--out", tmp_path, "--steps", "-5"], "--steps must be > 0"),
         (["rl", "--out", tmp_path, "--task-set", tmp_path / "nowhere"], "no task set"),
         (["rl", "--out", tmp_path / "x", "--resume", "--task-set", vb.tasks.benchmark()], "benchmark's own"),
+        (["rl", "--out", tmp_path / "y", "--resume", "--task-set", vb.tasks.training()], "no checkpoint"),
     ]:
         p = cli(*args, check=False)
         assert p.returncode != 0 and words in p.stderr, (args, p.stderr)

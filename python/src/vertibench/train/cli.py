@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
                    command=command, ppo=ppo)
     try:
         card = Trainer(spec, resume=args.resume).run()
-    except TrainError as e:
+    except (TrainError, OSError) as e:
         raise SystemExit(f"vertibench.train: error: {e}") from None
     except KeyboardInterrupt:
         raise SystemExit("vertibench.train: interrupted; run the same command again to resume from the last "
