@@ -12,10 +12,12 @@
 //!   [`charts`], SVG charts of the breakdowns (an auto-escaping template).
 //! - [`compare`]: paired comparison of two evaluations (difference in success rate with a 95% interval, exact
 //!   McNemar test).
+//! - [`builtin`]: the built-in planners by name (classical baselines, learned policies and their weights).
 //! - [`move_off`]: from how many of a task set's starts a vehicle cannot move off at all.
 //! - [`catalog`]: the benchmark as the service tier sees it, built from the physics crates for the binary that wires
 //!   the services.
 
+pub mod builtin;
 pub mod identity;
 pub mod move_off;
 pub mod run;
@@ -24,9 +26,12 @@ use contracts::Catalog;
 
 // The results' types and files live in the `results` crate (shared with the service); re-exported here so local
 // evaluation reads as one crate.
+pub use builtin::Builtin;
 pub use identity::{PlannerIdentity, PlannerKind, IDENTITY_FILE};
 pub use results::{charts, compare, parquet_file, report, summary, EpisodeRow, ResultsError};
-pub use run::{prepare, run, run_with, EvalConfig, PlannerFactory, Prepared, SIM_VERSION};
+pub use run::{
+    prepare, run, run_builtin, run_with, EvalConfig, PlannerFactory, Prepared, SIM_VERSION,
+};
 
 /// Errors of the evaluator; each names the file or the parameter.
 #[derive(Debug, thiserror::Error)]
@@ -54,7 +59,7 @@ pub fn catalog(set: &tasks::TaskSet) -> Catalog {
             .into_iter()
             .map(|v| (v.name, v.scale))
             .collect(),
-        builtin_planners: baselines::NAMES.iter().map(|n| n.to_string()).collect(),
+        builtin_planners: builtin::names().iter().map(|n| n.to_string()).collect(),
     }
 }
 

@@ -1,7 +1,7 @@
 //! Running the episodes of an evaluation, resumably.
 
 use crate::identity::{self, PlannerIdentity};
-use crate::{io_err, EpisodeRow, EvalError};
+use crate::{io_err, Builtin, EpisodeRow, EvalError};
 use contracts::{RecordedOutcome, TaskId};
 use rayon::prelude::*;
 use sim_core::episode::EpisodeConfig;
@@ -74,23 +74,31 @@ pub type PlannerFactory<'a> = &'a (dyn Fn() -> Box<dyn Planner> + Sync);
 
 /// Runs (or resumes) an evaluation of the built-in planner `cfg.planner` and returns every row of it.
 pub fn run(cfg: &EvalConfig, progress: Progress<'_>) -> Result<Vec<EpisodeRow>, EvalError> {
-    check_builtin(&cfg.planner)?;
-    let make = || baselines::by_name(&cfg.planner).expect("checked above");
-    run_with(cfg, &make, &AtomicBool::new(false), progress)
+    let builtin = Builtin::resolve(&cfg.planner, None)?;
+    run_builtin(cfg, &builtin, progress)
 }
 
-/// An error unless `name` is a built-in planner.
-pub fn check_builtin(name: &str) -> Result<(), EvalError> {
-    match baselines::by_name(name) {
-        Some(_) => Ok(()),
-        None => Err(EvalError::Param {
-            field: "planner".into(),
-            message: format!(
-                "unknown planner `{name}` (built-in: {})",
-                baselines::NAMES.join(", ")
-            ),
-        }),
+/// Runs (or resumes) an evaluation of a resolved built-in planner (say, a learned one with a weights file); the rows
+/// are labelled `cfg.planner`.
+pub fn run_builtin(
+    cfg: &EvalConfig,
+    builtin: &Builtin,
+    progress: Progress<'_>,
+) -> Result<Vec<EpisodeRow>, EvalError> {
+    let make = || builtin.make();
+    if cfg.identity.is_some() {
+        return run_with(cfg, &make, &AtomicBool::new(false), progress);
     }
+    let cfg = EvalConfig {
+        identity: Some(builtin.identity()),
+        ..cfg.clone()
+    };
+    run_with(&cfg, &make, &AtomicBool::new(false), progress)
+}
+
+/// An error unless `name` is a built-in planner this build can run.
+pub fn check_builtin(name: &str) -> Result<(), EvalError> {
+    Builtin::resolve(name, None).map(|_| ())
 }
 
 /// Runs (or resumes) an evaluation of the planners `make` returns (one per episode; the rows are labelled

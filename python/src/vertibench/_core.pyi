@@ -14,6 +14,9 @@ STATE_FIELDS: list[str]
 GOAL_FIELDS: list[str]
 SPLITS: list[str]
 PROTO_DESCRIPTOR_SET: bytes
+POLICY_LAYOUT: str
+POLICY_FEATURES: list[str]
+POLICY_CROP_SIZE: int
 
 def benchmark_task_dir(cache: str) -> str: ...
 def benchmark_task_version() -> str: ...
@@ -92,3 +95,19 @@ def raw_throughput(
     action: tuple[float, float, float] = (0.3, 0.5, 0.0),
     num_threads: int | None = None,
 ) -> tuple[int, float]: ...
+
+def policy_features(
+    state: np.ndarray,
+    goal: np.ndarray,
+    last_throttle: np.ndarray,
+    elevation: np.ndarray,
+    obstacles: np.ndarray,
+    scale: float,
+    nominal_speed: float,
+) -> tuple[np.ndarray, np.ndarray]: ...
+
+class PolicyNet:
+    def __init__(self, path: str | PathLike[str]) -> None: ...
+    @property
+    def metadata(self) -> dict[str, str]: ...
+    def act(self, vec: np.ndarray, crop: np.ndarray) -> np.ndarray: ...

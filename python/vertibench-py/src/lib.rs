@@ -7,6 +7,7 @@ mod convert;
 mod crops;
 mod obs;
 mod py_eval;
+mod py_policy;
 mod py_vec;
 mod slot;
 mod source;
@@ -46,6 +47,11 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(vehicles, m)?)?;
     m.add_class::<py_vec::VecCore>()?;
     m.add_class::<crops::CropMaker>()?;
+    m.add_class::<py_policy::PolicyNet>()?;
+    m.add_function(wrap_pyfunction!(py_policy::policy_features, m)?)?;
+    m.add("POLICY_LAYOUT", learned::features::LAYOUT)?;
+    m.add("POLICY_FEATURES", learned::features::FEATURES.to_vec())?;
+    m.add("POLICY_CROP_SIZE", learned::features::CROP_SIZE)?;
     m.add_function(wrap_pyfunction!(py_eval::evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(bench::raw_throughput, m)?)?;
     Ok(())

@@ -220,12 +220,12 @@ pub fn evaluate<'py>(
     if num_threads == Some(0) {
         return Err(PyValueError::new_err("num_threads must be at least 1"));
     }
-    let builtin: Option<String> = planner.extract().ok();
+    let builtin: Option<eval::Builtin> = match planner.extract::<String>() {
+        Ok(n) => Some(eval::Builtin::resolve(&n, None).map_err(py_error)?),
+        Err(_) => None,
+    };
     let (name, identity) = match &builtin {
-        Some(n) => {
-            eval::run::check_builtin(n).map_err(py_error)?;
-            (n.clone(), eval::PlannerIdentity::builtin(n))
-        }
+        Some(b) => (b.name().to_string(), b.identity()),
         None => {
             let id: eval::PlannerIdentity = serde_json::from_str(identity.unwrap_or("null"))
                 .map_err(|e| PyValueError::new_err(format!("invalid planner identity: {e}")))?;
@@ -243,7 +243,7 @@ pub fn evaluate<'py>(
         out_param: "out=".into(),
         episode,
     };
-    let threads = match builtin {
+    let threads = match &builtin {
         Some(_) => num_threads.unwrap_or(0),
         None => 1,
     };
@@ -253,18 +253,18 @@ pub fn evaluate<'py>(
         .build()
         .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
     let (to_caller, from_worker) = mpsc::channel::<ToCaller>();
-    let caller = match builtin {
+    let caller = match &builtin {
         Some(_) => None,
         None => Some(Caller {
             glue: py.import("vertibench.planner")?.into_any().unbind(),
             shared: Shared::new(py, step_timeout)?,
         }),
     };
-    let rate: f64 = match builtin {
+    let rate: f64 = match &builtin {
         Some(_) => 0.0,
         None => planner.getattr("control_rate_hz")?.extract()?,
     };
-    let crop = match builtin {
+    let crop = match &builtin {
         Some(_) => None,
         None => {
             let size: usize = planner.getattr("crop_size")?.extract()?;
@@ -275,7 +275,7 @@ pub fn evaluate<'py>(
     let obj = planner.clone().unbind();
     let make = || -> Box<dyn Planner> {
         match &caller {
-            None => baselines::by_name(&cfg.planner).expect("checked above"),
+            None => builtin.as_ref().expect("a builtin without a caller").make(),
             Some(c) => Box::new(Proxy {
                 obj: Python::attach(|py| obj.clone_ref(py)),
                 to_caller: to_caller.clone(),

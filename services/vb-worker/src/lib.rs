@@ -219,12 +219,21 @@ pub async fn run_episode(
     let log: SharedLog = Arc::new(Mutex::new(PlannerLog::default()));
     let mut process = None;
     let (planner, identity) = match kind {
-        Kind::Builtin(name) => match baselines::by_name(&name) {
-            Some(p) => (
-                AnyPlanner::Builtin(p),
-                format!("builtin:{name} ({SIM_VERSION})"),
-            ),
-            None => return Err(format!("this worker has no builtin planner `{name}`").into()),
+        Kind::Builtin(name) => match eval::Builtin::resolve(&name, None) {
+            Ok(b) => {
+                let weights = b
+                    .identity()
+                    .version
+                    .map(|v| format!(", {v}"))
+                    .unwrap_or_default();
+                (
+                    AnyPlanner::Builtin(b.make()),
+                    format!("builtin:{name} ({SIM_VERSION}{weights})"),
+                )
+            }
+            Err(e) => {
+                return Err(format!("this worker cannot run builtin planner `{name}`: {e}").into())
+            }
         },
         Kind::Endpoint(url) => {
             let identity = format!("endpoint:{url}");

@@ -6,9 +6,14 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct EvalArgs {
-    /// Built-in planner: pid, eh, mppi (bicycle model) or mppi6 (6-DoF oracle model: our own simulator).
+    /// Built-in planner: pid, eh, mppi (bicycle model), mppi6 (6-DoF oracle model: our own simulator), or a learned
+    /// policy: rl, mcl, acl (PPO on training worlds; their weights are compiled in once committed).
     #[arg(long, default_value = "pid")]
     planner: String,
+    /// A learned policy's weights file (`policy.safetensors` of `python -m vertibench.train`), run under the name
+    /// `--planner`.
+    #[arg(long)]
+    weights: Option<PathBuf>,
     /// `all`, or a comma-separated union of world ids (17), task ids (w017-t3) and named splits: low, medium,
     /// high (elevation), rigid, deformable, mixed (semantics), sparse, medium-density, dense (obstacles).
     #[arg(long, default_value = "all")]
@@ -45,8 +50,9 @@ pub fn run(a: EvalArgs) -> anyhow::Result<()> {
     } else {
         EpisodeConfig::default()
     };
+    let builtin = eval::Builtin::resolve(&a.planner, a.weights.as_deref())?;
     let cfg = eval::EvalConfig {
-        identity: Some(eval::PlannerIdentity::builtin(&a.planner)),
+        identity: Some(builtin.identity()),
         planner: a.planner,
         task_dir: a
             .task_dir
@@ -78,7 +84,7 @@ pub fn run(a: EvalArgs) -> anyhow::Result<()> {
         );
         let _ = std::io::stderr().flush();
     };
-    let rows = eval::run(&cfg, &progress)?;
+    let rows = eval::run_builtin(&cfg, &builtin, &progress)?;
     eprintln!();
     let summary = eval::summary::summarise(&rows);
     eval::report::write(&a.out, &rows, &summary)?;

@@ -79,8 +79,7 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
                 .ok_or_else(|| anyhow::anyhow!("world {world} has no task {task} (0..9)"))?;
             let mut p: Box<dyn sim_core::planner::Planner> = match planner.as_str() {
                 "pure_pursuit" => Box::new(sim_core::control::PurePursuit::new()),
-                other => baselines::by_name(other)
-                    .ok_or_else(|| anyhow::anyhow!("unknown planner `{other}`"))?,
+                other => eval::Builtin::resolve(other, None)?.make(),
             };
             let cfg = EpisodeConfig {
                 record_hz: Some(record_hz),

@@ -1,0 +1,144 @@
+//! `vb eval` runs learned policies (issue 33): a weights file given with `--weights` under a name of one's choice,
+//! its identity (the file's SHA-256) kept in `planner.json` so another file cannot resume the evaluation; a file of
+//! another layout, a classical baseline with weights and a learned name this build has no weights for are refused
+//! with messages that say what to do.
+
+mod common;
+
+use common::*;
+use learned::weights::{layout_metadata, untrained};
+use std::process::Command;
+
+fn vb_fails(args: &[&str]) -> String {
+    let out = Command::new(vb()).args(args).output().expect("run vb");
+    assert!(!out.status.success(), "vb {args:?} succeeded");
+    String::from_utf8_lossy(&out.stderr).to_string()
+}
+
+#[test]
+fn vb_eval_runs_a_weights_file_and_keeps_its_identity() {
+    let dir = temp_dir("learned-eval");
+    let a = dir.join("a.safetensors");
+    let b = dir.join("b.safetensors");
+    std::fs::write(&a, untrained(1, 16, layout_metadata("mine", 20.0, "hmmwv"))).unwrap();
+    std::fs::write(&b, untrained(2, 16, layout_metadata("mine", 20.0, "hmmwv"))).unwrap();
+    let out = dir.join("eval");
+    let (a_s, out_s) = (a.display().to_string(), out.display().to_string());
+    let args = [
+        "eval",
+        "--planner",
+        "mine",
+        "--weights",
+        &a_s,
+        "--tasks",
+        "w001-t0,w002-t1",
+        "--out",
+        &out_s,
+    ];
+    vb_run(&args);
+    let rows = std::fs::read_to_string(out.join("results.jsonl")).unwrap();
+    assert_eq!(rows.lines().count(), 2, "{rows}");
+    assert!(
+        rows.lines().all(|l| l.contains("\"planner\":\"mine\"")),
+        "{rows}"
+    );
+    let identity = std::fs::read_to_string(out.join("planner.json")).unwrap();
+    let net = learned::PolicyNet::from_bytes(&std::fs::read(&a).unwrap()).unwrap();
+    assert!(identity.contains(net.sha256()), "{identity}");
+    // The same file resumes (nothing to do); another file under the same name is refused.
+    vb_run(&args);
+    let b_s = b.display().to_string();
+    let e = vb_fails(&[
+        "eval",
+        "--planner",
+        "mine",
+        "--weights",
+        &b_s,
+        "--tasks",
+        "w001-t0",
+        "--out",
+        &out_s,
+    ]);
+    assert!(e.contains(net.sha256()), "{e}");
+}
+
+#[test]
+fn wrong_weights_and_unavailable_learned_planners_are_refused_with_what_to_do() {
+    let dir = temp_dir("learned-refused");
+    let bad = dir.join("v0.safetensors");
+    let mut meta = layout_metadata("mine", 20.0, "hmmwv");
+    meta.insert("features".into(), "goal_cos,goal_sin".into());
+    std::fs::write(&bad, untrained(1, 8, meta)).unwrap();
+    let bad_s = bad.display().to_string();
+    let out = dir.join("out").display().to_string();
+    let e = vb_fails(&[
+        "eval",
+        "--planner",
+        "mine",
+        "--weights",
+        &bad_s,
+        "--tasks",
+        "w001-t0",
+        "--out",
+        &out,
+    ]);
+    assert!(
+        e.contains("features") && e.contains("goal_cos,goal_sin"),
+        "{e}"
+    );
+    let e = vb_fails(&[
+        "eval",
+        "--planner",
+        "pid",
+        "--weights",
+        &bad_s,
+        "--tasks",
+        "w001-t0",
+        "--out",
+        &out,
+    ]);
+    assert!(e.contains("classical baseline"), "{e}");
+    let missing = dir.join("missing.safetensors").display().to_string();
+    let e = vb_fails(&[
+        "eval",
+        "--planner",
+        "rl",
+        "--weights",
+        &missing,
+        "--tasks",
+        "w001-t0",
+        "--out",
+        &out,
+    ]);
+    assert!(e.contains("missing.safetensors"), "{e}");
+    for name in learned::NAMES {
+        if !learned::builtin::available().contains(&name) {
+            let e = vb_fails(&[
+                "eval",
+                "--planner",
+                name,
+                "--tasks",
+                "w001-t0",
+                "--out",
+                &out,
+            ]);
+            assert!(
+                e.contains("no weights in this build") && e.contains("vertibench.train"),
+                "{e}"
+            );
+        }
+    }
+    let e = vb_fails(&[
+        "eval",
+        "--planner",
+        "nope",
+        "--tasks",
+        "w001-t0",
+        "--out",
+        &out,
+    ]);
+    assert!(
+        e.contains("unknown planner `nope`") && e.contains("pid"),
+        "{e}"
+    );
+}

@@ -1,0 +1,92 @@
+//! The built-in planners by name, one registry for `vb eval`, the workers, the service's catalogue and Python: the
+//! classical baselines (`planners/baselines`) and the learned policies (`planners/learned`: those whose weights
+//! this build carries, or any weights file given with `--weights`).
+
+use crate::{EvalError, PlannerIdentity};
+use learned::{LearnedPlanner, PolicyNet};
+use sim_core::planner::Planner;
+use std::path::Path;
+
+/// A built-in planner, resolved once and made afresh for every episode by [`Builtin::make`].
+#[derive(Clone, Debug)]
+pub struct Builtin {
+    name: String,
+    learned: Option<PolicyNet>,
+}
+
+impl Builtin {
+    /// The planner `name`: a classical baseline, or a learned one with its compiled-in weights or, given
+    /// `weights`, that file's (then `name` is only the label; a learned name without weights in this build and
+    /// without `weights` is an error that says how to train it).
+    pub fn resolve(name: &str, weights: Option<&Path>) -> Result<Builtin, EvalError> {
+        let param = |message: String| EvalError::Param {
+            field: "planner".into(),
+            message,
+        };
+        if let Some(path) = weights {
+            if baselines::NAMES.contains(&name) {
+                return Err(param(format!(
+                    "`{name}` is a classical baseline: weights are for learned planners (choose a name such as \
+                     rl, mcl, acl or your own)"
+                )));
+            }
+            let net = learned::builtin::load(path).map_err(|e| param(e.to_string()))?;
+            return Ok(Builtin {
+                name: name.to_string(),
+                learned: Some(net),
+            });
+        }
+        if baselines::NAMES.contains(&name) {
+            return Ok(Builtin {
+                name: name.to_string(),
+                learned: None,
+            });
+        }
+        match learned::builtin::builtin_net(name) {
+            Some(Ok(net)) => Ok(Builtin {
+                name: name.to_string(),
+                learned: Some(net),
+            }),
+            Some(Err(e)) => Err(param(e.to_string())),
+            None => Err(param(format!(
+                "unknown planner `{name}` (built-in: {})",
+                names().join(", ")
+            ))),
+        }
+    }
+
+    /// Its name (the rows' `planner` label).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// A fresh planner for one episode.
+    pub fn make(&self) -> Box<dyn Planner> {
+        match &self.learned {
+            Some(net) => Box::new(LearnedPlanner::new(&self.name, net.clone())),
+            None => baselines::by_name(&self.name).expect("resolved as a baseline"),
+        }
+    }
+
+    /// What `planner.json` records: the name and, for a learned planner, its weights' SHA-256 (a resumed
+    /// evaluation must run the same weights).
+    pub fn identity(&self) -> PlannerIdentity {
+        let mut id = PlannerIdentity::builtin(&self.name);
+        if let Some(net) = &self.learned {
+            id.version = Some(format!("weights sha256:{}", net.sha256()));
+        }
+        id
+    }
+
+    /// The learned policy's network, if it is one.
+    pub fn net(&self) -> Option<&PolicyNet> {
+        self.learned.as_ref()
+    }
+}
+
+/// The built-in planners this build can run: the baselines and the learned ones with compiled-in weights.
+pub fn names() -> Vec<&'static str> {
+    let mut all = baselines::NAMES.to_vec();
+    all.extend(learned::builtin::available());
+    all
+}
