@@ -161,7 +161,7 @@ def test_each_system_trains_end_to_end_and_writes_every_file(system, train_set, 
 @needs_bindings
 def test_rust_inference_gives_the_torch_actors_actions(train_set, tmp_path):
     from vertibench.train.policy import ActorCritic, load_actor
-    from vertibench.train.worlds import Inputs, env_action, make_env
+    from vertibench.train.worlds import Inputs, env_action, make_env, select
 
     torch.manual_seed(0)
     model = ActorCritic()
@@ -169,23 +169,34 @@ def test_rust_inference_gives_the_torch_actors_actions(train_set, tmp_path):
         model.pi.mean.weight.mul_(100.0)
     path = model.export(tmp_path / "p.safetensors", {"name": "t", "control_rate_hz": "20", "vehicle": "hmmwv"})
     net = _core.PolicyNet(str(path))
-    env = make_env(4, ["w000-t0", "w001-t1", "w002-t2", "w003-t3"], train_set, 20.0)
+    ids = select(train_set, "all")
+    env = make_env(4, [ids[0], ids[11], ids[22], ids[33]], train_set, 20.0)
     inputs = Inputs(env.vehicle)
     obs, _ = env.reset(seed=0)
     thr = np.zeros(4)
     rng = np.random.default_rng(0)
+    interior = 0
     for _ in range(30):
         vec, crop = inputs(obs, thr)
         with torch.no_grad():
             ours = model.act(torch.from_numpy(vec), torch.from_numpy(crop)).numpy()
         rust = net.act(vec, crop)
         assert rust.shape == (4, 2) and np.abs(rust - ours).max() < 1e-5
+        interior += int((np.abs(ours) < 0.99).sum())
         act = env_action(rng.uniform(-1, 1, (4, 2)))
         obs, _, term, trunc, _ = env.step(act)
         thr = act[:, 1].copy()
         if (term | trunc).any():
             thr[term | trunc] = 0.0
             obs, _ = env.reset(options={"reset_mask": term | trunc})
+    assert interior > 30  # not only clamped actions
+    # A file of another layout is refused, naming what differs.
+    from safetensors.numpy import save_file
+
+    bad = tmp_path / "bad.safetensors"
+    save_file(model.actor_tensors(), str(bad), metadata={**net.metadata, "crop": "2x32x32"})
+    with pytest.raises(ValueError, match="crop"):
+        _core.PolicyNet(str(bad))
     loaded, meta = load_actor(path)
     assert meta["name"] == "t"
     with torch.no_grad():

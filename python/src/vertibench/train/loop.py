@@ -272,7 +272,7 @@ class Trainer:
     def _finish(self) -> dict[str, Any]:
         spec = self.spec
         meta = {
-            "control_rate_hz": f"{spec.control_rate_hz:g}", "vehicle": spec.vehicle, "name": spec.system,
+            "control_rate_hz": f"{spec.control_rate_hz:g}", "vehicle": self.vehicle["name"], "name": spec.system,
             "task_set_version": self.info.version, "seed": spec.seed, "steps": self.step,
             "curriculum": {"rl": "uniform", "mcl": "manual", "acl": "plr"}[spec.system], "command": spec.command,
             "sim_version": SIM_VERSION, "wall_s": f"{self.wall:.1f}",

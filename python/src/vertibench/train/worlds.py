@@ -95,7 +95,7 @@ class Inputs:
         thr = np.ascontiguousarray(last_throttle if rows is None else last_throttle[rows], dtype=np.float64)
         vec, crop = _core.policy_features(pick(obs["state"]), pick(obs["goal"]), thr, pick(obs["elevation"]),
                                           pick(obs["obstacles"]), self.scale, self.nominal_speed)
-        return np.require(vec, np.float32, "CW"), np.require(crop, np.float32, "CW")
+        return np.require(vec, np.float32, ["C", "W"]), np.require(crop, np.float32, ["C", "W"])
 
 
 def make_env(n: int, task_ids: Sequence[str], task_set: Path, control_rate_hz: float) -> VertibenchVectorEnv:
