@@ -4,8 +4,9 @@
 - :class:`Manual` (``mcl``): stages of increasing difficulty (:data:`MCL_STAGES`), advancing when the deterministic
   success rate on at least 50 held-out episodes of the stage's difficulty reaches the release's threshold
   (:data:`MCL_THRESHOLDS`; the episodes cover every held-out task of the stage equally often: on seed 7's set
-  stages 1-5 hold out 10, 30, 50, 70 and 100 tasks, so stage 1 runs its 10 five times, stage 2 its 30 twice); a stage that has not passed when its share of the budget is spent advances anyway (the
-  remaining budget is shared equally by the remaining stages, so unused budget flows on) and is recorded as forced.
+  stages 1-5 hold out 10, 30, 50, 70 and 100 tasks, so stage 1 runs its 10 five times, stage 2 its 30 twice); a
+  stage that has not passed when its share of the budget is spent advances anyway (the remaining budget is shared
+  equally by the remaining stages, so unused budget flows on) and is recorded as forced.
 - :class:`PLR` (``acl``): prioritized level replay (Jiang et al., 2021) with levels = training tasks, each
   environment of the vector on its own level. A level's score is the mean *positive value loss* of its last
   episode, ``mean_t max(A_t, 0)`` over its steps' GAE advantages; replay draws from ``(1 - rho) P_score + rho

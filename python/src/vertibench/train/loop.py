@@ -40,7 +40,7 @@ class RunSpec:
     checkpoint_every: int = 10
     control_rate_hz: float = 20.0
     vehicle: str = "hmmwv"
-    threads: int = 2
+    threads: int = 1
     command: str = ""
     ppo: PPOConfig = field(default_factory=PPOConfig)
 
