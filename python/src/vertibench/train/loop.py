@@ -146,6 +146,7 @@ class Trainer:
                            options={"tasks": [self.split.train[k] for k in levels]})
         thr = np.zeros(cfg.envs)
         ep_ret = np.zeros(cfg.envs)
+        self.retstd.ret[:] = 0.0  # every episode starts here, a resumed run's too
         acc = np.zeros((cfg.envs, 2))  # PLR: positive value loss sum and step count of each running episode
         t = self._timer
         start = time.perf_counter() - self.wall
@@ -262,6 +263,10 @@ class Trainer:
             if c.gate(gate["success"], int(gate["episodes"]), self.step):
                 print(f"vertibench.train: mcl stage {c.stage} passed ({gate['success']:.0%} on "
                       f"{int(gate['episodes'])} held-out episodes) at step {self.step:,}", file=sys.stderr)
+        if isinstance(self.curriculum, cur.PLR):
+            p = self.curriculum
+            row["levels_seen"] = int(p.seen.sum())
+            row["score_mean"] = float(p.scores[p.seen].mean()) if p.seen.any() else 0.0
         if stats:
             row.update({k: round(v, 5) for k, v in stats.items()})
         self.curve.append(row)

@@ -16,7 +16,7 @@ if TYPE_CHECKING:
 
 CURVE_FIELDS: tuple[str, ...] = (
     "steps", "wall_s", "success", "return", "eval_episodes", "episodes", "train_success", "curriculum", "stage",
-    "gate_success", "pg_loss", "v_loss", "entropy", "approx_kl", "clip_frac",
+    "gate_success", "levels_seen", "score_mean", "pg_loss", "v_loss", "entropy", "approx_kl", "clip_frac",
 )
 
 
@@ -37,7 +37,9 @@ def plot_curve(rows: list[dict[str, Any]], path: Path, title: str,
     import matplotlib.pyplot as plt
 
     steps = [r["steps"] for r in rows]
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
+    plr = any("levels_seen" in r for r in rows)
+    fig, axes = plt.subplots(3 if plr else 2, 1, figsize=(7, 7.5 if plr else 5.5), sharex=True)
+    a1, a2 = axes[0], axes[1]
     a1.plot(steps, [r["success"] for r in rows], marker=".", label="held-out success")
     if any("gate_success" in r for r in rows):
         a1.plot(steps, [r.get("gate_success", float("nan")) for r in rows], marker=".", ls="--",
@@ -46,7 +48,14 @@ def plot_curve(rows: list[dict[str, Any]], path: Path, title: str,
     a1.set_ylim(-0.02, 1.02)
     a2.plot(steps, [r["return"] for r in rows], marker=".", color="C2")
     a2.set_ylabel("held-out mean return")
-    a2.set_xlabel("environment steps")
+    if plr:
+        a3 = axes[2]
+        a3.plot(steps, [r.get("levels_seen", 0) for r in rows], marker=".", color="C3")
+        a3.set_ylabel("levels seen", color="C3")
+        b3 = a3.twinx()
+        b3.plot(steps, [r.get("score_mean", 0.0) for r in rows], marker=".", color="C4")
+        b3.set_ylabel("mean level score", color="C4")
+    axes[-1].set_xlabel("environment steps")
     for step, label in stage_marks or []:
         for ax in (a1, a2):
             ax.axvline(step, color="grey", ls=":", lw=1)
