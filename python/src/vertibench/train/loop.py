@@ -145,7 +145,6 @@ class Trainer:
         obs, _ = env.reset(seed=self.spec.seed + self.updates * 1_000_003,
                            options={"tasks": [self.split.train[k] for k in levels]})
         thr = np.zeros(cfg.envs)
-        ep_ret = np.zeros(cfg.envs)
         self.retstd.ret[:] = 0.0  # every episode starts here, a resumed run's too
         acc = np.zeros((cfg.envs, 2))  # PLR: positive value loss sum and step count of each running episode
         t = self._timer
@@ -165,7 +164,6 @@ class Trainer:
                 self.times["env"] += time.perf_counter() - t1
                 thr = act[:, 1].copy()
                 done = term | trunc
-                ep_ret += r
                 rs = np.clip(self.retstd.scale(r, done), -cfg.reward_clip, cfg.reward_clip)
                 vec2, crop2 = t("features", lambda: inputs(obs, thr))
                 cut = np.flatnonzero(trunc & ~term)
@@ -185,7 +183,6 @@ class Trainer:
                         self.recent = (self.recent + [bool(info["success"][i])])[-200:]
                         levels[i] = self.curriculum.sample(self.rng)
                         picks[i] = self.split.train[levels[i]]
-                    ep_ret[done] = 0.0
                     thr[done] = 0.0
                     t2 = time.perf_counter()
                     obs, _ = env.reset(options={"reset_mask": done, "tasks": picks})
