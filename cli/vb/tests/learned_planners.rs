@@ -70,75 +70,54 @@ fn wrong_weights_and_unavailable_learned_planners_are_refused_with_what_to_do() 
     meta.insert("features".into(), "goal_cos,goal_sin".into());
     std::fs::write(&bad, untrained(1, 8, meta)).unwrap();
     let bad_s = bad.display().to_string();
+    let missing = dir.join("missing.safetensors").display().to_string();
     let out = dir.join("out").display().to_string();
-    let e = vb_fails(&[
-        "eval",
-        "--planner",
-        "mine",
-        "--weights",
-        &bad_s,
-        "--tasks",
-        "w001-t0",
-        "--out",
-        &out,
-    ]);
+    let eval = |planner: &str, weights: Option<&str>| {
+        let mut args = vec![
+            "eval",
+            "--planner",
+            planner,
+            "--tasks",
+            "w001-t0",
+            "--out",
+            &out,
+        ];
+        if let Some(w) = weights {
+            args.extend(["--weights", w]);
+        }
+        Command::new(vb()).args(&args).output().expect("run vb")
+    };
+    let fails = |planner: &str, weights: Option<&str>| {
+        let o = eval(planner, weights);
+        assert!(!o.status.success(), "vb eval --planner {planner} succeeded");
+        String::from_utf8_lossy(&o.stderr).to_string()
+    };
+    let e = fails("mine", Some(&bad_s));
     assert!(
         e.contains("features") && e.contains("goal_cos,goal_sin"),
         "{e}"
     );
-    let e = vb_fails(&[
-        "eval",
-        "--planner",
-        "pid",
-        "--weights",
-        &bad_s,
-        "--tasks",
-        "w001-t0",
-        "--out",
-        &out,
-    ]);
+    let e = fails("pid", Some(&bad_s));
     assert!(e.contains("classical baseline"), "{e}");
-    let missing = dir.join("missing.safetensors").display().to_string();
-    let e = vb_fails(&[
-        "eval",
-        "--planner",
-        "rl",
-        "--weights",
-        &missing,
-        "--tasks",
-        "w001-t0",
-        "--out",
-        &out,
-    ]);
+    let e = fails("rl", Some(&missing));
     assert!(e.contains("missing.safetensors"), "{e}");
+    let e = fails("nope", None);
+    assert!(
+        e.contains("unknown planner `nope`") && e.contains("pid"),
+        "{e}"
+    );
+    // A learned name runs its compiled-in weights, or says how to make them.
     for name in learned::NAMES {
-        if !learned::builtin::available().contains(&name) {
-            let e = vb_fails(&[
-                "eval",
-                "--planner",
-                name,
-                "--tasks",
-                "w001-t0",
-                "--out",
-                &out,
-            ]);
+        if learned::builtin::available().contains(&name) {
+            let o = eval(name, None);
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            std::fs::remove_dir_all(&out).unwrap();
+        } else {
+            let e = fails(name, None);
             assert!(
                 e.contains("no weights in this build") && e.contains("vertibench.train"),
                 "{e}"
             );
         }
     }
-    let e = vb_fails(&[
-        "eval",
-        "--planner",
-        "nope",
-        "--tasks",
-        "w001-t0",
-        "--out",
-        &out,
-    ]);
-    assert!(
-        e.contains("unknown planner `nope`") && e.contains("pid"),
-        "{e}"
-    );
 }

@@ -205,6 +205,16 @@ fn homing_policy() -> Vec<u8> {
     safetensors::tensor::serialize(views, Some(layout_metadata("homing", 20.0, "hmmwv"))).unwrap()
 }
 
+fn straight(goal: [f64; 2]) -> Task {
+    Task {
+        world_id: 1,
+        index: 0,
+        start: [0.0, 0.0],
+        goal,
+        path: vec![[0.0, 0.0], goal],
+    }
+}
+
 fn flat() -> World {
     World::uniform(
         Heightmap::from_fn(1.0, |_, _| 0.0),
@@ -223,13 +233,7 @@ fn a_hand_built_homing_policy_reaches_goals_ahead_beside_and_behind() {
     };
     let net = PolicyNet::from_bytes(&homing_policy()).unwrap();
     for goal in [[40.0, 0.0], [0.0, 40.0], [0.0, -40.0], [-35.0, 10.0]] {
-        let task = Task {
-            world_id: 1,
-            index: 0,
-            start: [0.0, 0.0],
-            goal,
-            path: vec![[0.0, 0.0], goal],
-        };
+        let task = straight(goal);
         let mut p = LearnedPlanner::new("homing", net.clone());
         assert_eq!(p.control_rate_hz(), 20.0);
         let r = sim_core::run_episode(&w, &task, &spec, &mut p, &cfg);
@@ -249,13 +253,7 @@ fn a_hand_built_homing_policy_reaches_goals_ahead_beside_and_behind() {
 fn a_policy_for_another_vehicle_ends_its_episode_with_a_planner_error() {
     let w = flat();
     let spec = vehicle_by_name("gator").unwrap();
-    let task = Task {
-        world_id: 1,
-        index: 0,
-        start: [0.0, 0.0],
-        goal: [10.0, 0.0],
-        path: vec![[0.0, 0.0], [10.0, 0.0]],
-    };
+    let task = straight([10.0, 0.0]);
     let mut p = LearnedPlanner::new("homing", PolicyNet::from_bytes(&homing_policy()).unwrap());
     let r = sim_core::run_episode(&w, &task, &spec, &mut p, &EpisodeConfig::default());
     assert_ne!(r.outcome, Outcome::Success);
