@@ -9,12 +9,6 @@ use common::*;
 use learned::weights::{layout_metadata, untrained};
 use std::process::Command;
 
-fn vb_fails(args: &[&str]) -> String {
-    let out = Command::new(vb()).args(args).output().expect("run vb");
-    assert!(!out.status.success(), "vb {args:?} succeeded");
-    String::from_utf8_lossy(&out.stderr).to_string()
-}
-
 #[test]
 fn vb_eval_runs_a_weights_file_and_keeps_its_identity() {
     let dir = temp_dir("learned-eval");
@@ -48,17 +42,25 @@ fn vb_eval_runs_a_weights_file_and_keeps_its_identity() {
     // The same file resumes (nothing to do); another file under the same name is refused.
     vb_run(&args);
     let b_s = b.display().to_string();
-    let e = vb_fails(&[
-        "eval",
-        "--planner",
-        "mine",
-        "--weights",
-        &b_s,
-        "--tasks",
-        "w001-t0",
-        "--out",
-        &out_s,
-    ]);
+    let refused = Command::new(vb())
+        .args([
+            "eval",
+            "--planner",
+            "mine",
+            "--weights",
+            &b_s,
+            "--tasks",
+            "w001-t0",
+            "--out",
+            &out_s,
+        ])
+        .output()
+        .expect("run vb");
+    assert!(
+        !refused.status.success(),
+        "another weights file resumed the evaluation"
+    );
+    let e = String::from_utf8_lossy(&refused.stderr);
     assert!(e.contains(net.sha256()), "{e}");
 }
 

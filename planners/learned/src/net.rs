@@ -49,7 +49,6 @@ pub struct PolicyNet {
     fc1: Layer,
     fc2: Layer,
     mean: Layer,
-    hidden: usize,
     metadata: BTreeMap<String, String>,
     sha256: String,
     a1: Vec<f32>,
@@ -107,7 +106,6 @@ impl PolicyNet {
             fc1,
             fc2,
             mean,
-            hidden,
             metadata,
             sha256: sha256_hex(bytes),
             a1: vec![0.0; c1 * SIDE1 * SIDE1],
@@ -129,7 +127,7 @@ impl PolicyNet {
 
     /// Width of the actor's hidden layers.
     pub fn hidden(&self) -> usize {
-        self.hidden
+        self.h1.len()
     }
 
     /// The deterministic action (steering, throttle), each clamped to [-1, 1], for the vector features and the crop
