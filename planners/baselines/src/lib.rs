@@ -8,18 +8,21 @@
 //!   variance), as the release's EH.
 //!
 //! - [`mppi::Mppi`]: MPPI with a kinematic bicycle model.
+//! - [`mppi_release::MppiRelease`]: the original release's MPPI as published (its small robot's bicycle model,
+//!   steering only), for like-for-like comparison with the paper's MPPI row.
 //! - [`mppi6::Mppi6`]: MPPI-6, MPPI whose rollouts run our own 6-DoF simulator on a copy of the world (an
 //!   *oracle* model: the benchmark's own vehicle model, where the original used a learned one).
 
 pub mod mppi;
 pub mod mppi6;
+pub mod mppi_release;
 
 use sim_core::control::point_ahead;
 use sim_core::planner::{Action, Observation, Planner, PlannerContext, PlannerError};
 use sim_core::world::World;
 
 /// Names of the built-in planners.
-pub const NAMES: [&str; 4] = ["pid", "eh", "mppi", "mppi6"];
+pub const NAMES: [&str; 5] = ["pid", "eh", "mppi", "mppi6", "mppi-release"];
 
 /// A built-in planner by name.
 pub fn by_name(name: &str) -> Option<Box<dyn Planner>> {
@@ -28,6 +31,7 @@ pub fn by_name(name: &str) -> Option<Box<dyn Planner>> {
         "eh" => Some(Box::new(ElevationHeuristic::new())),
         "mppi" => Some(Box::new(mppi::Mppi::new())),
         "mppi6" => Some(Box::new(mppi6::Mppi6::new())),
+        "mppi-release" => Some(Box::new(mppi_release::MppiRelease::new())),
         _ => None,
     }
 }

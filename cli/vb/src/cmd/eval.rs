@@ -6,8 +6,9 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct EvalArgs {
-    /// Built-in planner: pid, eh, mppi (bicycle model), mppi6 (6-DoF oracle model: our own simulator), or a learned
-    /// policy: rl, mcl, acl (PPO on training worlds; their weights are compiled in once committed).
+    /// Built-in planner: pid, eh, mppi (bicycle model), mppi6 (6-DoF oracle model: our own simulator),
+    /// mppi-release (the original release's MPPI as published), or a learned policy: rl, mcl, acl (PPO on training
+    /// worlds; their weights are compiled in once committed).
     #[arg(long, default_value = "pid")]
     planner: String,
     /// A learned policy's weights file (`policy.safetensors` of `python -m vertibench.train`), run under the name
