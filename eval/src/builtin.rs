@@ -1,9 +1,9 @@
 //! The built-in planners by name, one registry for `vb eval`, the workers, the service's catalogue and Python: the
-//! classical baselines (`planners/baselines`) and the learned policies (`planners/learned`: those whose weights
+//! classical baselines (`planners/baselines`) and the learned planners (`planners/learned`: those whose weights
 //! this build carries, or any weights file given with `--weights`).
 
 use crate::{EvalError, PlannerIdentity};
-use learned::{LearnedPlanner, PolicyNet};
+use learned::LearnedNet;
 use sim_core::planner::Planner;
 use std::path::Path;
 
@@ -11,7 +11,7 @@ use std::path::Path;
 #[derive(Clone, Debug)]
 pub struct Builtin {
     name: String,
-    learned: Option<PolicyNet>,
+    learned: Option<LearnedNet>,
 }
 
 impl Builtin {
@@ -42,7 +42,7 @@ impl Builtin {
                 learned: None,
             });
         }
-        match learned::builtin::builtin_net(name) {
+        match learned::builtin::builtin(name) {
             Some(Ok(net)) => Ok(Builtin {
                 name: name.to_string(),
                 learned: Some(net),
@@ -63,7 +63,7 @@ impl Builtin {
     /// A fresh planner for one episode.
     pub fn make(&self) -> Box<dyn Planner> {
         match &self.learned {
-            Some(net) => Box::new(LearnedPlanner::new(&self.name, net.clone())),
+            Some(net) => net.make(&self.name),
             None => baselines::by_name(&self.name).expect("resolved as a baseline"),
         }
     }
@@ -76,11 +76,6 @@ impl Builtin {
             id.version = Some(format!("weights sha256:{}", net.sha256()));
         }
         id
-    }
-
-    /// The learned policy's network, if it is one.
-    pub fn net(&self) -> Option<&PolicyNet> {
-        self.learned.as_ref()
     }
 }
 

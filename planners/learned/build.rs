@@ -1,15 +1,16 @@
-//! Compiles the committed weights of the built-in learned planners (`weights/<name>.safetensors`) into the crate,
-//! so `vb`, the workers and the Python wheel carry them; a name without a file is built without weights.
+//! Compiles the committed weights of the built-in learned planners (`weights/<name>.safetensors`: the policies of
+//! rl, mcl, acl and the kinodynamic model of mppi6) into the crate, so `vb`, the workers and the Python wheel carry
+//! them; a name without a file is built without weights.
 
 use std::path::Path;
 
-const NAMES: [&str; 3] = ["rl", "mcl", "acl"];
+const NAMES: [&str; 4] = ["rl", "mcl", "acl", "mppi6"];
 
 fn main() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("weights");
     println!("cargo:rerun-if-changed={}", dir.display());
     let mut out = String::from("/// The built-in learned planners and their compiled-in weights files, if this build has them.\n");
-    out.push_str("pub(crate) const BUILTIN: [(&str, Option<&[u8]>); 3] = [\n");
+    out.push_str("pub(crate) const BUILTIN: [(&str, Option<&[u8]>); 4] = [\n");
     for name in NAMES {
         let file = dir.join(format!("{name}.safetensors"));
         println!("cargo:rerun-if-changed={}", file.display());

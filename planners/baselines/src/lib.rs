@@ -10,9 +10,11 @@
 //! - [`mppi::Mppi`]: MPPI with a kinematic bicycle model.
 //! - [`mppi_release::MppiRelease`]: the original release's MPPI as published (its small robot's bicycle model,
 //!   steering only), for like-for-like comparison with the paper's MPPI row.
-//! - [`mppi6::Mppi6`]: MPPI-6, MPPI whose rollouts run our own 6-DoF simulator on a copy of the world (an
-//!   *oracle* model: the benchmark's own vehicle model, where the original used a learned one).
+//! - [`mppi6::Mppi6`] (`mppi6-oracle`): MPPI-6 whose rollouts run our own 6-DoF simulator on a copy of the world
+//!   (an *oracle* model: the benchmark's own vehicle model; the learned `mppi6` in `planners/learned` rolls out a
+//!   learned model with the same planner, and this is its upper bound).
 
+pub mod hybrid;
 pub mod mppi;
 pub mod mppi6;
 pub mod mppi_release;
@@ -22,7 +24,7 @@ use sim_core::planner::{Action, Observation, Planner, PlannerContext, PlannerErr
 use sim_core::world::World;
 
 /// Names of the built-in planners.
-pub const NAMES: [&str; 5] = ["pid", "eh", "mppi", "mppi6", "mppi-release"];
+pub const NAMES: [&str; 5] = ["pid", "eh", "mppi", "mppi6-oracle", "mppi-release"];
 
 /// A built-in planner by name.
 pub fn by_name(name: &str) -> Option<Box<dyn Planner>> {
@@ -30,7 +32,7 @@ pub fn by_name(name: &str) -> Option<Box<dyn Planner>> {
         "pid" => Some(Box::new(Pid::new())),
         "eh" => Some(Box::new(ElevationHeuristic::new())),
         "mppi" => Some(Box::new(mppi::Mppi::new())),
-        "mppi6" => Some(Box::new(mppi6::Mppi6::new())),
+        "mppi6-oracle" => Some(Box::new(mppi6::Mppi6::new())),
         "mppi-release" => Some(Box::new(mppi_release::MppiRelease::new())),
         _ => None,
     }

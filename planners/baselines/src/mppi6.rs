@@ -1,8 +1,9 @@
-//! MPPI-6: MPPI whose rollouts use a full 6-DoF model of the vehicle on the terrain (the hybrid class of the
-//! paper). The model is **our own simulator** (`sim_core::Simulation`, the same vehicle model, soil and obstacles
+//! MPPI-6 with an oracle model (`mppi6-oracle`): MPPI whose rollouts use a full 6-DoF model of the vehicle on the
+//! terrain (the hybrid class of the paper). The model is **our own simulator** (`sim_core::Simulation`, the same vehicle model, soil and obstacles
 //! as the benchmark's) on the planner's own copy of the world: an **oracle model**, far more accurate than the
 //! learned 6-DoF model (an ensemble MLP with a CNN elevation encoder) of the original MPPI6. Results of this
-//! planner are therefore an upper bound on what the same sampling planner achieves with a learned model.
+//! planner are therefore an upper bound on what the same sampling planner achieves with a learned model (the
+//! built-in `mppi6`, `learned::kino::KinoMppi`, shares its knots, speed control and costs: `crate::hybrid`).
 //!
 //! What it reads: the ground-truth maps (heights, semantic patches with their friction or soil, obstacles), the
 //! global path, the vehicle's own model parameters (`PlannerContext::spec`) and the ground-truth state at every
@@ -41,12 +42,13 @@ use sim_core::planner::{Action, Observation, Planner, PlannerContext, PlannerErr
 use sim_core::runner::{control_every, start_pose};
 use sim_core::Simulation;
 
-/// Control knots over the horizon (the first at the decision time, the last at the horizon).
-pub const KNOTS: usize = 4;
+pub use crate::hybrid::KNOTS;
+use crate::hybrid::{
+    interp, speed_control, step_cost, CostToGo, ROLLOVER_DEG, SPEED_MAX, SPEED_MIN,
+};
+
 /// Rate of `act` (and of the speed controller), Hz.
 const RATE: f64 = 20.0;
-/// The paper's rollover threshold, deg.
-const ROLLOVER_DEG: f64 = 30.0;
 
 /// Tunable parameters of [`Mppi6`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -85,10 +87,7 @@ pub struct Mppi6 {
     nominal: f64,
     half: [f64; 2],
     goal_radius: f64,
-    /// Cost-to-go: shortest distance to the goal on the heightmap grid around obstacles (inflated by half the
-    /// vehicle's width; crossing them costs 20 times the distance), `togo[iy * nx + ix]`, m.
-    togo: Vec<f64>,
-    grid: (usize, usize, f64),
+    togo: CostToGo,
     /// Local goal on the path and its distance at the current decision.
     local: ([f64; 2], f64),
     /// The planner's model of the vehicle, replaying its own actions (see the module docs).
@@ -116,51 +115,6 @@ impl Default for Mppi6 {
     }
 }
 
-/// One step of the speed controller (the baselines' PI, to `target` m/s): the action and the new integral.
-fn speed_control(
-    speed: f64,
-    target: f64,
-    integral: f64,
-    nominal: f64,
-    steering: f64,
-) -> (Action, f64) {
-    let err = target - speed;
-    let integral = (integral + err / RATE).clamp(-2.0, 2.0);
-    let u = (err + 0.3 * integral) / nominal.max(1e-6);
-    // Forward: drive with u > 0, brake with u < 0; reverse (negative target): drive backwards with u < 0.
-    let (throttle, brake) = if target >= 0.0 {
-        (u.clamp(0.0, 1.0), (-u).clamp(0.0, 1.0) * 0.5)
-    } else {
-        (u.clamp(-1.0, 0.0), u.clamp(0.0, 1.0) * 0.5)
-    };
-    (
-        Action {
-            steering: steering.clamp(-1.0, 1.0),
-            throttle,
-            brake,
-        },
-        integral,
-    )
-}
-
-/// The plan at time `t` after its start (knots spaced `spacing` apart; held after the last).
-fn interp(knots: &[[f64; 2]; KNOTS], t: f64, spacing: f64) -> [f64; 2] {
-    let f = (t / spacing).max(0.0);
-    let i = (f as usize).min(KNOTS - 1);
-    if i + 1 >= KNOTS {
-        return knots[KNOTS - 1];
-    }
-    let u = f - i as f64;
-    [
-        knots[i][0] + u * (knots[i + 1][0] - knots[i][0]),
-        knots[i][1] + u * (knots[i + 1][1] - knots[i][1]),
-    ]
-}
-
-/// Speed factors (times the nominal speed); negative drives backwards.
-const SPEED_MIN: f64 = -0.5;
-const SPEED_MAX: f64 = 1.0;
-
 impl Mppi6 {
     pub fn new() -> Self {
         Self::with_config(Mppi6Config::default())
@@ -177,8 +131,7 @@ impl Mppi6 {
             nominal: 1.0,
             half: [0.0; 2],
             goal_radius: 10.0,
-            togo: Vec::new(),
-            grid: (0, 0, 1.0),
+            togo: CostToGo::default(),
             local: ([0.0; 2], 1.0),
             shadow: None,
             rollout: None,
@@ -193,50 +146,6 @@ impl Mppi6 {
             decisions: 0,
             rollout_steps: 0,
         }
-    }
-
-    /// Builds the cost-to-go field (Dijkstra from the goal cell, 8-neighbour).
-    fn build_togo(&mut self, ctx: &PlannerContext<'_>) {
-        use std::cmp::Reverse;
-        use std::collections::BinaryHeap;
-        let h = &ctx.world.heightmap;
-        let (nx, ny, cell) = (h.nx, h.ny, h.cell);
-        self.grid = (nx, ny, cell);
-        let blocked = crate::inflated_obstacles(ctx.world, 0.5 * ctx.vehicle.width);
-        let (gx, gy) = h.grid_coords(self.goal[0], self.goal[1]);
-        let g = (gy.round().clamp(0.0, (ny - 1) as f64) as usize) * nx
-            + gx.round().clamp(0.0, (nx - 1) as f64) as usize;
-        self.togo = vec![f64::INFINITY; nx * ny];
-        self.togo[g] = 0.0;
-        // Costs are compared as integers (micrometres) so the order is total and deterministic.
-        let mut heap = BinaryHeap::new();
-        heap.push(Reverse((0u64, g)));
-        while let Some(Reverse((d, i))) = heap.pop() {
-            let d = d as f64 * 1e-6;
-            if d > self.togo[i] {
-                continue;
-            }
-            for (q, cells) in h.grid_neighbours(i) {
-                let step = cell * cells;
-                let nd = d + step * if blocked[q] { 20.0 } else { 1.0 };
-                if nd < self.togo[q] {
-                    self.togo[q] = nd;
-                    heap.push(Reverse(((nd * 1e6) as u64, q)));
-                }
-            }
-        }
-    }
-
-    /// Cost-to-go at a point (bilinear between grid samples), m.
-    fn togo_at(&self, x: f64, y: f64) -> f64 {
-        let (nx, ny, cell) = self.grid;
-        let fx = (x / cell + (nx - 1) as f64 * 0.5).clamp(0.0, (nx - 1) as f64 - 1e-9);
-        let fy = (y / cell + (ny - 1) as f64 * 0.5).clamp(0.0, (ny - 1) as f64 - 1e-9);
-        let (ix, iy) = (fx as usize, fy as usize);
-        let (tx, ty) = (fx - ix as f64, fy - iy as f64);
-        let v = |i: usize, j: usize| self.togo[j * nx + i];
-        (1.0 - ty) * ((1.0 - tx) * v(ix, iy) + tx * v(ix + 1, iy))
-            + ty * ((1.0 - tx) * v(ix, iy + 1) + tx * v(ix + 1, iy + 1))
     }
 
     /// Horizon at this episode's scale, s.
@@ -282,12 +191,18 @@ impl Mppi6 {
         let mut integral = self.integral;
         let mut cost = 0.0;
         let (p0, reach) = (sim.position(), self.nominal * self.horizon());
-        let togo0 = self.togo_at(p0.x, p0.y);
+        let togo0 = self.togo.at(p0.x, p0.y);
         for c in 0..n {
             let [steer, speed] = interp(knots, c as f64 * period, spacing);
             let s = sim.state();
-            let (action, i) =
-                speed_control(s.speed, speed * self.nominal, integral, self.nominal, steer);
+            let (action, i) = speed_control(
+                s.speed,
+                speed * self.nominal,
+                integral,
+                self.nominal,
+                steer,
+                RATE,
+            );
             integral = i;
             let mut contact = false;
             for _ in 0..self.steps_per_control {
@@ -313,14 +228,8 @@ impl Mppi6 {
             }
             let d = (x - local_goal[0]).hypot(y - local_goal[1]) / d0;
             // Progress toward the goal around obstacles, in horizons' worth of nominal driving (negative: ahead).
-            let progress = (self.togo_at(x, y) - togo0) / reach;
-            let pitch = s.pitch.to_degrees() / ROLLOVER_DEG;
-            let r = roll / ROLLOVER_DEG;
-            let mut c_t = 10.0 * progress + 2.0 * d * d + 2.0 * r * r + pitch * pitch;
-            if roll > 25.0 {
-                c_t += 20.0;
-            }
-            cost += c_t / n as f64;
+            let progress = (self.togo.at(x, y) - togo0) / reach;
+            cost += step_cost(progress, d, roll, s.pitch.to_degrees()) / n as f64;
             if contact {
                 cost += 100.0;
                 break;
@@ -398,7 +307,7 @@ impl Mppi6 {
 
 impl Planner for Mppi6 {
     fn name(&self) -> &str {
-        "mppi6"
+        "mppi6-oracle"
     }
     fn control_rate_hz(&self) -> f64 {
         RATE
@@ -412,7 +321,7 @@ impl Planner for Mppi6 {
         self.half = [ctx.world.heightmap.half_x(), ctx.world.heightmap.half_y()];
         // The paper's goal radius, scaled with the world (the episode's own rule may differ; this is a cost term).
         self.goal_radius = 10.0 * self.scale;
-        self.build_togo(ctx);
+        self.togo = CostToGo::new(ctx, self.goal);
         let (x, y, yaw) = start_pose(ctx.task);
         let shadow = Simulation::new(ctx.world, ctx.spec, x, y, yaw);
         self.steps_per_control = control_every(RATE, ctx.sim_dt);
@@ -453,6 +362,7 @@ impl Planner for Mppi6 {
             self.integral,
             self.nominal,
             steer,
+            RATE,
         );
         self.integral = integral;
         self.since_replan += 1;

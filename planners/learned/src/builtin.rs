@@ -1,24 +1,40 @@
-//! The built-in learned planners (`rl`, `mcl`, `acl`): the weights committed in `planners/learned/weights/`,
-//! compiled in, or any weights file a user trained.
+//! The built-in learned planners: the end-to-end policies `rl`, `mcl`, `acl` and `mppi6` (MPPI-6 over a learned
+//! kinodynamic model), with the weights committed in `planners/learned/weights/`, compiled in, or any weights file
+//! a user trained (its `format` says which kind of planner it makes).
 
+use crate::kino::{KinoMppi, KinoMppiConfig, KinoNet};
 use crate::net::{PolicyNet, WeightsError};
 use crate::planner::LearnedPlanner;
+use sim_core::planner::Planner;
 use std::path::Path;
 
 include!(concat!(env!("OUT_DIR"), "/builtin.rs"));
 
 /// Names of the built-in learned planners.
-pub const NAMES: [&str; 3] = ["rl", "mcl", "acl"];
+pub const NAMES: [&str; 4] = ["rl", "mcl", "acl", "mppi6"];
+
+/// How a built-in planner's weights are made.
+fn how_to_train(name: &str) -> String {
+    if name == "mppi6" {
+        "generate datasets and train a model with `python -m vertibench.kino train --data DIR... --out DIR` \
+         (planners/learned/KINO.md) and run it with `--weights DIR/kino.safetensors`"
+            .into()
+    } else {
+        format!(
+            "train it with `python -m vertibench.train {name} --out DIR` and run it with `--weights \
+             DIR/policy.safetensors`"
+        )
+    }
+}
 
 /// Why a learned planner could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum LearnedError {
     #[error(
-        "the built-in planner `{0}` has no weights in this build: train it with `python -m vertibench.train {0} \
-         --out DIR` and run it with `--weights DIR/policy.safetensors`, or commit the file as \
-         planners/learned/weights/{0}.safetensors and rebuild"
+        "the built-in planner `{name}` has no weights in this build: {how}, or commit the file as \
+         planners/learned/weights/{name}.safetensors and rebuild"
     )]
-    NoWeights(String),
+    NoWeights { name: String, how: String },
     #[error("weights file {path}: {source}")]
     Weights {
         path: String,
@@ -43,31 +59,77 @@ pub fn available() -> Vec<&'static str> {
         .collect()
 }
 
+/// What a learned planner runs: an end-to-end policy, or a kinodynamic model that MPPI-6 rolls out.
+#[derive(Clone, Debug)]
+pub enum LearnedNet {
+    Policy(PolicyNet),
+    Kino(KinoNet),
+}
+
+impl LearnedNet {
+    /// A weights file's bytes: a `vertibench-kino-v1` file is a kinodynamic model, any other must be a policy.
+    pub fn from_bytes(bytes: &[u8]) -> Result<LearnedNet, WeightsError> {
+        if crate::nn::format(bytes).as_deref() == Some(crate::kino::features::LAYOUT) {
+            KinoNet::from_bytes(bytes).map(LearnedNet::Kino)
+        } else {
+            PolicyNet::from_bytes(bytes).map(LearnedNet::Policy)
+        }
+    }
+
+    /// SHA-256 of the weights file (hex).
+    pub fn sha256(&self) -> &str {
+        match self {
+            LearnedNet::Policy(n) => n.sha256(),
+            LearnedNet::Kino(n) => n.sha256(),
+        }
+    }
+
+    /// A fresh planner for one episode, reported as `name`.
+    pub fn make(&self, name: &str) -> Box<dyn Planner> {
+        match self {
+            LearnedNet::Policy(n) => Box::new(LearnedPlanner::new(name, n.clone())),
+            LearnedNet::Kino(n) => {
+                Box::new(KinoMppi::new(name, n.clone(), KinoMppiConfig::default()))
+            }
+        }
+    }
+}
+
 /// The network of a built-in learned planner, or `None` if `name` is not one.
-pub fn builtin_net(name: &str) -> Option<Result<PolicyNet, LearnedError>> {
+pub fn builtin(name: &str) -> Option<Result<LearnedNet, LearnedError>> {
     let (_, weights) = BUILTIN.iter().find(|(n, _)| *n == name)?;
     Some(match weights {
-        None => Err(LearnedError::NoWeights(name.to_string())),
-        Some(bytes) => PolicyNet::from_bytes(bytes).map_err(|source| LearnedError::Weights {
+        None => Err(LearnedError::NoWeights {
+            name: name.to_string(),
+            how: how_to_train(name),
+        }),
+        Some(bytes) => LearnedNet::from_bytes(bytes).map_err(|source| LearnedError::Weights {
             path: format!("planners/learned/weights/{name}.safetensors (compiled in)"),
             source,
         }),
     })
 }
 
-/// A built-in learned planner, or `None` if `name` is not one.
-pub fn by_name(name: &str) -> Option<Result<LearnedPlanner, LearnedError>> {
-    builtin_net(name).map(|net| net.map(|n| LearnedPlanner::new(name, n)))
+/// The network of a weights file (a policy or a kinodynamic model).
+pub fn load(path: &Path) -> Result<LearnedNet, LearnedError> {
+    read_weights(path, LearnedNet::from_bytes)
 }
 
-/// The network of a weights file.
-pub fn load(path: &Path) -> Result<PolicyNet, LearnedError> {
+/// The policy of a weights file.
+pub fn load_policy(path: &Path) -> Result<PolicyNet, LearnedError> {
+    read_weights(path, PolicyNet::from_bytes)
+}
+/// A weights file read and parsed by `parse`, its errors naming the file.
+pub(crate) fn read_weights<T>(
+    path: &Path,
+    parse: impl FnOnce(&[u8]) -> Result<T, WeightsError>,
+) -> Result<T, LearnedError> {
     let shown = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|e| LearnedError::Io {
         path: shown.clone(),
         message: e.to_string(),
     })?;
-    PolicyNet::from_bytes(&bytes).map_err(|source| LearnedError::Weights {
+    parse(&bytes).map_err(|source| LearnedError::Weights {
         path: shown,
         source,
     })

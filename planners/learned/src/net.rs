@@ -2,7 +2,7 @@
 //! evaluated in `f32` in a fixed order, so the same inputs give the same actions on every machine and thread count.
 
 use crate::features::{CROP_CHANNELS, CROP_SIZE, FEATURES, LAYOUT};
-use safetensors::tensor::{Dtype, SafeTensors};
+use crate::nn::{conv_relu, dense, expect_metadata, layer, open, sha256_hex, shape, Layer};
 use std::collections::BTreeMap;
 
 /// Conv1: filters, kernel, stride; conv2 likewise (no padding).
@@ -34,13 +34,6 @@ pub enum WeightsError {
     Tensor { name: &'static str, problem: String },
 }
 
-#[derive(Clone, Debug)]
-struct Layer {
-    /// Row-major `[out, in]` (convolutions: `[out, in_channels, k, k]`).
-    weight: Vec<f32>,
-    bias: Vec<f32>,
-}
-
 /// The actor network of a weights file, with its metadata and scratch buffers (acting allocates nothing).
 #[derive(Clone, Debug)]
 pub struct PolicyNet {
@@ -60,16 +53,8 @@ pub struct PolicyNet {
 impl PolicyNet {
     /// Reads a weights file's bytes, checking its layout, metadata and every tensor's dtype and shape.
     pub fn from_bytes(bytes: &[u8]) -> Result<PolicyNet, WeightsError> {
-        let (_, header) =
-            SafeTensors::read_metadata(bytes).map_err(|e| WeightsError::Format(e.to_string()))?;
-        let metadata: BTreeMap<String, String> = header
-            .metadata()
-            .as_ref()
-            .map(|m| m.iter().map(|(k, v)| (k.clone(), v.clone())).collect())
-            .unwrap_or_default();
+        let (metadata, st) = open(bytes)?;
         check_metadata(&metadata)?;
-        let st =
-            SafeTensors::deserialize(bytes).map_err(|e| WeightsError::Format(e.to_string()))?;
         let (c1, k1, _) = CONV1;
         let (c2, k2, _) = CONV2;
         let conv1 = layer(
@@ -156,33 +141,19 @@ impl PolicyNet {
     }
 }
 
-fn sha256_hex(bytes: &[u8]) -> String {
-    use sha2::{Digest, Sha256};
-    Sha256::digest(bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
-}
-
 fn check_metadata(m: &BTreeMap<String, String>) -> Result<(), WeightsError> {
     let features = FEATURES.join(",");
     let actions = ACTIONS.join(",");
-    for (key, expected) in [
-        ("format", LAYOUT),
-        ("features", features.as_str()),
-        ("crop", CROP_META),
-        ("crop_cell_per_scale", CROP_CELL_META),
-        ("action", actions.as_str()),
-    ] {
-        let found = m.get(key);
-        if found.map(String::as_str) != Some(expected) {
-            return Err(WeightsError::Metadata {
-                key,
-                found: found.map_or_else(|| "missing".to_string(), |f| format!("`{f}`")),
-                expected: format!("`{expected}`"),
-            });
-        }
-    }
+    expect_metadata(
+        m,
+        &[
+            ("format", LAYOUT),
+            ("features", features.as_str()),
+            ("crop", CROP_META),
+            ("crop_cell_per_scale", CROP_CELL_META),
+            ("action", actions.as_str()),
+        ],
+    )?;
     if let Some(rate) = m.get("control_rate_hz") {
         if !rate.parse::<f64>().is_ok_and(|r| r.is_finite() && r > 0.0) {
             return Err(WeightsError::Metadata {
@@ -193,103 +164,4 @@ fn check_metadata(m: &BTreeMap<String, String>) -> Result<(), WeightsError> {
         }
     }
     Ok(())
-}
-
-fn shape(st: &SafeTensors<'_>, name: &'static str) -> Result<Vec<usize>, WeightsError> {
-    st.tensor(name)
-        .map(|t| t.shape().to_vec())
-        .map_err(|_| WeightsError::Tensor {
-            name,
-            problem: "missing".into(),
-        })
-}
-
-fn tensor(
-    st: &SafeTensors<'_>,
-    name: &'static str,
-    want: &[usize],
-) -> Result<Vec<f32>, WeightsError> {
-    let t = st.tensor(name).map_err(|_| WeightsError::Tensor {
-        name,
-        problem: "missing".into(),
-    })?;
-    if t.dtype() != Dtype::F32 {
-        return Err(WeightsError::Tensor {
-            name,
-            problem: format!("dtype {:?}, expected F32", t.dtype()),
-        });
-    }
-    if t.shape() != want {
-        return Err(WeightsError::Tensor {
-            name,
-            problem: format!("shape {:?}, expected {want:?}", t.shape()),
-        });
-    }
-    let values: Vec<f32> = t
-        .data()
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .collect();
-    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-        return Err(WeightsError::Tensor {
-            name,
-            problem: format!("entry {i} is {}", values[i]),
-        });
-    }
-    Ok(values)
-}
-
-fn layer(
-    st: &SafeTensors<'_>,
-    (weight, bias): (&'static str, &'static str),
-    want: &[usize],
-) -> Result<Layer, WeightsError> {
-    Ok(Layer {
-        weight: tensor(st, weight, want)?,
-        bias: tensor(st, bias, &want[..1])?,
-    })
-}
-
-/// A valid (no padding) convolution of `input` (`in_ch x side x side`) with a ReLU, into `out`.
-fn conv_relu(
-    l: &Layer,
-    (filters, k, stride): (usize, usize, usize),
-    in_ch: usize,
-    side: usize,
-    input: &[f32],
-    out: &mut [f32],
-) {
-    let out_side = (side - k) / stride + 1;
-    for f in 0..filters {
-        let wf = &l.weight[f * in_ch * k * k..(f + 1) * in_ch * k * k];
-        for y in 0..out_side {
-            for x in 0..out_side {
-                let mut acc = l.bias[f];
-                for c in 0..in_ch {
-                    for ky in 0..k {
-                        let row = &input[(c * side + y * stride + ky) * side + x * stride..];
-                        let wr = &wf[(c * k + ky) * k..(c * k + ky + 1) * k];
-                        for (w, v) in wr.iter().zip(row) {
-                            acc += w * v;
-                        }
-                    }
-                }
-                out[(f * out_side + y) * out_side + x] = acc.max(0.0);
-            }
-        }
-    }
-}
-
-/// `out = W input + b`, then tanh where asked.
-fn dense(l: &Layer, input: &[f32], out: &mut [f32], tanh: bool) {
-    let n = input.len();
-    for (o, v) in out.iter_mut().enumerate() {
-        let acc = l.bias[o]
-            + l.weight[o * n..(o + 1) * n]
-                .iter()
-                .zip(input)
-                .map(|(w, x)| w * x)
-                .sum::<f32>();
-        *v = if tanh { acc.tanh() } else { acc };
-    }
 }

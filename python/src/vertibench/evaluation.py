@@ -52,7 +52,7 @@ def evaluate(
     with ``summary["complete"]``: True when every selected episode ran, False when Ctrl-C stopped the evaluation.
 
     ``planner`` is a :class:`vertibench.planner.Planner` (called back at its control rate, one episode at a time,
-    in the calling thread) or the name of a built-in planner (``"pid"``, ``"eh"``, ``"mppi"``, ``"mppi6"``, ``"mppi-release"``; run in
+    in the calling thread) or the name of a built-in planner (``"pid"``, ``"eh"``, ``"mppi"``, ``"mppi-release"``, ``"mppi6-oracle"``, ``"rl"``, ...; run in
     parallel on ``num_threads`` threads, default: all cores). ``tasks`` is ``"all"``, a split name, or ids (world
     ids and task ids like ``"w001-t0"``; a comma-separated string or a list). The episodes are those of
     ``vb eval``: the same runner, rules (``rules="paper"`` or ``"release"``), ``vehicle``, world ``scale`` (default:

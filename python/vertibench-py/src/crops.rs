@@ -17,13 +17,45 @@ fn bad(msg: impl Into<String>) -> PyErr {
     PyValueError::new_err(msg.into())
 }
 
+/// The worlds of one task set at one scale, each loaded on first use.
+pub struct WorldCache {
+    set: TaskSet,
+    scale: f64,
+    worlds: BTreeMap<u32, World>,
+}
+
+impl WorldCache {
+    pub fn new(py: Python<'_>, task_dir: PathBuf, scale: f64) -> PyResult<Self> {
+        if !(scale.is_finite() && scale > 0.0 && scale <= 1.0) {
+            return Err(bad(format!("scale {scale} must be in (0, 1]")));
+        }
+        let set = py
+            .detach(|| TaskSet::load(&task_dir))
+            .map_err(|e| bad(e.to_string()))?;
+        Ok(WorldCache {
+            set,
+            scale,
+            worlds: BTreeMap::new(),
+        })
+    }
+
+    /// World `world_id`, loaded now if it is not yet.
+    pub fn get(&mut self, py: Python<'_>, world_id: u32) -> PyResult<&World> {
+        if !self.worlds.contains_key(&world_id) {
+            let w = py
+                .detach(|| self.set.world(world_id, self.scale))
+                .map_err(|e| bad(e.to_string()))?;
+            self.worlds.insert(world_id, w);
+        }
+        Ok(&self.worlds[&world_id])
+    }
+}
+
 /// Makes the environments' crops for poses on the worlds of one task set (worlds loaded once, on first use).
 #[pyclass(module = "vertibench._core")]
 pub struct CropMaker {
-    set: TaskSet,
-    scale: f64,
+    worlds: WorldCache,
     spec: CropSpec,
-    worlds: BTreeMap<u32, World>,
 }
 
 #[pymethods]
@@ -44,24 +76,16 @@ impl CropMaker {
                 "crop resolution {resolution} must be positive"
             )));
         }
-        if !(scale.is_finite() && scale > 0.0 && scale <= 1.0) {
-            return Err(bad(format!("scale {scale} must be in (0, 1]")));
-        }
-        let set = py
-            .detach(|| TaskSet::load(&task_dir))
-            .map_err(|e| bad(e.to_string()))?;
         Ok(CropMaker {
-            set,
-            scale,
+            worlds: WorldCache::new(py, task_dir, scale)?,
             spec: CropSpec { size, resolution },
-            worlds: BTreeMap::new(),
         })
     }
 
     /// The task set's version.
     #[getter]
     fn version(&self) -> String {
-        self.set.version().to_string()
+        self.worlds.set.version().to_string()
     }
 
     /// Crops for `poses` (`n x 4`: x, y, z, yaw) on world `world_id`: `(elevation, semantics, obstacles)`, each
@@ -85,20 +109,14 @@ impl CropMaker {
                 p.shape()
             )));
         }
-        if !self.worlds.contains_key(&world_id) {
-            let w = py
-                .detach(|| self.set.world(world_id, self.scale))
-                .map_err(|e| bad(e.to_string()))?;
-            self.worlds.insert(world_id, w);
-        }
-        let world = &self.worlds[&world_id];
-        let (n, k) = (p.nrows(), self.spec.size);
+        let spec = self.spec;
+        let world = self.worlds.get(py, world_id)?;
+        let (n, k) = (p.nrows(), spec.size);
         let rows: Vec<[f64; 4]> = p
             .rows()
             .into_iter()
             .map(|r| [r[0], r[1], r[2], r[3]])
             .collect();
-        let spec = self.spec;
         let (e, s, o) = py.detach(|| {
             let mut buf = ObsBuf::new(Some(&spec));
             let (mut e, mut s, mut o) = (

@@ -7,6 +7,7 @@ mod convert;
 mod crops;
 mod obs;
 mod py_eval;
+mod py_kino;
 mod py_policy;
 mod py_vec;
 mod slot;
@@ -48,10 +49,22 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<py_vec::VecCore>()?;
     m.add_class::<crops::CropMaker>()?;
     m.add_class::<py_policy::PolicyNet>()?;
+    m.add_class::<py_kino::KinoData>()?;
+    m.add_class::<py_kino::KinoNet>()?;
     m.add_function(wrap_pyfunction!(py_policy::policy_features, m)?)?;
     m.add("POLICY_LAYOUT", learned::features::LAYOUT)?;
     m.add("POLICY_FEATURES", learned::features::FEATURES.to_vec())?;
     m.add("POLICY_CROP_SIZE", learned::features::CROP_SIZE)?;
+    {
+        use learned::kino::{features as kf, net as kn};
+        m.add("KINO_LAYOUT", kf::LAYOUT)?;
+        m.add("KINO_FEATURES", kf::FEATURES.to_vec())?;
+        m.add("KINO_TARGETS", kf::TARGETS.to_vec())?;
+        m.add("KINO_CROP_SIZE", kf::CROP_SIZE)?;
+        m.add("KINO_CROP_META", kn::CROP_META)?;
+        m.add("KINO_CODE", kn::CODE)?;
+        m.add("KINO_STEP_FRAMES", kf::STEP_FRAMES)?;
+    }
     m.add_function(wrap_pyfunction!(py_eval::evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(bench::raw_throughput, m)?)?;
     Ok(())

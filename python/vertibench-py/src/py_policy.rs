@@ -95,7 +95,7 @@ impl PolicyNet {
     /// Reads `path`; a file of another layout raises ValueError saying what differs.
     #[new]
     fn new(path: std::path::PathBuf) -> PyResult<Self> {
-        let net = learned::builtin::load(&path).map_err(|e| bad(e.to_string()))?;
+        let net = learned::builtin::load_policy(&path).map_err(|e| bad(e.to_string()))?;
         Ok(PolicyNet { net })
     }
 

@@ -6,9 +6,9 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct EvalArgs {
-    /// Built-in planner: pid, eh, mppi (bicycle model), mppi6 (6-DoF oracle model: our own simulator),
-    /// mppi-release (the original release's MPPI as published), or a learned policy: rl, mcl, acl (PPO on training
-    /// worlds; their weights are compiled in once committed).
+    /// Built-in planner: pid, eh, mppi (bicycle model), mppi-release (the original release's MPPI as published),
+    /// mppi6-oracle (MPPI-6 over our own simulator), or a learned one: rl, mcl, acl (PPO policies on training
+    /// worlds), mppi6 (MPPI-6 over a learned kinodynamic model); their weights are compiled in once committed.
     #[arg(long, default_value = "pid")]
     planner: String,
     /// A learned policy's weights file (`policy.safetensors` of `python -m vertibench.train`), run under the name

@@ -15,7 +15,7 @@ pub enum SimCmd {
         task: u32,
         #[arg(long, default_value = "hmmwv")]
         vehicle: String,
-        /// pure_pursuit (built-in controller), pid, eh, mppi, mppi6 or mppi-release.
+        /// pure_pursuit (built-in controller) or any built-in planner of `vb eval`.
         #[arg(long, default_value = "pure_pursuit")]
         planner: String,
         #[arg(long)]

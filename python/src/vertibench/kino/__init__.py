@@ -1,0 +1,13 @@
+"""Learned kinodynamic models for the hybrid planners (layout ``vertibench-kino-v1``, ``planners/learned/KINO.md``).
+
+```sh
+vb tasks generate --seed 11 --out out/kino-tasks                   # training worlds, never the benchmark's
+vb dataset generate --kind random --task-set out/kino-tasks --hours 20 --out out/kino-data/random
+vb dataset generate --kind expert --task-set out/kino-tasks --hours 10 --out out/kino-data/expert
+python -m vertibench.kino train --data out/kino-data/random out/kino-data/expert --out out/kino --epochs 20
+python -m vertibench.kino report --weights out/kino/kino.safetensors --data out/kino-data/random out/kino-data/expert
+```
+
+The inputs and targets are made by the Rust planners' own code (:class:`vertibench._core.KinoData`); the weights
+run in Rust (:class:`vertibench._core.KinoNet`, ``learned::kino::KinoNet``) exactly as the planners run them.
+"""

@@ -1,0 +1,62 @@
+"""``python -m vertibench.kino train|report ...``."""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+from pathlib import Path
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    p = argparse.ArgumentParser(prog="python -m vertibench.kino", description=__doc__)
+    sub = p.add_subparsers(dest="cmd", required=True)
+    t = sub.add_parser("train", help="train a model on datasets (resumes from --out)")
+    t.add_argument("--data", nargs="+", required=True, help="dataset directories (vb dataset generate)")
+    t.add_argument("--task-set", help="their task set (found from the datasets' version when omitted)")
+    t.add_argument("--out", required=True)
+    t.add_argument("--epochs", type=int, default=20)
+    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--members", type=int, default=4)
+    t.add_argument("--hidden", type=int, default=64)
+    t.add_argument("--batch", type=int, default=512)
+    t.add_argument("--lr", type=float, default=1e-3)
+    t.add_argument("--stride", type=int, default=1, help="use every N-th model step of each episode")
+    t.add_argument("--threads", type=int, default=2)
+    t.add_argument("--name", default="kino")
+    r = sub.add_parser("report", help="open-loop accuracy on held-out episodes against the bicycle model")
+    r.add_argument("--weights", required=True)
+    r.add_argument("--data", nargs="+", required=True)
+    r.add_argument("--task-set")
+    r.add_argument("--out", help="directory for accuracy.json and accuracy.md (printed when omitted)")
+    r.add_argument("--every", type=float, default=2.0, help="seconds between start frames")
+    a = p.parse_args(argv)
+    try:
+        if a.cmd == "train":
+            from .train import TrainSpec, train
+
+            if a.epochs < 1 or a.batch < 1 or a.stride < 1 or not a.lr > 0:
+                p.error("--epochs, --batch and --stride must be at least 1 and --lr positive")
+            cmd = "python -m vertibench.kino " + " ".join(shlex.quote(x) for x in argv)
+            w = train(TrainSpec(data=a.data, out=a.out, task_set=a.task_set, epochs=a.epochs, seed=a.seed,
+                                members=a.members, hidden=a.hidden, batch=a.batch, lr=a.lr, stride=a.stride,
+                                threads=a.threads, name=a.name, command=cmd))
+            print(f"vertibench.kino: weights {w}")
+        else:
+            from . import report as rp
+
+            rep = rp.accuracy(a.weights, a.data, a.task_set, a.every)
+            if a.out:
+                rp.write(rep, Path(a.out))
+                print(f"vertibench.kino: report in {a.out}/accuracy.md")
+            else:
+                print(rp.markdown(rep))
+    except (ValueError, FileNotFoundError) as e:
+        print(f"vertibench.kino: error: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,107 @@
+"""Model steps from datasets: every frame of every episode that has a model step after it becomes one sample
+(inputs from :class:`vertibench._core.KinoData`, the Rust planners' own code; targets the change of pose over the
+next ``KINO_STEP_FRAMES`` frames). Held out: worlds whose id is 9 mod 10, as for the learned policies."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .. import _core
+from .. import datasets as vb_datasets
+
+STEP = int(_core.KINO_STEP_FRAMES)
+#: Held-out worlds: ``world_id % 10 == HELD_OUT``.
+HELD_OUT = 9
+
+
+@dataclass
+class Episode:
+    """One episode's frames: poses ``[n, 6]`` (x y z roll pitch yaw), applied steering ``[n]``, actions ``[n, 3]``;
+    the frame after its last action is appended, so it has ``n`` poses and ``n - 1`` actions."""
+
+    world_id: int
+    level: str
+    poses: np.ndarray
+    steering: np.ndarray
+    actions: np.ndarray
+
+
+def episodes(path: str | Path, task_set: str | Path | None = None) -> tuple[dict, list[Episode]]:
+    """A dataset's spec and its episodes (read once, file by file)."""
+    pq = vb_datasets._pyarrow()
+    ds = vb_datasets.open(path, task_set)
+    meta = ds.episodes.set_index("episode_index")
+    out: list[Episode] = []
+    for f in ds._data_files():
+        a = ds._arrays(pq.read_table(f, columns=["observation.state", "action", "episode_index"]), crops=False)
+        ep = a["episode_index"]
+        bounds = np.flatnonzero(np.diff(ep)) + 1
+        for rows in np.split(np.arange(len(ep)), bounds):
+            if len(rows) == 0:
+                continue
+            e = int(ep[rows[0]])
+            row = meta.loc[e]
+            state = np.concatenate([a["observation.state"][rows], np.asarray(row["final_state"])[None, :]])
+            out.append(Episode(int(row["world_id"]), str(row["level"]),
+                               np.ascontiguousarray(state[:, :6]), np.ascontiguousarray(state[:, 13]),
+                               np.asarray(a["action"][rows], np.float64)))
+    return ds.spec, out
+
+
+def step_indices(n_poses: int) -> tuple[np.ndarray, np.ndarray]:
+    """Start frames ``i`` with a whole model step after them (``i + STEP < n_poses``) and the frame one step
+    before each (``i - STEP``, or ``i`` itself in the first step: a standing start)."""
+    i = np.arange(max(n_poses - STEP, 0))
+    return i, np.where(i >= STEP, i - STEP, i)
+
+
+def mean_actions(actions: np.ndarray, i: np.ndarray) -> np.ndarray:
+    """The action held over each step from frame ``i``: the mean of its ``STEP`` frames' actions."""
+    c = np.concatenate([np.zeros((1, actions.shape[1])), np.cumsum(actions, axis=0)])
+    return (c[i + STEP] - c[i]) / STEP
+
+
+@dataclass
+class Samples:
+    vec: np.ndarray  # f32 [n, 16]
+    crop: np.ndarray  # f32 [n, 16, 16]
+    target: np.ndarray  # f32 [n, 7]
+    world: np.ndarray  # i64 [n]
+    episode: np.ndarray  # i64 [n]: index into the episode list
+    frame: np.ndarray  # i64 [n]
+
+    def __len__(self) -> int:
+        return len(self.target)
+
+    def take(self, rows: np.ndarray) -> "Samples":
+        return Samples(*(getattr(self, k)[rows] for k in ("vec", "crop", "target", "world", "episode", "frame")))
+
+    def save(self, path: Path) -> None:
+        np.savez(path, **{k: getattr(self, k) for k in ("vec", "crop", "target", "world", "episode", "frame")})
+
+    @classmethod
+    def load(cls, path: Path) -> "Samples":
+        z = np.load(path)
+        return cls(*(z[k] for k in ("vec", "crop", "target", "world", "episode", "frame")))
+
+
+def samples(eps: list[Episode], maker: "_core.KinoData", stride: int = 1) -> Samples:
+    """Every ``stride``-th model step of ``eps`` as samples."""
+    parts = []
+    for k, e in enumerate(eps):
+        i, b = step_indices(len(e.poses))
+        i, b = i[::stride], b[::stride]
+        if len(i) == 0:
+            continue
+        act = mean_actions(e.actions, i)
+        vec, crop = maker.features(e.world_id, e.poses[b], e.poses[i], e.steering[i], act)
+        tgt = maker.targets(e.poses[i], e.poses[i + STEP], e.steering[i + STEP])
+        parts.append((vec, crop, tgt, np.full(len(i), e.world_id), np.full(len(i), k), i))
+    if not parts:
+        raise ValueError("no episode has a whole model step: the datasets are empty or too short")
+    cols = [np.concatenate([p[j] for p in parts]) for j in range(6)]
+    return Samples(cols[0].astype(np.float32), cols[1].astype(np.float32), cols[2].astype(np.float32),
+                   cols[3].astype(np.int64), cols[4].astype(np.int64), cols[5].astype(np.int64))

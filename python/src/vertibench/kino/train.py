@@ -1,0 +1,200 @@
+"""Training a kinodynamic model on datasets (``python -m vertibench.kino train``): one-step regression of the
+scaled targets, each ensemble member on its own bootstrap weights of the samples, Adam, a fixed seed; one epoch at a
+time with a checkpoint after each (a run resumes from its ``--out`` directory), a learning curve (held-out RMSE per
+target) and, at the end, the weights (``kino.safetensors``) with their card."""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import _core
+from . import data as kd
+from . import model as km
+
+
+@dataclass
+class TrainSpec:
+    data: list[str]
+    out: str
+    task_set: str | None = None
+    epochs: int = 20
+    seed: int = 0
+    members: int = 4
+    hidden: int = 64
+    batch: int = 512
+    lr: float = 1e-3
+    stride: int = 1
+    threads: int = 2
+    name: str = "kino"
+    command: str = ""
+    extra: dict = field(default_factory=dict)
+
+
+def load_samples(spec: TrainSpec) -> tuple[kd.Samples, dict]:
+    """The samples of every dataset (cached in ``out/samples.npz``) and what the card says about the data."""
+    out = Path(spec.out)
+    cache, about_path = out / "samples.npz", out / "data.json"
+    if cache.exists() and about_path.exists():
+        about = json.loads(about_path.read_text())
+        if about.get("data") == [str(Path(d).resolve()) for d in spec.data] and about.get("stride") == spec.stride:
+            return kd.Samples.load(cache), about
+    parts, about = [], {"data": [str(Path(d).resolve()) for d in spec.data], "stride": spec.stride, "sets": []}
+    maker, key = None, None
+    for d in spec.data:
+        ds_spec, eps = kd.episodes(d, spec.task_set)
+        if ds_spec.get("analysis_only"):
+            raise ValueError(f"{d} was made from the benchmark's own tasks (--allow-benchmark-tasks): a model "
+                             f"trained on it would have seen the tasks it is evaluated on; generate a dataset "
+                             f"on a training task set (vb tasks generate --seed N)")
+        k = (ds_spec["vehicle"], float(ds_spec["scale"]), ds_spec["task_set_version"], ds_spec["sim_version"])
+        if key is not None and k != key:
+            raise ValueError(f"{d}: vehicle, scale, task set or simulator {k} differ from the first dataset's {key}")
+        if maker is None:
+            from .. import datasets as vbd
+
+            task_dir = spec.task_set or vbd._find_task_set(ds_spec)
+            if task_dir is None:
+                raise ValueError(f"{d}: its task set (version {ds_spec['task_set_version']}) was not found: pass "
+                                 f"--task-set DIR")
+            maker = _core.KinoData(str(task_dir), ds_spec["vehicle"], float(ds_spec["scale"]))
+        key = k
+        s = kd.samples(eps, maker, spec.stride)
+        # Episodes are numbered across datasets.
+        s.episode = s.episode + sum(int(p.episode.max()) + 1 for p in parts)
+        parts.append(s)
+        about["sets"].append({"path": str(d), "kind": ds_spec["kind"], "episodes": len(eps), "samples": len(s),
+                              "seed": ds_spec["seed"], "task_set_version": ds_spec["task_set_version"],
+                              "sim_version": ds_spec["sim_version"]})
+    about.update(vehicle=key[0], scale=key[1], task_set_version=key[2], sim_version=key[3],
+                 target_factors=list(maker.target_factors), vehicle_facts=dict(maker.vehicle))
+    allv = kd.Samples(*(np.concatenate([getattr(p, f) for p in parts])
+                        for f in ("vec", "crop", "target", "world", "episode", "frame")))
+    out.mkdir(parents=True, exist_ok=True)
+    allv.save(cache)
+    about_path.write_text(json.dumps(about, indent=1))
+    return allv, about
+
+
+def split(s: kd.Samples) -> tuple[np.ndarray, np.ndarray]:
+    held = (s.world % 10) == kd.HELD_OUT
+    return np.flatnonzero(~held), np.flatnonzero(held)
+
+
+def rmse(model: "km.KinoModel", s: kd.Samples, rows: np.ndarray, batch: int = 8192) -> np.ndarray:
+    """Held-out RMSE per scaled target of the ensemble mean."""
+    import torch
+
+    se = np.zeros(km.TARGETS)
+    with torch.no_grad():
+        for a in range(0, len(rows), batch):
+            r = rows[a:a + batch]
+            p = model(torch.from_numpy(s.vec[r]), torch.from_numpy(s.crop[r])).mean(1).numpy()
+            se += ((p - s.target[r]) ** 2).sum(0)
+    return np.sqrt(se / max(len(rows), 1))
+
+
+def train(spec: TrainSpec, log=print) -> Path:
+    import torch
+
+    torch.set_num_threads(spec.threads)
+    out = Path(spec.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.monotonic()
+    s, about = load_samples(spec)
+    data_s = time.monotonic() - t0
+    tr, ho = split(s)
+    if len(tr) == 0 or len(ho) == 0:
+        raise ValueError(f"{len(tr)} training and {len(ho)} held-out samples: the data need worlds of both kinds "
+                         f"(held out: world id 9 mod 10)")
+    log(f"vertibench.kino: {len(tr)} training, {len(ho)} held-out samples ({data_s:.0f} s to make)")
+    torch.manual_seed(spec.seed)
+    model = km.KinoModel(spec.members, spec.hidden)
+    opt = torch.optim.Adam(model.parameters(), lr=spec.lr)
+    rng = np.random.default_rng(spec.seed)
+    # Bootstrap: member m weighs training sample i by a Poisson(1) count (drawn once).
+    boot = rng.poisson(1.0, size=(len(tr), spec.members)).astype(np.float32)
+    ckpt, curve_path = out / "checkpoint.pt", out / "curve.csv"
+    epoch, curve, train_s = 0, [], 0.0
+    if ckpt.exists():
+        c = torch.load(ckpt, weights_only=False)
+        model.load_state_dict(c["model"])
+        opt.load_state_dict(c["opt"])
+        epoch, curve, train_s = c["epoch"], c["curve"], c["train_s"]
+        rng.bit_generator.state = c["rng"]
+        log(f"vertibench.kino: resumed at epoch {epoch}")
+    vec, crop, tgt = (torch.from_numpy(a) for a in (s.vec, s.crop, s.target))
+    bw = torch.from_numpy(boot)
+    while epoch < spec.epochs:
+        e0 = time.monotonic()
+        model.train()
+        order = rng.permutation(len(tr))
+        total = 0.0
+        for a in range(0, len(order), spec.batch):
+            r = order[a:a + spec.batch]
+            rows = torch.from_numpy(tr[r])
+            pred = model(vec[rows], crop[rows])  # [b, m, 7]
+            err = ((pred - tgt[rows].unsqueeze(1)) ** 2).mean(2)  # [b, m]
+            w = bw[torch.from_numpy(r)]
+            loss = (err * w).sum() / w.sum().clamp(min=1.0)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            total += float(loss.detach()) * len(r)
+        epoch += 1
+        model.eval()
+        h = rmse(model, s, ho)
+        train_s += time.monotonic() - e0
+        row = {"epoch": epoch, "wall_s": round(train_s, 1), "train_loss": total / len(order),
+               **{f"heldout_rmse_{n}": float(v) for n, v in zip(_core.KINO_TARGETS, h)}}
+        curve.append(row)
+        log(f"vertibench.kino: epoch {epoch}/{spec.epochs} loss {row['train_loss']:.4f} held-out RMSE "
+            + " ".join(f"{n} {v:.3f}" for n, v in zip(_core.KINO_TARGETS, h)))
+        torch.save({"model": model.state_dict(), "opt": opt.state_dict(), "epoch": epoch, "curve": curve,
+                    "train_s": train_s, "rng": rng.bit_generator.state}, ckpt)
+        write_curve(curve, curve_path)
+    return finish(spec, model, s, ho, about, curve, train_s, data_s)
+
+
+def write_curve(curve: list[dict], path: Path) -> None:
+    import csv
+
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(curve[0]))
+        w.writeheader()
+        w.writerows(curve)
+
+
+def finish(spec: TrainSpec, model, s: kd.Samples, ho: np.ndarray, about: dict, curve: list[dict], train_s: float,
+           data_s: float) -> Path:
+    out = Path(spec.out)
+    h = rmse(model, s, ho)
+    factors = np.asarray(about["target_factors"])
+    physical = {n: float(v * f) for n, v, f in zip(_core.KINO_TARGETS, h, factors)}
+    card = {
+        "name": spec.name, "command": spec.command, "seed": spec.seed, "epochs": spec.epochs,
+        "members": spec.members, "hidden": spec.hidden, "batch": spec.batch, "lr": spec.lr,
+        "samples": len(s), "heldout_samples": int(len(ho)), "train_s": round(train_s, 1),
+        "data_s": round(data_s, 1), "heldout_rmse_scaled": {n: float(v) for n, v in zip(_core.KINO_TARGETS, h)},
+        "heldout_rmse_one_step": physical, "data": about["sets"], "vehicle": about["vehicle"],
+        "scale": about["scale"], "task_set_version": about["task_set_version"],
+        "sim_version": about["sim_version"], "parameters": sum(p.numel() for p in model.parameters()),
+        **spec.extra,
+    }
+    meta = {"name": spec.name, "seed": spec.seed, "epochs": spec.epochs, "vehicle": about["vehicle"],
+            "scale": about["scale"], "task_set_version": about["task_set_version"],
+            "sim_version": about["sim_version"], "command": spec.command,
+            "heldout_rmse_one_step": json.dumps(physical)}
+    weights = out / "kino.safetensors"
+    km.save(model, weights, meta)
+    (out / "card.json").write_text(json.dumps(card, indent=1))
+    from .report import write_card, plot_curve
+
+    write_card(card, out / "card.md")
+    plot_curve(curve, out / "curve.png", spec.name)
+    return weights
+

@@ -1,0 +1,155 @@
+"""vertibench.kino: the learned kinodynamic model's inputs and targets (made by the Rust planners' code), the Rust
+forward pass against PyTorch's, refusals of foreign weights, and training and the accuracy report end to end on
+tiny datasets made by `vb dataset generate`."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+pytest.importorskip("safetensors")
+pytest.importorskip("matplotlib")
+pytest.importorskip("pyarrow")
+
+import vertibench as vb  # noqa: E402
+from vertibench import _core  # noqa: E402
+from vertibench.kino import data as kd  # noqa: E402
+from vertibench.kino import model as km  # noqa: E402
+
+
+def poses_on(maker, world, n=40, seed=0):
+    rng = np.random.default_rng(seed)
+    p = np.zeros((n, 6))
+    p[:, :2] = rng.uniform(-50, 50, (n, 2))
+    p[:, 2] = rng.uniform(0, 3, n)
+    p[:, 3:5] = rng.uniform(-0.2, 0.2, (n, 2))
+    p[:, 5] = rng.uniform(-np.pi, np.pi, n)
+    return p
+
+
+def test_targets_applied_to_the_start_give_the_end_pose_and_features_are_deterministic():
+    maker = _core.KinoData(vb.default_task_set(), "hmmwv", 1.0)
+    now = poses_on(maker, 17)
+    after = now + np.array([1.0, -0.5, 0.1, 0.02, -0.03, 0.3]) @ np.eye(6)
+    after[:, 5] = np.arctan2(np.sin(after[:, 5]), np.cos(after[:, 5]))
+    tgt = maker.targets(now, after, np.full(len(now), 0.25))
+    assert tgt.shape == (len(now), 7) and tgt.dtype == np.float32 and np.all(tgt[:, 6] == 0.25)
+    back = maker.apply(now, tgt)
+    assert np.allclose(back[:, :5], after[:, :5], atol=1e-5)
+    assert np.allclose(np.cos(back[:, 5] - after[:, 5]), 1.0, atol=1e-9)
+    # The factors: 4 m/s x 0.25 s per position unit, 0.1 rad per angle unit.
+    assert np.allclose(maker.target_factors, [1.0, 1.0, 1.0, 0.1, 0.1, 0.1, 1.0])
+    act = np.tile([0.2, 0.6, 0.0], (len(now), 1))
+    vec, crop = maker.features(17, now, now, np.zeros(len(now)), act)
+    assert vec.shape == (len(now), 16) and crop.shape == (len(now), 16, 16)
+    assert np.all(vec[:, :6] == 0), "a standing start has no previous change of pose"
+    assert np.allclose(vec[:, 9:12], act) and np.all(np.abs(vec) <= 5) and np.all(np.abs(crop) <= 5)
+    ground = vec[:, 12:16]
+    assert np.all((ground[:, 0] > 0) ^ (ground[:, 1:].sum(1) == 1)), "rigid friction or exactly one soil"
+    vec2, crop2 = maker.features(17, now, now, np.zeros(len(now)), act)
+    assert np.array_equal(vec, vec2) and np.array_equal(crop, crop2)
+    with pytest.raises(ValueError, match="expected"):
+        maker.features(17, now[:3], now, np.zeros(len(now)), act)
+    with pytest.raises(ValueError):
+        _core.KinoData(vb.default_task_set(), "no-such-vehicle", 1.0)
+
+
+def test_the_rust_forward_pass_equals_torchs_within_1e_5(tmp_path):
+    torch.manual_seed(3)
+    model = km.KinoModel(members=3, hidden=32).eval()
+    path = tmp_path / "k.safetensors"
+    km.save(model, path, {"name": "t"})
+    rng = np.random.default_rng(0)
+    vec = rng.uniform(-2, 2, (64, 16)).astype(np.float32)
+    crop = rng.uniform(-1, 1, (64, 16, 16)).astype(np.float32)
+    net = _core.KinoNet(str(path))
+    assert net.metadata["format"] == _core.KINO_LAYOUT and net.metadata["ensemble"] == "3"
+    got = net.predict(vec, crop)
+    with torch.no_grad():
+        want = model(torch.from_numpy(vec), torch.from_numpy(crop)).numpy()
+    assert got.shape == want.shape == (64, 3, 7)
+    assert np.max(np.abs(got - want)) < 1e-5
+    again = km.load(path)
+    with torch.no_grad():
+        assert torch.equal(again(torch.from_numpy(vec), torch.from_numpy(crop)), torch.from_numpy(want))
+
+
+def test_foreign_or_damaged_weights_are_refused_naming_what_differs(tmp_path):
+    from safetensors.torch import save_file
+
+    model = km.KinoModel(members=2, hidden=16)
+    tensors = {k: v.detach().contiguous() for k, v in model.state_dict().items()}
+    meta = km.metadata(model, {})
+    cases = {
+        "format": ({**meta, "format": "vertibench-policy-v1"}, tensors),
+        "features": ({**meta, "features": "a,b"}, tensors),
+        "ensemble": ({**meta, "ensemble": "0"}, tensors),
+        "heads.1.out.weight": (meta, {k: v for k, v in tensors.items() if k != "heads.1.out.weight"}),
+    }
+    for word, (m, t) in cases.items():
+        p = tmp_path / f"{word}.safetensors"
+        save_file(t, str(p), metadata=m)
+        with pytest.raises(ValueError, match=word.replace(".", r"\.")):
+            _core.KinoNet(str(p))
+    with pytest.raises(ValueError, match="No such file|not found|os error"):
+        _core.KinoNet(str(tmp_path / "missing.safetensors"))
+
+
+@pytest.fixture(scope="module")
+def kino_data(tmp_path_factory):
+    """Tiny random and expert datasets on the training set, made by `vb`."""
+    vb_bin = os.environ.get("VB_BIN")
+    if not vb_bin:
+        pytest.skip("SKIPPED: VB_BIN (the vb binary) is unset: no `vb dataset generate` to make datasets with")
+    root = tmp_path_factory.mktemp("kino")
+    train = vb.tasks.training()
+    for kind, hours in (("random", "0.2"), ("expert", "0.1")):
+        subprocess.run([vb_bin, "dataset", "generate", "--kind", kind, "--task-set", str(train), "--hours", hours,
+                        "--max-time", "20", "--out", str(root / kind)], check=True, capture_output=True,
+                       timeout=900)
+    return root
+
+
+def run_kino(*args):
+    return subprocess.run([sys.executable, "-m", "vertibench.kino", *map(str, args)], capture_output=True,
+                          text=True, timeout=900)
+
+
+def test_training_resumes_and_writes_weights_the_rust_reader_runs_and_a_report(kino_data, tmp_path):
+    out = tmp_path / "kino"
+    data = [kino_data / "random", kino_data / "expert"]
+    r = run_kino("train", "--data", *data, "--out", out, "--epochs", 1, "--members", 2, "--hidden", 16)
+    assert r.returncode == 0, r.stderr
+    r = run_kino("train", "--data", *data, "--out", out, "--epochs", 2, "--members", 2, "--hidden", 16)
+    assert r.returncode == 0, r.stderr
+    assert "resumed at epoch 1" in r.stdout
+    for f in ("kino.safetensors", "card.md", "card.json", "curve.csv", "curve.png", "checkpoint.pt"):
+        assert (out / f).exists(), f
+    card = json.loads((out / "card.json").read_text())
+    assert card["epochs"] == 2 and {d["kind"] for d in card["data"]} == {"random", "expert"}
+    assert card["heldout_samples"] > 0 and card["samples"] > card["heldout_samples"]
+    assert len((out / "curve.csv").read_text().splitlines()) == 3
+    net = _core.KinoNet(str(out / "kino.safetensors"))
+    assert net.metadata["task_set_version"] == card["task_set_version"]
+    r = run_kino("report", "--weights", out / "kino.safetensors", "--data", *data, "--out", tmp_path / "rep")
+    assert r.returncode == 0, r.stderr
+    rep = json.loads((tmp_path / "rep" / "accuracy.json").read_text())
+    models = {(x["model"], x["horizon_s"]) for x in rep["rows"] if x["group"] == "all"}
+    assert {("learned", 1.0), ("bicycle", 1.0)} <= models
+    for x in rep["rows"]:
+        assert x["n"] > 0 and all(np.isfinite(x[k]) and x[k] >= 0 for k in ("position_m", "yaw_deg"))
+    r = run_kino("train", "--data", tmp_path / "nothing", "--out", tmp_path / "k2")
+    assert r.returncode == 2 and "error" in r.stderr
+
+
+def test_samples_follow_the_episode_frames():
+    e = kd.Episode(1, "low", np.cumsum(np.ones((13, 6)) * 0.1, axis=0), np.linspace(0, 1, 13), np.ones((12, 3)))
+    i, b = kd.step_indices(len(e.poses))
+    assert list(i) == list(range(13 - kd.STEP)) and list(b[:kd.STEP]) == list(range(kd.STEP))
+    assert list(b[kd.STEP:]) == list(range(13 - 2 * kd.STEP))
+    assert np.allclose(kd.mean_actions(e.actions, i), 1.0)
