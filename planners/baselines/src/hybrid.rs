@@ -128,3 +128,27 @@ pub fn step_cost(progress: f64, d: f64, roll_deg: f64, pitch_deg: f64) -> f64 {
     }
     c
 }
+
+/// The new plan: the samples' mean weighted by `exp(-(cost - min) / lambda)`, lambda a tenth of the spread between
+/// the best and the median cost (at least 1e-6).
+///
+/// # Panics
+/// If there are no samples.
+pub fn softmin_plan(costs: &[f64], samples: &[[[f64; 2]; KNOTS]]) -> [[f64; 2]; KNOTS] {
+    let lo = costs.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut sorted = costs.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    let lambda = (0.1 * (median - lo)).max(1e-6);
+    let mut sum = 0.0;
+    let mut mean = [[0.0; 2]; KNOTS];
+    for (c, sample) in costs.iter().zip(samples) {
+        let w = (-(c - lo) / lambda).exp();
+        sum += w;
+        for (m, x) in mean.iter_mut().zip(sample) {
+            m[0] += w * x[0];
+            m[1] += w * x[1];
+        }
+    }
+    mean.map(|m| [m[0] / sum, m[1] / sum])
+}

@@ -44,7 +44,7 @@ use sim_core::Simulation;
 
 pub use crate::hybrid::KNOTS;
 use crate::hybrid::{
-    interp, speed_control, step_cost, CostToGo, ROLLOVER_DEG, SPEED_MAX, SPEED_MIN,
+    interp, softmin_plan, speed_control, step_cost, CostToGo, ROLLOVER_DEG, SPEED_MAX, SPEED_MIN,
 };
 
 /// Rate of `act` (and of the speed controller), Hz.
@@ -281,24 +281,7 @@ impl Mppi6 {
         for k in 0..self.samples.len() {
             self.costs[k] = self.rollout_cost(k)?;
         }
-        let lo = self.costs.iter().copied().fold(f64::INFINITY, f64::min);
-        let mut sorted = self.costs.clone();
-        sorted.sort_by(f64::total_cmp);
-        let median = sorted[sorted.len() / 2];
-        let lambda = (0.1 * (median - lo)).max(1e-6);
-        let mut sum = 0.0;
-        let mut mean = [[0.0; 2]; KNOTS];
-        for k in 0..self.samples.len() {
-            let w = (-(self.costs[k] - lo) / lambda).exp();
-            sum += w;
-            for (m, x) in mean.iter_mut().zip(&self.samples[k]) {
-                m[0] += w * x[0];
-                m[1] += w * x[1];
-            }
-        }
-        for (p, m) in self.plan.iter_mut().zip(mean) {
-            *p = [m[0] / sum, m[1] / sum];
-        }
+        self.plan = softmin_plan(&self.costs, &self.samples);
         self.since_replan = 0;
         self.decisions += 1;
         Ok(())

@@ -46,7 +46,8 @@ pub struct Scales {
     pub nominal_speed: f64,
 }
 
-fn clip(v: f64) -> f32 {
+/// `v` clamped to `[-CLIP, CLIP]`, NaN to 0.
+pub(crate) fn clip(v: f64) -> f32 {
     let c = f64::from(CLIP);
     if v.is_nan() {
         0.0

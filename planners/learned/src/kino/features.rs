@@ -60,8 +60,9 @@ pub const CROP_CELL_PER_SCALE: f64 = 0.5;
 pub const CROP_AHEAD_PER_SCALE: f64 = 2.0;
 /// Elevations are divided by this many metres (times the scale).
 const ELEVATION_M: f64 = 2.0;
-/// Every feature lies in `[-CLIP, CLIP]`.
-pub const CLIP: f32 = 5.0;
+use crate::features::clip;
+/// Every feature lies in `[-CLIP, CLIP]` (the policies' bound).
+pub use crate::features::CLIP;
 
 /// What the features are scaled by: the vehicle's scale and nominal speed.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -76,15 +77,6 @@ impl Scales {
     pub fn target_factors(&self) -> [f64; 7] {
         let d = (self.nominal_speed * STEP_S).max(1e-9);
         [d, d, d, ANGLE_STEP, ANGLE_STEP, ANGLE_STEP, 1.0]
-    }
-}
-
-fn clip(v: f64) -> f32 {
-    let c = f64::from(CLIP);
-    if v.is_nan() {
-        0.0
-    } else {
-        v.clamp(-c, c) as f32
     }
 }
 

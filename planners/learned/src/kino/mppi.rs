@@ -22,7 +22,9 @@ use super::features::{
     STEP_FRAMES, STEP_S, TARGETS,
 };
 use super::net::KinoNet;
-use baselines::hybrid::{interp, speed_control, step_cost, CostToGo, KNOTS, ROLLOVER_DEG};
+use baselines::hybrid::{
+    interp, softmin_plan, speed_control, step_cost, CostToGo, KNOTS, ROLLOVER_DEG,
+};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -100,6 +102,7 @@ pub struct KinoMppi {
     plan: [[f64; 2]; KNOTS],
     samples: Vec<[[f64; 2]; KNOTS]>,
     rolls: Vec<Roll>,
+    costs: Vec<f64>,
     crop: Vec<f32>,
     out: Vec<f32>,
     since_replan: usize,
@@ -122,6 +125,7 @@ impl KinoMppi {
             plan: [[0.0, 1.0]; KNOTS],
             samples: vec![[[0.0; 2]; KNOTS]; k],
             rolls: vec![Roll::default(); k],
+            costs: vec![0.0; k],
             crop: vec![0.0; CROP_SIZE * CROP_SIZE],
             out,
             since_replan: 0,
@@ -275,28 +279,10 @@ impl KinoMppi {
                 }
             }
         }
-        let lo = self
-            .rolls
-            .iter()
-            .map(|r| r.cost)
-            .fold(f64::INFINITY, f64::min);
-        let mut sorted: Vec<f64> = self.rolls.iter().map(|r| r.cost).collect();
-        sorted.sort_by(f64::total_cmp);
-        let median = sorted[sorted.len() / 2];
-        let lambda = (0.1 * (median - lo)).max(1e-6);
-        let mut sum = 0.0;
-        let mut mean = [[0.0; 2]; KNOTS];
-        for (r, sample) in self.rolls.iter().zip(&self.samples) {
-            let w = (-(r.cost - lo) / lambda).exp();
-            sum += w;
-            for (m, x) in mean.iter_mut().zip(sample) {
-                m[0] += w * x[0];
-                m[1] += w * x[1];
-            }
+        for (c, r) in self.costs.iter_mut().zip(&self.rolls) {
+            *c = r.cost;
         }
-        for (p, m) in self.plan.iter_mut().zip(mean) {
-            *p = [m[0] / sum, m[1] / sum];
-        }
+        self.plan = softmin_plan(&self.costs, &self.samples);
         self.since_replan = 0;
         self.decisions += 1;
         Ok(())

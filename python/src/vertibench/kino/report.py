@@ -154,7 +154,7 @@ def summarise(records) -> dict:
         sel = [r for r in records if r[0] == model and r[1] == h]
         for group, pick in [("all", lambda r: True)] + \
                 [(f"ground={g}", (lambda g: lambda r: r[2] == g)(g)) for g in GROUNDS] + \
-                [(f"level={lv}", (lambda lv: lambda r: r[3] == lv)(lv)) for lv in ("low", "mid", "high")]:
+                [(f"level={lv}", (lambda lv: lambda r: r[3] == lv)(lv)) for lv in ("low", "medium", "high")]:
             errs = [r[4] for r in sel if pick(r)]
             if not errs:
                 continue
