@@ -2,7 +2,7 @@
 //! kinodynamic model), with the weights committed in `planners/learned/weights/`, compiled in, or any weights file
 //! a user trained (its `format` says which kind of planner it makes).
 
-use crate::kino::{KinoMppi, KinoMppiConfig, KinoNet};
+use crate::kino::{KinoMppi, KinoMppiConfig, KinoNet, Rollout};
 use crate::net::{PolicyNet, WeightsError};
 use crate::planner::LearnedPlanner;
 use sim_core::planner::Planner;
@@ -11,11 +11,20 @@ use std::path::Path;
 include!(concat!(env!("OUT_DIR"), "/builtin.rs"));
 
 /// Names of the built-in learned planners.
-pub const NAMES: [&str; 4] = ["rl", "mcl", "acl", "mppi6"];
+pub const NAMES: [&str; 5] = ["rl", "mcl", "acl", "mppi6", "wmvct"];
+
+/// Whose weights file a built-in planner runs: `wmvct` rolls out `mppi6`'s model (its z, roll and pitch).
+fn weights_name(name: &str) -> &str {
+    if name == "wmvct" {
+        "mppi6"
+    } else {
+        name
+    }
+}
 
 /// How a built-in planner's weights are made.
 fn how_to_train(name: &str) -> String {
-    if name == "mppi6" {
+    if name == "mppi6" || name == "wmvct" {
         "generate datasets and train a model with `python -m vertibench.kino train --data DIR... --out DIR` \
          (planners/learned/KINO.md) and run it with `--weights DIR/kino.safetensors`"
             .into()
@@ -32,9 +41,13 @@ fn how_to_train(name: &str) -> String {
 pub enum LearnedError {
     #[error(
         "the built-in planner `{name}` has no weights in this build: {how}, or commit the file as \
-         planners/learned/weights/{name}.safetensors and rebuild"
+         planners/learned/weights/{file}.safetensors and rebuild"
     )]
-    NoWeights { name: String, how: String },
+    NoWeights {
+        name: String,
+        file: String,
+        how: String,
+    },
     #[error("weights file {path}: {source}")]
     Weights {
         path: String,
@@ -52,10 +65,13 @@ pub fn is_learned(name: &str) -> bool {
 
 /// The built-in learned planners whose weights this build carries.
 pub fn available() -> Vec<&'static str> {
-    BUILTIN
-        .iter()
-        .filter(|(_, w)| w.is_some())
-        .map(|(n, _)| *n)
+    NAMES
+        .into_iter()
+        .filter(|n| {
+            BUILTIN
+                .iter()
+                .any(|(w, bytes)| *w == weights_name(n) && bytes.is_some())
+        })
         .collect()
 }
 
@@ -84,12 +100,22 @@ impl LearnedNet {
         }
     }
 
-    /// A fresh planner for one episode, reported as `name`.
+    /// A fresh planner for one episode, reported as `name`: a policy drives itself; a kinodynamic model is rolled
+    /// out by MPPI-6, whole, or under the name `wmvct` decomposed as WM-VCT does (x, y and yaw from a bicycle).
     pub fn make(&self, name: &str) -> Box<dyn Planner> {
         match self {
             LearnedNet::Policy(n) => Box::new(LearnedPlanner::new(name, n.clone())),
             LearnedNet::Kino(n) => {
-                Box::new(KinoMppi::new(name, n.clone(), KinoMppiConfig::default()))
+                let rollout = if name == "wmvct" {
+                    Rollout::Decomposed
+                } else {
+                    Rollout::Learned
+                };
+                let cfg = KinoMppiConfig {
+                    rollout,
+                    ..KinoMppiConfig::default()
+                };
+                Box::new(KinoMppi::new(name, n.clone(), cfg))
             }
         }
     }
@@ -97,14 +123,19 @@ impl LearnedNet {
 
 /// The network of a built-in learned planner, or `None` if `name` is not one.
 pub fn builtin(name: &str) -> Option<Result<LearnedNet, LearnedError>> {
-    let (_, weights) = BUILTIN.iter().find(|(n, _)| *n == name)?;
+    if !is_learned(name) {
+        return None;
+    }
+    let file = weights_name(name);
+    let (_, weights) = BUILTIN.iter().find(|(n, _)| *n == file)?;
     Some(match weights {
         None => Err(LearnedError::NoWeights {
             name: name.to_string(),
+            file: file.to_string(),
             how: how_to_train(name),
         }),
         Some(bytes) => LearnedNet::from_bytes(bytes).map_err(|source| LearnedError::Weights {
-            path: format!("planners/learned/weights/{name}.safetensors (compiled in)"),
+            path: format!("planners/learned/weights/{file}.safetensors (compiled in)"),
             source,
         }),
     })

@@ -5,7 +5,7 @@
 
 use learned::kino::features::{FEATURES, LAYOUT, TARGETS};
 use learned::kino::net::{CODE, CROP_META, HEAD_INPUTS};
-use learned::kino::{KinoMppi, KinoMppiConfig, KinoNet};
+use learned::kino::{KinoMppi, KinoMppiConfig, KinoNet, Rollout};
 use learned::weights::{layout_metadata, untrained};
 use safetensors::tensor::{Dtype, TensorView};
 use sim_core::episode::{EpisodeConfig, Outcome};
@@ -118,7 +118,7 @@ fn foreign_and_damaged_files_are_refused_naming_what_differs() {
 }
 
 #[test]
-fn mppi6_with_a_hand_built_model_reaches_goals_ahead_and_beside_deterministically() {
+fn mppi6_and_wmvct_with_a_hand_built_model_reach_goals_ahead_and_beside_deterministically() {
     let w = World::uniform(
         Heightmap::from_fn(1.0, |_, _| 0.0),
         Semantic::Dirt,
@@ -130,11 +130,24 @@ fn mppi6_with_a_hand_built_model_reaches_goals_ahead_and_beside_deterministicall
         ..Default::default()
     };
     let net = KinoNet::from_bytes(&bicycle_like(metadata(2))).unwrap();
-    let small = KinoMppiConfig {
-        samples: 16,
-        horizon_steps: 6,
-        ..Default::default()
-    };
+    for rollout in [Rollout::Learned, Rollout::Decomposed] {
+        let small = KinoMppiConfig {
+            samples: 16,
+            horizon_steps: 6,
+            rollout,
+            ..Default::default()
+        };
+        reaches_goals(&w, &spec, &cfg, &net, small);
+    }
+}
+
+fn reaches_goals(
+    w: &World,
+    spec: &sim_core::VehicleSpec,
+    cfg: &EpisodeConfig,
+    net: &KinoNet,
+    small: KinoMppiConfig,
+) {
     for goal in [[40.0, 0.0], [10.0, 40.0], [10.0, -40.0]] {
         let task = Task {
             world_id: 1,
@@ -144,11 +157,15 @@ fn mppi6_with_a_hand_built_model_reaches_goals_ahead_and_beside_deterministicall
             path: vec![[0.0, 0.0], goal],
         };
         let mut p = KinoMppi::new("mppi6", net.clone(), small);
-        let r = sim_core::run_episode(&w, &task, &spec, &mut p, &cfg);
-        assert_eq!(r.outcome, Outcome::Success, "goal {goal:?}: {r:?}");
+        let r = sim_core::run_episode(w, &task, spec, &mut p, cfg);
+        assert_eq!(
+            r.outcome,
+            Outcome::Success,
+            "{small:?} goal {goal:?}: {r:?}"
+        );
         assert!(p.decisions > 5 && p.predictions >= p.decisions * 16);
         let mut again = KinoMppi::new("mppi6", net.clone(), small);
-        let r2 = sim_core::run_episode(&w, &task, &spec, &mut again, &cfg);
+        let r2 = sim_core::run_episode(w, &task, spec, &mut again, cfg);
         assert_eq!(r.metrics, r2.metrics, "deterministic");
     }
 }

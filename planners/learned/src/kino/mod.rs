@@ -5,7 +5,7 @@ pub mod features;
 pub mod mppi;
 pub mod net;
 
-pub use mppi::{KinoMppi, KinoMppiConfig};
+pub use mppi::{KinoMppi, KinoMppiConfig, Rollout};
 pub use net::KinoNet;
 
 /// The model of a weights file.

@@ -12,7 +12,9 @@
 //! cost-to-go, local goal, roll and pitch) plus `uncertainty` times the members' summed standard deviation of the six
 //! scaled pose changes; entering an obstacle cell (inflated by half the vehicle's width) ends the rollout with 100,
 //! a predicted rollover (|roll| > 30 deg) or leaving the map with 200; reaching the goal ends it as in the oracle.
-//! The model never saw reversing (its datasets drive forwards), so speed factors stay in [0, 1].
+//! The model never saw reversing (its datasets drive forwards), so speed factors stay in [0, 1]. With
+//! [`Rollout::Decomposed`] (`wmvct`) x, y and yaw come from a kinematic bicycle instead, as WM-VCT decomposes the
+//! motion (the release's WMVCT does the same with TAL's network); the cost is the same.
 //!
 //! Between decisions the plan is executed at 20 Hz with the measured speed, as the oracle does. The noise comes from
 //! a generator seeded by the task id: an episode is reproducible and the same at any thread count.
@@ -36,6 +38,16 @@ use sim_core::world::World;
 /// Rate of `act`, Hz.
 const RATE: f64 = 20.0;
 
+/// What rolls a sample out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Rollout {
+    /// The learned model, all six degrees of freedom (`mppi6`).
+    Learned,
+    /// WM-VCT's decomposition (`wmvct`): a kinematic bicycle (the vehicle's wheelbase and steering range, at the
+    /// commanded speed) for x, y and yaw, the learned model for z, roll and pitch.
+    Decomposed,
+}
+
 /// Tunable parameters of [`KinoMppi`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KinoMppiConfig {
@@ -48,6 +60,7 @@ pub struct KinoMppiConfig {
     pub sigma_speed: f64,
     /// Weight of the ensemble's disagreement per step.
     pub uncertainty: f64,
+    pub rollout: Rollout,
 }
 
 impl Default for KinoMppiConfig {
@@ -58,6 +71,7 @@ impl Default for KinoMppiConfig {
             sigma_steer: 0.45,
             sigma_speed: 0.35,
             uncertainty: 1.0,
+            rollout: Rollout::Learned,
         }
     }
 }
@@ -82,6 +96,9 @@ struct Episode {
     scales: Scales,
     /// A model step's real duration (the control period is a whole number of physics steps), s.
     step_s: f64,
+    /// The bicycle of [`Rollout::Decomposed`]: wheelbase (m) and largest steering angle (rad).
+    wheelbase: f64,
+    max_steer: f64,
     half: [f64; 2],
     goal_radius: f64,
     togo: CostToGo,
@@ -247,11 +264,21 @@ impl KinoMppi {
                         / members as f64;
                     spread += var.sqrt();
                 }
-                let delta: [f64; 6] = std::array::from_fn(|j| mean[j] * factors[j]);
+                let mut delta: [f64; 6] = std::array::from_fn(|j| mean[j] * factors[j]);
+                r.steering = mean[6].clamp(-1.0, 1.0);
+                if self.cfg.rollout == Rollout::Decomposed {
+                    // The bicycle at the commanded speed and steering: the arc's chord and its turn.
+                    let v = speed * nominal;
+                    let turn = v / ep.wheelbase * (a.steering * ep.max_steer).tan() * ep.step_s;
+                    let chord = v * ep.step_s;
+                    delta[0] = chord * (0.5 * turn).cos();
+                    delta[1] = chord * (0.5 * turn).sin();
+                    delta[5] = turn;
+                    r.steering = a.steering;
+                }
                 let next = apply_delta(&r.pose, &delta);
                 r.prev = previous_delta(&r.pose, &next);
                 r.pose = next;
-                r.steering = mean[6].clamp(-1.0, 1.0);
                 let (x, y) = (next[0], next[1]);
                 let roll = next[3].to_degrees().abs();
                 if roll > ROLLOVER_DEG
@@ -326,6 +353,8 @@ impl Planner for KinoMppi {
                 nominal_speed: ctx.vehicle.nominal_speed,
             },
             step_s: STEP_FRAMES as f64 * control_every(RATE, ctx.sim_dt) as f64 * ctx.sim_dt,
+            wheelbase: ctx.vehicle.wheelbase.max(1e-3),
+            max_steer: ctx.vehicle.max_steer,
             half: [h.half_x(), h.half_y()],
             goal_radius: 10.0 * scale,
             togo: CostToGo::new(ctx, ctx.task.goal),
