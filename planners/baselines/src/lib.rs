@@ -253,7 +253,7 @@ pub fn inflated_obstacles(world: &World, radius: f64) -> Vec<bool> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use sim_core::planner::{VehicleInfo, VehicleState};
     use sim_core::world::*;
@@ -270,11 +270,12 @@ mod tests {
         World::uniform(h, Semantic::Dirt, Surface::Rigid { friction: 0.6 })
     }
 
-    fn spec() -> sim_core::VehicleSpec {
+    pub(crate) fn spec() -> sim_core::VehicleSpec {
         sim_core::vehicle::vehicle_by_name("hmmwv").unwrap()
     }
 
-    fn info() -> VehicleInfo {
+    /// A 3 m-wheelbase car at 4 m/s nominal.
+    pub(crate) fn info() -> VehicleInfo {
         VehicleInfo {
             name: "t".into(),
             scale: 1.0,

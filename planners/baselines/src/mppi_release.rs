@@ -227,7 +227,7 @@ impl Planner for MppiRelease {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sim_core::planner::{VehicleInfo, VehicleState};
+    use sim_core::planner::VehicleState;
     use sim_core::world::*;
 
     fn run(path: Vec<[f64; 2]>, pose: [f64; 3], steps: usize) -> (MppiRelease, Action) {
@@ -243,24 +243,13 @@ mod tests {
             goal: *path.last().unwrap(),
             path,
         };
-        let vehicle = VehicleInfo {
-            name: "t".into(),
-            scale: 1.0,
-            wheelbase: 3.0,
-            track: 1.8,
-            length: 4.6,
-            width: 2.2,
-            max_steer: 0.5,
-            skid_steer: false,
-            nominal_speed: 4.0,
-            max_speed: 20.0,
-        };
+        let vehicle = crate::tests::info();
         let mut p = MppiRelease::new();
         p.reset(&PlannerContext {
             world: &w,
             task: &task,
             vehicle: &vehicle,
-            spec: &sim_core::vehicle::vehicle_by_name("hmmwv").unwrap(),
+            spec: &crate::tests::spec(),
             sim_dt: 0.002,
         })
         .unwrap();
