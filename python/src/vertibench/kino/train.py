@@ -64,8 +64,8 @@ def load_samples(spec: TrainSpec) -> tuple[kd.Samples, dict]:
             maker = _core.KinoData(str(task_dir), ds_spec["vehicle"], float(ds_spec["scale"]))
         key = k
         s = kd.samples(eps, maker, spec.stride)
-        # Episodes are numbered across datasets.
-        s.episode = s.episode + sum(int(p.episode.max()) + 1 for p in parts)
+        # Episodes are numbered across datasets: this one's follow the last one's.
+        s.episode = s.episode + (int(parts[-1].episode.max()) + 1 if parts else 0)
         parts.append(s)
         about["sets"].append({"path": str(d), "kind": ds_spec["kind"], "episodes": len(eps), "samples": len(s),
                               "seed": ds_spec["seed"], "task_set_version": ds_spec["task_set_version"],
