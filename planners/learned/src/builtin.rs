@@ -13,18 +13,35 @@ include!(concat!(env!("OUT_DIR"), "/builtin.rs"));
 /// Names of the built-in learned planners.
 pub const NAMES: [&str; 5] = ["rl", "mcl", "acl", "mppi6", "wmvct"];
 
-/// Whose weights file a built-in planner runs: `wmvct` rolls out `mppi6`'s model (its z, roll and pitch).
+/// The built-in learned planners: their weights file, and for a kinodynamic model how MPPI-6 rolls it out (`wmvct`
+/// rolls out `mppi6`'s model, decomposed). Any other name given a model file rolls it out whole.
+const PLANNERS: [(&str, &str, Option<Rollout>); 5] = [
+    ("rl", "rl", None),
+    ("mcl", "mcl", None),
+    ("acl", "acl", None),
+    ("mppi6", "mppi6", Some(Rollout::Learned)),
+    ("wmvct", "mppi6", Some(Rollout::Decomposed)),
+];
+
+/// Whose weights file a built-in planner runs.
 fn weights_name(name: &str) -> &str {
-    if name == "wmvct" {
-        "mppi6"
-    } else {
-        name
-    }
+    PLANNERS
+        .iter()
+        .find(|(n, _, _)| *n == name)
+        .map_or(name, |(_, file, _)| file)
+}
+
+/// How MPPI-6 rolls out a kinodynamic model for the planner `name`.
+fn rollout_of(name: &str) -> Rollout {
+    PLANNERS
+        .iter()
+        .find_map(|(n, _, r)| (*n == name).then_some(*r).flatten())
+        .unwrap_or(Rollout::Learned)
 }
 
 /// How a built-in planner's weights are made.
 fn how_to_train(name: &str) -> String {
-    if name == "mppi6" || name == "wmvct" {
+    if weights_name(name) == "mppi6" {
         "generate datasets and train a model with `python -m vertibench.kino train --data DIR... --out DIR` \
          (planners/learned/KINO.md) and run it with `--weights DIR/kino.safetensors`"
             .into()
@@ -106,13 +123,8 @@ impl LearnedNet {
         match self {
             LearnedNet::Policy(n) => Box::new(LearnedPlanner::new(name, n.clone())),
             LearnedNet::Kino(n) => {
-                let rollout = if name == "wmvct" {
-                    Rollout::Decomposed
-                } else {
-                    Rollout::Learned
-                };
                 let cfg = KinoMppiConfig {
-                    rollout,
+                    rollout: rollout_of(name),
                     ..KinoMppiConfig::default()
                 };
                 Box::new(KinoMppi::new(name, n.clone(), cfg))
@@ -164,4 +176,16 @@ pub(crate) fn read_weights<T>(
         path: shown,
         source,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn every_name_has_its_weights_file_and_wmvct_runs_mppi6s_model_decomposed() {
+        let listed: Vec<&str> = super::PLANNERS.iter().map(|(n, _, _)| *n).collect();
+        assert_eq!(listed, super::NAMES);
+        assert_eq!(super::weights_name("wmvct"), "mppi6");
+        assert_eq!(super::rollout_of("wmvct"), super::Rollout::Decomposed);
+        assert_eq!(super::rollout_of("mine"), super::Rollout::Learned);
+    }
 }
