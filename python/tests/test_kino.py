@@ -153,3 +153,83 @@ def test_samples_follow_the_episode_frames():
     assert list(i) == list(range(13 - kd.STEP)) and list(b[:kd.STEP]) == list(range(kd.STEP))
     assert list(b[kd.STEP:]) == list(range(13 - 2 * kd.STEP))
     assert np.allclose(kd.mean_actions(e.actions, i), 1.0)
+
+
+def test_tal_inputs_and_the_rust_attentive_forward_pass_equal_torchs(tmp_path):
+    maker = _core.KinoData(vb.default_task_set(), "hmmwv", 1.0)
+    anchor = poses_on(maker, 17, n=24, seed=4)
+    now = anchor.copy()
+    now[:, 0] += 3.0 * np.cos(anchor[:, 5])
+    now[:, 1] += 3.0 * np.sin(anchor[:, 5])
+    now[:, 5] += 0.2
+    m, off = maker.tal_inputs(17, anchor, now)
+    assert m.shape == (24, 32, 32) and off.shape == (24, 5) and m.dtype == off.dtype == np.float32
+    # 3 m straight ahead of the anchor (/ 8 m), turned by 0.2 rad.
+    assert np.allclose(off[:, 0], 3.0 / 8.0, atol=1e-6) and np.allclose(off[:, 1], 0.0, atol=1e-6)
+    assert np.allclose(off[:, 3], np.sin(0.2), atol=1e-6) and np.allclose(off[:, 4], np.cos(0.2), atol=1e-6)
+    m2, _ = maker.tal_inputs(17, anchor, anchor)
+    assert np.array_equal(m, m2), "the map depends on the anchor only"
+
+    torch.manual_seed(5)
+    model = km.TalModel(members=3, hidden=24).eval()
+    path = tmp_path / "t.safetensors"
+    km.save(model, path, {"name": "t"})
+    vec = np.random.default_rng(1).uniform(-2, 2, (24, 16)).astype(np.float32)
+    net = _core.TalNet(str(path))
+    assert net.metadata["format"] == _core.TAL_LAYOUT and net.metadata["map"] == _core.TAL_MAP_META
+    got = net.predict(vec, m, off)
+    with torch.no_grad():
+        want = model(*(torch.from_numpy(x) for x in (vec, m, off))).numpy()
+    assert got.shape == want.shape == (24, 3, 7)
+    assert np.max(np.abs(got - want)) < 1e-5
+    assert isinstance(km.load(path), km.TalModel)
+    # Each reader refuses the other layout, saying which to use.
+    with pytest.raises(ValueError, match="KinoNet"):
+        _core.TalNet(_kino_file(tmp_path))
+    with pytest.raises(ValueError, match="TalNet"):
+        _core.KinoNet(str(path))
+
+
+def _kino_file(tmp_path) -> str:
+    p = tmp_path / "k.safetensors"
+    km.save(km.KinoModel(members=1, hidden=8), p, {})
+    return str(p)
+
+
+def test_tal_samples_anchor_the_map_up_to_a_rollout_before_the_step(kino_data):
+    train = vb.tasks.training()
+    _, eps = kd.episodes(kino_data / "random")
+    maker = _core.KinoData(str(train), "hmmwv", 1.0)
+    s = kd.samples(eps[:3], maker, 1, "tal", np.random.default_rng(0))
+    k = kd.samples(eps[:3], maker, 1, "kino")
+    assert s.crop.shape[1:] == (32, 32) and s.offset.shape == (len(s), 5) and k.offset is None
+    assert np.array_equal(s.vec, k.vec) and np.array_equal(s.target, k.target)
+    # Recover each sample's anchor from its offset: within ANCHOR_STEPS model steps before it, never before frame 0.
+    reach = int(_core.TAL_ANCHOR_STEPS) * kd.STEP
+    for row in range(0, len(s), 7):
+        e = eps[s.episode[row]]
+        i = s.frame[row]
+        cands = [a for a in range(max(i - reach + 1, 0), i + 1)
+                 if np.allclose(maker.tal_inputs(e.world_id, e.poses[a:a + 1], e.poses[i:i + 1])[1][0],
+                                s.offset[row], atol=1e-6)]
+        assert cands, f"sample {row}: no anchor within a rollout before frame {i}"
+    assert len(np.unique(s.offset[:, 0])) > 1, "the anchors vary"
+
+
+def test_tal_trains_by_one_command_and_its_weights_run_in_rust_and_in_the_report(kino_data, tmp_path):
+    out = tmp_path / "tal"
+    data = [kino_data / "random", kino_data / "expert"]
+    r = run_kino("train", "--model", "tal", "--data", *data, "--out", out, "--epochs", 1, "--members", 2,
+                 "--hidden", 16)
+    assert r.returncode == 0, r.stderr
+    card = json.loads((out / "card.json").read_text())
+    assert card["model"] == "tal" and card["layout"] == _core.TAL_LAYOUT and card["name"] == "tal"
+    assert "vertibench-tal-v1" in (out / "card.md").read_text()
+    net = _core.TalNet(str(out / "tal.safetensors"))
+    assert net.metadata["offsets"] == ",".join(_core.TAL_OFFSETS)
+    # The cached samples are the tal kind's; asking for the crop model makes them anew.
+    assert json.loads((out / "data.json").read_text())["model"] == "tal"
+    r = run_kino("report", "--weights", out / "tal.safetensors", "--data", *data, "--out", tmp_path / "rep")
+    assert r.returncode == 0, r.stderr
+    rep = json.loads((tmp_path / "rep" / "accuracy.json").read_text())
+    assert any(x["model"] == "learned" and x["horizon_s"] == 5.0 for x in rep["rows"])

@@ -80,8 +80,8 @@ enum Cmd {
         #[command(flatten)]
         opts: SubmitOpts,
     },
-    /// Submit one of the built-in planners (pid, eh, mppi, mppi-release, mppi6-oracle; rl, mcl, acl, mppi6, wmvct
-    /// where the service's build has their weights).
+    /// Submit one of the built-in planners (pid, eh, mppi, mppi-release, mppi6-oracle; rl, mcl, acl, mppi6, wmvct,
+    /// tal where the service's build has their weights).
     Builtin {
         planner: String,
         #[command(flatten)]

@@ -1,8 +1,8 @@
-//! The built-in learned planners: the end-to-end policies `rl`, `mcl`, `acl` and `mppi6` (MPPI-6 over a learned
-//! kinodynamic model), with the weights committed in `planners/learned/weights/`, compiled in, or any weights file
+//! The built-in learned planners: the end-to-end policies `rl`, `mcl`, `acl`, and the hybrids `mppi6` and `wmvct`
+//! (MPPI-6 over a learned kinodynamic model, whole or decomposed) and `tal` (over the terrain-attentive model), with the weights committed in `planners/learned/weights/`, compiled in, or any weights file
 //! a user trained (its `format` says which kind of planner it makes).
 
-use crate::kino::{KinoMppi, KinoMppiConfig, KinoNet, Rollout};
+use crate::kino::{Dynamics, KinoMppi, KinoMppiConfig, Rollout};
 use crate::net::{PolicyNet, WeightsError};
 use crate::planner::LearnedPlanner;
 use sim_core::planner::Planner;
@@ -11,16 +11,17 @@ use std::path::Path;
 include!(concat!(env!("OUT_DIR"), "/builtin.rs"));
 
 /// Names of the built-in learned planners.
-pub const NAMES: [&str; 5] = ["rl", "mcl", "acl", "mppi6", "wmvct"];
+pub const NAMES: [&str; 6] = ["rl", "mcl", "acl", "mppi6", "wmvct", "tal"];
 
 /// The built-in learned planners: their weights file, and for a kinodynamic model how MPPI-6 rolls it out (`wmvct`
 /// rolls out `mppi6`'s model, decomposed). Any other name given a model file rolls it out whole.
-const PLANNERS: [(&str, &str, Option<Rollout>); 5] = [
+const PLANNERS: [(&str, &str, Option<Rollout>); 6] = [
     ("rl", "rl", None),
     ("mcl", "mcl", None),
     ("acl", "acl", None),
     ("mppi6", "mppi6", Some(Rollout::Learned)),
     ("wmvct", "mppi6", Some(Rollout::Decomposed)),
+    ("tal", "tal", Some(Rollout::Learned)),
 ];
 
 /// Whose weights file a built-in planner runs.
@@ -41,10 +42,16 @@ fn rollout_of(name: &str) -> Rollout {
 
 /// How a built-in planner's weights are made.
 fn how_to_train(name: &str) -> String {
-    if weights_name(name) == "mppi6" {
-        "generate datasets and train a model with `python -m vertibench.kino train --data DIR... --out DIR` \
-         (planners/learned/KINO.md) and run it with `--weights DIR/kino.safetensors`"
-            .into()
+    let model = match weights_name(name) {
+        "mppi6" => Some("kino"),
+        "tal" => Some("tal"),
+        _ => None,
+    };
+    if let Some(model) = model {
+        format!(
+            "generate datasets and train a model with `python -m vertibench.kino train --model {model} --data \
+             DIR... --out DIR` (planners/learned/KINO.md) and run it with `--weights DIR/{model}.safetensors`"
+        )
     } else {
         format!(
             "train it with `python -m vertibench.train {name} --out DIR` and run it with `--weights \
@@ -96,14 +103,15 @@ pub fn available() -> Vec<&'static str> {
 #[derive(Clone, Debug)]
 pub enum LearnedNet {
     Policy(PolicyNet),
-    Kino(KinoNet),
+    Kino(Dynamics),
 }
 
 impl LearnedNet {
-    /// A weights file's bytes: a `vertibench-kino-v1` file is a kinodynamic model, any other must be a policy.
+    /// A weights file's bytes: a `vertibench-kino-v1` or `vertibench-tal-v1` file is a kinodynamic model, any other
+    /// must be a policy.
     pub fn from_bytes(bytes: &[u8]) -> Result<LearnedNet, WeightsError> {
-        if crate::nn::format(bytes).as_deref() == Some(crate::kino::features::LAYOUT) {
-            KinoNet::from_bytes(bytes).map(LearnedNet::Kino)
+        if Dynamics::is_model_format(bytes) {
+            Dynamics::from_bytes(bytes).map(LearnedNet::Kino)
         } else {
             PolicyNet::from_bytes(bytes).map(LearnedNet::Policy)
         }

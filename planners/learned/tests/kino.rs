@@ -1,11 +1,15 @@
-//! The learned kinodynamic models in Rust: a `vertibench-kino-v1` file is read with its layout checked (a policy
-//! file or a damaged one is refused naming what differs), and MPPI-6 rolling out a hand-built model (forward at the
-//! nominal speed, turning with the steering command) drives real episodes to goals ahead and beside, the same at
-//! every run.
+//! The learned kinodynamic models in Rust: `vertibench-kino-v1` and `vertibench-tal-v1` files are read with their
+//! layout checked (a policy file, the other layout or a damaged one is refused naming what differs), the
+//! terrain-attentive model's gate makes its prediction depend on the map and on where the pose is over it, and MPPI-6
+//! rolling out a hand-built model of either layout (forward at the nominal speed, turning with the steering command)
+//! drives real episodes to goals ahead and beside, the same at every run.
 
 use learned::kino::features::{FEATURES, LAYOUT, TARGETS};
 use learned::kino::net::{CODE, CROP_META, HEAD_INPUTS};
-use learned::kino::{KinoMppi, KinoMppiConfig, KinoNet, Rollout};
+use learned::kino::tal::{
+    map_features, offset_features, EMBED, GATE_HIDDEN, MAP_META, MAP_SIZE, OFFSETS, TAL_LAYOUT,
+};
+use learned::kino::{Dynamics, KinoMppi, KinoMppiConfig, KinoNet, Rollout, TalNet};
 use learned::weights::{layout_metadata, untrained};
 use safetensors::tensor::{Dtype, TensorView};
 use sim_core::episode::{EpisodeConfig, Outcome};
@@ -27,10 +31,76 @@ fn metadata(members: usize) -> HashMap<String, String> {
     .collect()
 }
 
+fn tal_metadata(members: usize) -> HashMap<String, String> {
+    let mut m = metadata(members);
+    m.remove("crop");
+    m.insert("format".into(), TAL_LAYOUT.into());
+    m.insert("offsets".into(), OFFSETS.join(","));
+    m.insert("map".into(), MAP_META.into());
+    m
+}
+
+type Tensors = Vec<(String, Vec<usize>, Vec<f32>)>;
+
+/// The terrain-attentive layers: encoder, gate and fusion, weights of the order of `w` (the gate's 100 `w`); zero
+/// leaves the code at zero.
+fn tal_layers(w: f32) -> Tensors {
+    let v = |n: usize| vec![w; n];
+    vec![
+        ("enc.conv1.weight".into(), vec![8, 1, 3, 3], v(72)),
+        ("enc.conv1.bias".into(), vec![8], v(8)),
+        ("enc.conv2.weight".into(), vec![16, 8, 3, 3], v(16 * 72)),
+        ("enc.conv2.bias".into(), vec![16], v(16)),
+        (
+            "att.gate1.weight".into(),
+            vec![GATE_HIDDEN, OFFSETS.len()],
+            (0..GATE_HIDDEN * OFFSETS.len())
+                .map(|i| 100.0 * w * ((i % 3) as f32 - 1.0))
+                .collect(),
+        ),
+        ("att.gate1.bias".into(), vec![GATE_HIDDEN], v(GATE_HIDDEN)),
+        (
+            "att.gate2.weight".into(),
+            vec![EMBED, GATE_HIDDEN],
+            (0..EMBED * GATE_HIDDEN)
+                .map(|i| 100.0 * w * ((i % 7) as f32 - 3.0))
+                .collect(),
+        ),
+        ("att.gate2.bias".into(), vec![EMBED], v(EMBED)),
+        (
+            "att.fuse.weight".into(),
+            vec![CODE, EMBED],
+            (0..CODE * EMBED)
+                .map(|i| w * ((i % 5) as f32 - 2.0))
+                .collect(),
+        ),
+        ("att.fuse.bias".into(), vec![CODE], v(CODE)),
+    ]
+}
+
 /// A two-member model whose members agree: forward one nominal step, yaw 0.3 rad per unit of steering command, the
 /// applied steering following the command; everything else zero. The tanh layers pass the command through at 1/100
 /// of its size, undone by the output weights.
 fn bicycle_like(meta: HashMap<String, String>) -> Vec<u8> {
+    let zeros = |n: usize| vec![0f32; n];
+    let layers: Tensors = if meta.get("format").map(String::as_str) == Some(TAL_LAYOUT) {
+        tal_layers(0.0)
+    } else {
+        vec![
+            ("enc.conv1.weight".into(), vec![8, 1, 3, 3], zeros(72)),
+            ("enc.conv1.bias".into(), vec![8], zeros(8)),
+            ("enc.conv2.weight".into(), vec![16, 8, 3, 3], zeros(16 * 72)),
+            ("enc.conv2.bias".into(), vec![16], zeros(16)),
+            ("enc.code.weight".into(), vec![CODE, 144], zeros(CODE * 144)),
+            ("enc.code.bias".into(), vec![CODE], zeros(CODE)),
+        ]
+    };
+    serialize(layers, 1.0, meta)
+}
+
+/// `layers` and two agreeing heads: the bicycle-like heads, plus `code_weight` times the code's first entry on the
+/// change of height (zero in the bicycle, whose code is zero anyway).
+fn serialize(mut tensors: Tensors, code_weight: f32, meta: HashMap<String, String>) -> Vec<u8> {
     let h = 4;
     let zeros = |n: usize| vec![0f32; n];
     let steer = CODE
@@ -38,20 +108,15 @@ fn bicycle_like(meta: HashMap<String, String>) -> Vec<u8> {
             .iter()
             .position(|f| *f == "action_steering")
             .unwrap();
-    let mut tensors: Vec<(String, Vec<usize>, Vec<f32>)> = vec![
-        ("enc.conv1.weight".into(), vec![8, 1, 3, 3], zeros(72)),
-        ("enc.conv1.bias".into(), vec![8], zeros(8)),
-        ("enc.conv2.weight".into(), vec![16, 8, 3, 3], zeros(16 * 72)),
-        ("enc.conv2.bias".into(), vec![16], zeros(16)),
-        ("enc.code.weight".into(), vec![CODE, 144], zeros(CODE * 144)),
-        ("enc.code.bias".into(), vec![CODE], zeros(CODE)),
-    ];
     for m in 0..2 {
         let mut fc1 = zeros(h * HEAD_INPUTS);
         fc1[steer] = 0.1;
+        fc1[HEAD_INPUTS] = 0.01 * code_weight; // hidden unit 1 reads the code's first entry
         let mut fc2 = zeros(h * h);
         fc2[0] = 0.1;
+        fc2[h + 1] = 0.1;
         let mut out = zeros(TARGETS.len() * h);
+        out[2 * h + 1] = 1000.0; // up, from hidden unit 1
         out[5 * h] = 300.0; // yaw
         out[6 * h] = 100.0; // steering
         let mut out_b = zeros(TARGETS.len());
@@ -118,6 +183,98 @@ fn foreign_and_damaged_files_are_refused_naming_what_differs() {
 }
 
 #[test]
+fn the_attentive_model_reads_both_layouts_apart_and_attends_to_the_map_where_the_pose_is() {
+    // The layout decides the model; each reader refuses the other's file by its format.
+    let tal = bicycle_like(tal_metadata(2));
+    assert!(matches!(
+        Dynamics::from_bytes(&tal),
+        Ok(Dynamics::Attention(_))
+    ));
+    let crop = bicycle_like(metadata(2));
+    assert!(matches!(Dynamics::from_bytes(&crop), Ok(Dynamics::Crop(_))));
+    assert!(TalNet::from_bytes(&crop)
+        .unwrap_err()
+        .to_string()
+        .contains("format"));
+    let mut m = tal_metadata(2);
+    m.insert("map".into(), "1x16x16".into());
+    assert!(TalNet::from_bytes(&bicycle_like(m))
+        .unwrap_err()
+        .to_string()
+        .contains("map"));
+
+    // Non-zero attention layers: the change of height follows the code, which depends on the map and the offset.
+    let mut net = TalNet::from_bytes(&serialize(tal_layers(0.01), 1.0, tal_metadata(2))).unwrap();
+    let ramp = World::uniform(
+        Heightmap::from_fn(0.5, |x, y| 0.2 * x + 0.05 * y * y.signum()),
+        Semantic::Dirt,
+        Surface::Rigid { friction: 0.8 },
+    );
+    let vector = [0f32; FEATURES.len()];
+    let anchor = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let up = |net: &mut TalNet, world: &World, anchor: &[f64; 6], pose: &[f64; 6]| {
+        let mut out = [0f32; 14];
+        net.set_anchor(world, anchor, 1.0);
+        net.predict_at(pose, &vector, &mut out);
+        // The same through the parts: the map at the anchor, the offset of the pose from it.
+        let mut map = vec![0f32; MAP_SIZE * MAP_SIZE];
+        map_features(world, anchor, 1.0, &mut map);
+        let mut parts = [0f32; 14];
+        net.embed(&map);
+        net.predict(&vector, &offset_features(anchor, pose, 1.0), &mut parts);
+        assert_eq!(out, parts);
+        assert_eq!(out[2], out[9], "the members agree");
+        out[2]
+    };
+    let flat = World::uniform(
+        Heightmap::from_fn(0.5, |_, _| 0.0),
+        Semantic::Dirt,
+        Surface::Rigid { friction: 0.8 },
+    );
+    let here = up(&mut net, &ramp, &anchor, &anchor);
+    assert!(here.abs() > 1e-4, "{here}");
+    let on_flat = up(&mut net, &flat, &anchor, &anchor);
+    assert!(
+        (here - on_flat).abs() > 1e-5,
+        "the map matters: {here} vs {on_flat}"
+    );
+    let ahead = up(&mut net, &ramp, &anchor, &[4.0, 1.0, 0.8, 0.0, 0.0, 0.3]);
+    assert!(
+        (here - ahead).abs() > 1e-5,
+        "the offset matters: {here} vs {ahead}"
+    );
+    // Only the map relative to the anchor and the offset from it count: the same pair 10 m further up the ramp (2 m
+    // higher), where the relative map is the same, predicts the same.
+    let (a2, p2) = (
+        [10.0, 0.0, 2.0, 0.0, 0.0, 0.0],
+        [14.0, 1.0, 2.8, 0.0, 0.0, 0.3],
+    );
+    let shifted = up(&mut net, &ramp, &a2, &p2);
+    assert!((shifted - ahead).abs() < 1e-5, "{shifted} vs {ahead}");
+}
+
+#[test]
+fn tal_with_a_hand_built_model_reaches_goals_ahead_and_beside_deterministically() {
+    let w = World::uniform(
+        Heightmap::from_fn(1.0, |_, _| 0.0),
+        Semantic::Dirt,
+        Surface::Rigid { friction: 0.8 },
+    );
+    let spec = vehicle_by_name("hmmwv").unwrap();
+    let cfg = EpisodeConfig {
+        max_time: 40.0,
+        ..Default::default()
+    };
+    let net = TalNet::from_bytes(&bicycle_like(tal_metadata(2))).unwrap();
+    let small = KinoMppiConfig {
+        samples: 16,
+        horizon_steps: 6,
+        ..Default::default()
+    };
+    reaches_goals(&w, &spec, &cfg, &Dynamics::from(net), small);
+}
+
+#[test]
 fn mppi6_and_wmvct_with_a_hand_built_model_reach_goals_ahead_and_beside_deterministically() {
     let w = World::uniform(
         Heightmap::from_fn(1.0, |_, _| 0.0),
@@ -137,7 +294,7 @@ fn mppi6_and_wmvct_with_a_hand_built_model_reach_goals_ahead_and_beside_determin
             rollout,
             ..Default::default()
         };
-        reaches_goals(&w, &spec, &cfg, &net, small);
+        reaches_goals(&w, &spec, &cfg, &Dynamics::from(net.clone()), small);
     }
 }
 
@@ -145,7 +302,7 @@ fn reaches_goals(
     w: &World,
     spec: &sim_core::VehicleSpec,
     cfg: &EpisodeConfig,
-    net: &KinoNet,
+    net: &Dynamics,
     small: KinoMppiConfig,
 ) {
     for goal in [[40.0, 0.0], [10.0, 40.0], [10.0, -40.0]] {

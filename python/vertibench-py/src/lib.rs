@@ -9,6 +9,7 @@ mod obs;
 mod py_eval;
 mod py_kino;
 mod py_policy;
+mod py_tal;
 mod py_vec;
 mod slot;
 mod source;
@@ -51,6 +52,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<py_policy::PolicyNet>()?;
     m.add_class::<py_kino::KinoData>()?;
     m.add_class::<py_kino::KinoNet>()?;
+    m.add_class::<py_tal::TalNet>()?;
     m.add_function(wrap_pyfunction!(py_policy::policy_features, m)?)?;
     m.add("POLICY_LAYOUT", learned::features::LAYOUT)?;
     m.add("POLICY_FEATURES", learned::features::FEATURES.to_vec())?;
@@ -64,6 +66,14 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         m.add("KINO_CROP_META", kn::CROP_META)?;
         m.add("KINO_CODE", kn::CODE)?;
         m.add("KINO_STEP_FRAMES", kf::STEP_FRAMES)?;
+        use learned::kino::tal;
+        m.add("TAL_LAYOUT", tal::TAL_LAYOUT)?;
+        m.add("TAL_OFFSETS", tal::OFFSETS.to_vec())?;
+        m.add("TAL_MAP_SIZE", tal::MAP_SIZE)?;
+        m.add("TAL_MAP_META", tal::MAP_META)?;
+        m.add("TAL_ANCHOR_STEPS", tal::ANCHOR_STEPS)?;
+        m.add("TAL_EMBED", tal::EMBED)?;
+        m.add("TAL_GATE_HIDDEN", tal::GATE_HIDDEN)?;
     }
     m.add_function(wrap_pyfunction!(py_eval::evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(bench::raw_throughput, m)?)?;

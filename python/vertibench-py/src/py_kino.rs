@@ -128,6 +128,43 @@ impl KinoData {
         ))
     }
 
+    /// The terrain-attentive model's inputs for `n` poses `now` (f64 [n, 6]) on world `world_id` over maps taken at
+    /// `anchor` (f64 [n, 6]): `(map f32 [n, 32, 32], offset f32 [n, 5])` (`KINO.md`, `vertibench-tal-v1`).
+    #[allow(clippy::type_complexity)]
+    fn tal_inputs<'py>(
+        &mut self,
+        py: Python<'py>,
+        world_id: u32,
+        anchor: PyReadonlyArray2<'py, f64>,
+        now: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<(Bound<'py, PyArray3<f32>>, Bound<'py, PyArray2<f32>>)> {
+        use learned::kino::tal::{map_features, offset_features, MAP_SIZE, OFFSETS};
+        let n = now.as_array().nrows();
+        let anchor: Vec<Pose> = rows("anchor", &anchor.as_array(), n)?;
+        let now: Vec<Pose> = rows("now", &now.as_array(), n)?;
+        let scale = self.scales.scale;
+        let world = self.worlds.get(py, world_id)?;
+        let cells = MAP_SIZE * MAP_SIZE;
+        let (m, o) = py.detach(|| {
+            let mut m = vec![0f32; n * cells];
+            let mut o = Vec::with_capacity(n * OFFSETS.len());
+            for i in 0..n {
+                map_features(world, &anchor[i], scale, &mut m[i * cells..(i + 1) * cells]);
+                o.extend(offset_features(&anchor[i], &now[i], scale));
+            }
+            (m, o)
+        });
+        let err = |e: numpy::ndarray::ShapeError| bad(e.to_string());
+        Ok((
+            Array3::from_shape_vec((n, MAP_SIZE, MAP_SIZE), m)
+                .map_err(err)?
+                .into_pyarray(py),
+            Array2::from_shape_vec((n, OFFSETS.len()), o)
+                .map_err(err)?
+                .into_pyarray(py),
+        ))
+    }
+
     /// The scaled targets `f32 [n, 7]` of steps from pose `now` to pose `after` (f64 [n, 6]) with the applied
     /// steering at the step's end (f64 [n]).
     fn targets<'py>(
@@ -205,8 +242,13 @@ impl KinoNet {
     /// Reads `path`; a file of another layout raises ValueError saying what differs.
     #[new]
     fn new(path: PathBuf) -> PyResult<Self> {
-        let net = learned::kino::load(&path).map_err(|e| bad(e.to_string()))?;
-        Ok(KinoNet { net })
+        match learned::kino::load(&path).map_err(|e| bad(e.to_string()))? {
+            learned::kino::Dynamics::Crop(net) => Ok(KinoNet { net }),
+            learned::kino::Dynamics::Attention(_) => Err(bad(format!(
+                "{}: a terrain-attentive model (vertibench-tal-v1): read it with TalNet",
+                path.display()
+            ))),
+        }
     }
 
     /// The file's metadata.

@@ -181,7 +181,25 @@ pub fn previous_delta(before: &Pose, now: &Pose) -> [f64; 6] {
 /// # Panics
 /// If `out` holds fewer than `CROP_SIZE^2` entries.
 pub fn crop_features(world: &World, pose: &Pose, scale: f64, out: &mut [f32]) {
-    let ahead = CROP_AHEAD_PER_SCALE * scale;
+    heading_crop(
+        world,
+        pose,
+        scale,
+        (CROP_SIZE, CROP_CELL_PER_SCALE, CROP_AHEAD_PER_SCALE),
+        out,
+    );
+}
+
+/// A heading-aligned elevation crop of `size x size` cells of `cell` m x scale, centred `ahead` m x scale ahead
+/// of `pose`, relative to the pose's height, divided by 2 m x scale and clipped (row 0 ahead, column 0 left).
+pub(crate) fn heading_crop(
+    world: &World,
+    pose: &Pose,
+    scale: f64,
+    (size, cell, ahead): (usize, f64, f64),
+    out: &mut [f32],
+) {
+    let ahead = ahead * scale;
     let (s, c) = pose[5].sin_cos();
     let state = VehicleState {
         position: [pose[0] + c * ahead, pose[1] + s * ahead, pose[2]],
@@ -189,12 +207,12 @@ pub fn crop_features(world: &World, pose: &Pose, scale: f64, out: &mut [f32]) {
         ..VehicleState::default()
     };
     let spec = CropSpec {
-        size: CROP_SIZE,
-        resolution: CROP_CELL_PER_SCALE * scale,
+        size,
+        resolution: cell * scale,
     };
     relative_elevation_crop(world, &state, &spec, out);
     let m = (ELEVATION_M * scale) as f32;
-    for v in out.iter_mut().take(CROP_SIZE * CROP_SIZE) {
+    for v in out.iter_mut().take(size * size) {
         let h = f64::from(*v / m);
         *v = clip(h);
     }

@@ -1,14 +1,15 @@
 //! [`KinoMppi`]: MPPI-6 with a learned 6-DoF model (`mppi6`; Lee et al., RA-L 2023): the same sampling planner as
 //! the oracle `mppi6-oracle` (`baselines::mppi6`: knots of steering and speed factor around the warm-started plan,
 //! the same speed controller, cost-to-go, per-step cost and softmin update), but every sample is rolled out by a
-//! [`KinoNet`] instead of our simulator, and the cost adds the ensemble's disagreement, as Lee et al.'s
+//! learned model ([`Dynamics`]: the crop model, or for `tal` the terrain-attentive one, whose map is taken once per
+//! decision) instead of our simulator, and the cost adds the ensemble's disagreement, as Lee et al.'s
 //! uncertainty-aware cost does.
 //!
 //! A decision every model step ([`STEP_FRAMES`] control periods): `samples` sequences over `horizon_steps` model
 //! steps. Per sample and step: the knots give the steering and the target speed; the speed controller (at the model
 //! step's rate, on the speed the model predicted for the last step) gives throttle and brake; the model's inputs are
-//! made from the predicted pose ([`features`](super::features): its crop of the world, the ground under it, the
-//! previous predicted change of pose); the members' mean moves the pose. Costs per step: `step_cost` (progress on the
+//! made from the predicted pose ([`features`](super::features): its crop of the world, or its offset from the
+//! decision's map, the ground under it, the previous predicted change of pose); the members' mean moves the pose. Costs per step: `step_cost` (progress on the
 //! cost-to-go, local goal, roll and pitch) plus `uncertainty` times the members' summed standard deviation of the six
 //! scaled pose changes; entering an obstacle cell (inflated by half the vehicle's width) ends the rollout with 100,
 //! a predicted rollover (|roll| > 30 deg) or leaving the map with 200; reaching the goal ends it as in the oracle.
@@ -20,10 +21,10 @@
 //! a generator seeded by the task id: an episode is reproducible and the same at any thread count.
 
 use super::features::{
-    apply_delta, crop_features, ground, previous_delta, vector_features, Pose, Scales, CROP_SIZE,
-    STEP_FRAMES, STEP_S, TARGETS,
+    apply_delta, ground, previous_delta, vector_features, Pose, Scales, STEP_FRAMES, STEP_S,
+    TARGETS,
 };
-use super::net::KinoNet;
+use super::Dynamics;
 use baselines::hybrid::{
     interp, softmin_plan, speed_control, step_cost, CostToGo, KNOTS, ROLLOVER_DEG,
 };
@@ -114,13 +115,12 @@ struct Episode {
 pub struct KinoMppi {
     name: String,
     cfg: KinoMppiConfig,
-    net: KinoNet,
+    model: Dynamics,
     ep: Option<Episode>,
     plan: [[f64; 2]; KNOTS],
     samples: Vec<[[f64; 2]; KNOTS]>,
     rolls: Vec<Roll>,
     costs: Vec<f64>,
-    crop: Vec<f32>,
     out: Vec<f32>,
     since_replan: usize,
     integral: f64,
@@ -130,20 +130,20 @@ pub struct KinoMppi {
 }
 
 impl KinoMppi {
-    /// The planner `name` rolling out `net`.
-    pub fn new(name: &str, net: KinoNet, cfg: KinoMppiConfig) -> KinoMppi {
+    /// The planner `name` rolling out `model`.
+    pub fn new(name: &str, model: impl Into<Dynamics>, cfg: KinoMppiConfig) -> KinoMppi {
+        let model = model.into();
         let k = cfg.samples.max(1);
-        let out = vec![0.0; net.members() * TARGETS.len()];
+        let out = vec![0.0; model.members() * TARGETS.len()];
         KinoMppi {
             name: name.to_string(),
             cfg,
-            net,
+            model,
             ep: None,
             plan: [[0.0, 1.0]; KNOTS],
             samples: vec![[[0.0; 2]; KNOTS]; k],
             rolls: vec![Roll::default(); k],
             costs: vec![0.0; k],
-            crop: vec![0.0; CROP_SIZE * CROP_SIZE],
             out,
             since_replan: 0,
             integral: 0.0,
@@ -217,7 +217,8 @@ impl KinoMppi {
         let togo0 = ep.togo.at(now[0], now[1]);
         let reach = ep.scales.nominal_speed * n as f64 * STEP_S;
         let factors = ep.scales.target_factors();
-        let members = self.net.members();
+        let members = self.model.members();
+        self.model.begin(&ep.world, &now, ep.scales.scale);
         let t_n = TARGETS.len();
         for t in 0..n {
             for k in 0..self.rolls.len() {
@@ -246,8 +247,8 @@ impl KinoMppi {
                     &g,
                     &ep.scales,
                 );
-                crop_features(&ep.world, &r.pose, ep.scales.scale, &mut self.crop);
-                self.net.predict(&vector, &self.crop, &mut self.out);
+                self.model
+                    .predict(&ep.world, &r.pose, ep.scales.scale, &vector, &mut self.out);
                 self.predictions += 1;
                 let mut mean = [0.0f64; 7];
                 for m in 0..members {
@@ -333,7 +334,7 @@ impl Planner for KinoMppi {
         RATE
     }
     fn reset(&mut self, ctx: &PlannerContext<'_>) -> Result<(), PlannerError> {
-        if let Some(trained) = self.net.metadata().get("vehicle") {
+        if let Some(trained) = self.model.metadata().get("vehicle") {
             if trained != &ctx.vehicle.name {
                 return Err(PlannerError::Other(format!(
                     "model of `{}` was trained for the {trained}; this episode's vehicle is the {}",

@@ -3,14 +3,15 @@
 //! The ensemble's spread is the model's uncertainty. Evaluated in `f32` in a fixed order for a batch of samples
 //! (the rollouts of a sampling planner), with preallocated scratch: a prediction allocates nothing.
 
-use super::features::{CROP_SIZE, FEATURES, LAYOUT, TARGETS};
+use super::features::{crop_features, Pose, CROP_SIZE, FEATURES, LAYOUT, TARGETS};
 use crate::net::WeightsError;
 use crate::nn::{conv_relu, dense, expect_metadata, layer, open, sha256_hex, shape, Layer};
+use sim_core::world::World;
 use std::collections::BTreeMap;
 
 /// Conv1 and conv2: filters, kernel, stride (no padding), on the one-channel crop.
-const CONV1: (usize, usize, usize) = (8, 3, 2);
-const CONV2: (usize, usize, usize) = (16, 3, 2);
+pub(crate) const CONV1: (usize, usize, usize) = (8, 3, 2);
+pub(crate) const CONV2: (usize, usize, usize) = (16, 3, 2);
 const SIDE1: usize = (CROP_SIZE - CONV1.1) / CONV1.2 + 1;
 const SIDE2: usize = (SIDE1 - CONV2.1) / CONV2.2 + 1;
 /// The flattened conv2 output and the terrain code it is reduced to.
@@ -21,27 +22,19 @@ pub const HEAD_INPUTS: usize = CODE + FEATURES.len();
 /// What a weights file's `crop` metadata must say.
 pub const CROP_META: &str = "1x16x16";
 
-#[derive(Clone, Debug)]
-struct Head {
-    fc1: Layer,
-    fc2: Layer,
-    out: Layer,
-}
-
 /// The ensemble model of a weights file, with its metadata and scratch buffers.
 #[derive(Clone, Debug)]
 pub struct KinoNet {
     conv1: Layer,
     conv2: Layer,
     code: Layer,
-    heads: Vec<Head>,
+    heads: Heads,
     metadata: BTreeMap<String, String>,
     sha256: String,
     a1: Vec<f32>,
     a2: Vec<f32>,
     input: Vec<f32>,
-    h1: Vec<f32>,
-    h2: Vec<f32>,
+    crop: Vec<f32>,
 }
 
 impl KinoNet {
@@ -72,32 +65,7 @@ impl KinoNet {
             &[c2, c1, k2, k2],
         )?;
         let code = layer(&st, ("enc.code.weight", "enc.code.bias"), &[CODE, CONV_OUT])?;
-        let members: usize = metadata
-            .get("ensemble")
-            .and_then(|e| e.parse().ok())
-            .filter(|&e| (1..=16).contains(&e))
-            .ok_or_else(|| WeightsError::Metadata {
-                key: "ensemble",
-                found: metadata
-                    .get("ensemble")
-                    .map_or_else(|| "missing".into(), |e| format!("`{e}`")),
-                expected: "a member count in 1..=16".into(),
-            })?;
-        let hidden = shape(&st, HEAD_NAMES[0][0])?.first().copied().unwrap_or(0);
-        if hidden == 0 {
-            return Err(WeightsError::Tensor {
-                name: HEAD_NAMES[0][0],
-                problem: "has no rows".into(),
-            });
-        }
-        let mut heads = Vec::with_capacity(members);
-        for n in HEAD_NAMES.iter().take(members) {
-            heads.push(Head {
-                fc1: layer(&st, (n[0], n[1]), &[hidden, HEAD_INPUTS])?,
-                fc2: layer(&st, (n[2], n[3]), &[hidden, hidden])?,
-                out: layer(&st, (n[4], n[5]), &[TARGETS.len(), hidden])?,
-            });
-        }
+        let heads = Heads::read(&st, &metadata)?;
         Ok(KinoNet {
             conv1,
             conv2,
@@ -108,8 +76,7 @@ impl KinoNet {
             a1: vec![0.0; c1 * SIDE1 * SIDE1],
             a2: vec![0.0; CONV_OUT],
             input: vec![0.0; HEAD_INPUTS],
-            h1: vec![0.0; hidden],
-            h2: vec![0.0; hidden],
+            crop: vec![0.0; CROP_SIZE * CROP_SIZE],
         })
     }
 
@@ -125,7 +92,7 @@ impl KinoNet {
 
     /// Ensemble members.
     pub fn members(&self) -> usize {
-        self.heads.len()
+        self.heads.members()
     }
 
     /// Every member's scaled outputs ([`TARGETS`], `members x 7` into `out`) for one sample's vector features and
@@ -140,9 +107,89 @@ impl KinoNet {
         dense(&self.code, &self.a2, code, false);
         code.iter_mut().for_each(|v| *v = v.max(0.0));
         vec_in.copy_from_slice(vector);
-        let t = TARGETS.len();
-        for (head, o) in self.heads.iter().zip(out.chunks_exact_mut(t)) {
-            dense(&head.fc1, &self.input, &mut self.h1, true);
+        self.heads.run(&self.input, out);
+    }
+
+    /// [`predict`](Self::predict) for a vehicle at `pose` on `world`, its crop taken there.
+    pub fn predict_at(
+        &mut self,
+        world: &World,
+        pose: &Pose,
+        scale: f64,
+        vector: &[f32; FEATURES.len()],
+        out: &mut [f32],
+    ) {
+        let mut crop = std::mem::take(&mut self.crop);
+        crop_features(world, pose, scale, &mut crop);
+        self.predict(vector, &crop, out);
+        self.crop = crop;
+    }
+}
+
+/// One ensemble member: two tanh layers and the output.
+#[derive(Clone, Debug)]
+struct Head {
+    fc1: Layer,
+    fc2: Layer,
+    out: Layer,
+}
+
+/// The ensemble of MLP heads both model layouts end in (`heads.M.*`): each maps a terrain code of [`CODE`] entries
+/// and the vector features to the [`TARGETS`].
+#[derive(Clone, Debug)]
+pub(crate) struct Heads {
+    heads: Vec<Head>,
+    h1: Vec<f32>,
+    h2: Vec<f32>,
+}
+
+impl Heads {
+    /// The members the metadata's `ensemble` names, of the hidden width the first one has.
+    pub(crate) fn read(
+        st: &safetensors::SafeTensors<'_>,
+        metadata: &BTreeMap<String, String>,
+    ) -> Result<Heads, WeightsError> {
+        let members: usize = metadata
+            .get("ensemble")
+            .and_then(|e| e.parse().ok())
+            .filter(|&e| (1..=16).contains(&e))
+            .ok_or_else(|| WeightsError::Metadata {
+                key: "ensemble",
+                found: metadata
+                    .get("ensemble")
+                    .map_or_else(|| "missing".into(), |e| format!("`{e}`")),
+                expected: "a member count in 1..=16".into(),
+            })?;
+        let hidden = shape(st, HEAD_NAMES[0][0])?.first().copied().unwrap_or(0);
+        if hidden == 0 {
+            return Err(WeightsError::Tensor {
+                name: HEAD_NAMES[0][0],
+                problem: "has no rows".into(),
+            });
+        }
+        let mut heads = Vec::with_capacity(members);
+        for n in HEAD_NAMES.iter().take(members) {
+            heads.push(Head {
+                fc1: layer(st, (n[0], n[1]), &[hidden, HEAD_INPUTS])?,
+                fc2: layer(st, (n[2], n[3]), &[hidden, hidden])?,
+                out: layer(st, (n[4], n[5]), &[TARGETS.len(), hidden])?,
+            });
+        }
+        Ok(Heads {
+            heads,
+            h1: vec![0.0; hidden],
+            h2: vec![0.0; hidden],
+        })
+    }
+
+    pub(crate) fn members(&self) -> usize {
+        self.heads.len()
+    }
+
+    /// Every member's outputs (`members x 7` into `out`) for `input` ([`HEAD_INPUTS`]: code, then vector).
+    pub(crate) fn run(&mut self, input: &[f32], out: &mut [f32]) {
+        for (head, o) in self.heads.iter().zip(out.chunks_exact_mut(TARGETS.len())) {
+            dense(&head.fc1, input, &mut self.h1, true);
             dense(&head.fc2, &self.h1, &mut self.h2, true);
             dense(&head.out, &self.h2, o, false);
         }

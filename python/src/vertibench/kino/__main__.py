@@ -16,6 +16,9 @@ def main(argv: list[str] | None = None) -> int:
     t.add_argument("--data", nargs="+", required=True, help="dataset directories (vb dataset generate)")
     t.add_argument("--task-set", help="their task set (found from the datasets' version when omitted)")
     t.add_argument("--out", required=True)
+    t.add_argument("--model", choices=("kino", "tal"), default="kino",
+                   help="kino: a crop under every predicted pose (mppi6, wmvct); tal: terrain attention over one map "
+                        "per decision (tal)")
     t.add_argument("--epochs", type=int, default=20)
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--members", type=int, default=4)
@@ -24,7 +27,7 @@ def main(argv: list[str] | None = None) -> int:
     t.add_argument("--lr", type=float, default=1e-3)
     t.add_argument("--stride", type=int, default=1, help="use every N-th model step of each episode")
     t.add_argument("--threads", type=int, default=2)
-    t.add_argument("--name", default="kino")
+    t.add_argument("--name", help="the card's name (default: the model kind)")
     r = sub.add_parser("report", help="open-loop accuracy on held-out episodes against the bicycle model")
     r.add_argument("--weights", required=True)
     r.add_argument("--data", nargs="+", required=True)
@@ -39,9 +42,9 @@ def main(argv: list[str] | None = None) -> int:
             if a.epochs < 1 or a.batch < 1 or a.stride < 1 or not a.lr > 0:
                 p.error("--epochs, --batch and --stride must be at least 1 and --lr positive")
             cmd = "python -m vertibench.kino " + " ".join(shlex.quote(x) for x in argv)
-            w = train(TrainSpec(data=a.data, out=a.out, task_set=a.task_set, epochs=a.epochs, seed=a.seed,
+            w = train(TrainSpec(data=a.data, out=a.out, model=a.model, task_set=a.task_set, epochs=a.epochs, seed=a.seed,
                                 members=a.members, hidden=a.hidden, batch=a.batch, lr=a.lr, stride=a.stride,
-                                threads=a.threads, name=a.name, command=cmd))
+                                threads=a.threads, name=a.name or a.model, command=cmd))
             print(f"vertibench.kino: weights {w}")
         else:
             from . import report as rp

@@ -64,32 +64,52 @@ def mean_actions(actions: np.ndarray, i: np.ndarray) -> np.ndarray:
     return (c[i + STEP] - c[i]) / STEP
 
 
+FIELDS = ("vec", "crop", "target", "world", "episode", "frame", "offset")
+
+
 @dataclass
 class Samples:
     vec: np.ndarray  # f32 [n, 16]
-    crop: np.ndarray  # f32 [n, 16, 16]
+    crop: np.ndarray  # f32 [n, 16, 16] (kino), or the anchor's map [n, 32, 32] (tal)
     target: np.ndarray  # f32 [n, 7]
     world: np.ndarray  # i64 [n]
     episode: np.ndarray  # i64 [n]: index into the episode list
     frame: np.ndarray  # i64 [n]
+    offset: np.ndarray | None = None  # f32 [n, 5]: the pose's offset from the map's anchor (tal only)
 
     def __len__(self) -> int:
         return len(self.target)
 
+    def inputs(self, rows=None) -> list[np.ndarray]:
+        """The model's inputs (of ``rows``): ``[vec, crop]``, and the offset for a terrain-attentive model."""
+        cols = [self.vec, self.crop] + ([self.offset] if self.offset is not None else [])
+        return [c if rows is None else c[rows] for c in cols]
+
     def take(self, rows: np.ndarray) -> "Samples":
-        return Samples(*(getattr(self, k)[rows] for k in ("vec", "crop", "target", "world", "episode", "frame")))
+        return Samples(*(None if getattr(self, k) is None else getattr(self, k)[rows] for k in FIELDS))
 
     def save(self, path: Path) -> None:
-        np.savez(path, **{k: getattr(self, k) for k in ("vec", "crop", "target", "world", "episode", "frame")})
+        np.savez(path, **{k: getattr(self, k) for k in FIELDS if getattr(self, k) is not None})
 
     @classmethod
     def load(cls, path: Path) -> "Samples":
         z = np.load(path)
-        return cls(*(z[k] for k in ("vec", "crop", "target", "world", "episode", "frame")))
+        return cls(*(z[k] if k in z else None for k in FIELDS))
+
+    @classmethod
+    def concatenate(cls, parts: list["Samples"]) -> "Samples":
+        return cls(*(None if getattr(parts[0], k) is None else np.concatenate([getattr(p, k) for p in parts])
+                     for k in FIELDS))
 
 
-def samples(eps: list[Episode], maker: "_core.KinoData", stride: int = 1) -> Samples:
-    """Every ``stride``-th model step of ``eps`` as samples."""
+def samples(eps: list[Episode], maker: "_core.KinoData", stride: int = 1, model: str = "kino",
+            rng: np.random.Generator | None = None) -> Samples:
+    """Every ``stride``-th model step of ``eps`` as samples. For ``model="tal"`` the input terrain is the map at an
+    anchor ``lag`` model steps before the step (``lag`` drawn from ``rng`` in ``0..TAL_ANCHOR_STEPS``, the anchor
+    no earlier than the episode's first frame) and the offset of the step's pose from it."""
+    if model not in ("kino", "tal"):
+        raise ValueError(f"model {model!r}: expected 'kino' or 'tal'")
+    rng = rng if rng is not None else np.random.default_rng(0)
     parts = []
     for k, e in enumerate(eps):
         i, b = step_indices(len(e.poses))
@@ -98,10 +118,15 @@ def samples(eps: list[Episode], maker: "_core.KinoData", stride: int = 1) -> Sam
             continue
         act = mean_actions(e.actions, i)
         vec, crop = maker.features(e.world_id, e.poses[b], e.poses[i], e.steering[i], act)
+        offset = None
+        if model == "tal":
+            lag = rng.integers(0, int(_core.TAL_ANCHOR_STEPS), len(i))
+            a = np.maximum(i - lag * STEP, 0)
+            crop, offset = maker.tal_inputs(e.world_id, e.poses[a], e.poses[i])
         tgt = maker.targets(e.poses[i], e.poses[i + STEP], e.steering[i + STEP])
-        parts.append((vec, crop, tgt, np.full(len(i), e.world_id), np.full(len(i), k), i))
+        parts.append(Samples(vec.astype(np.float32), crop.astype(np.float32), tgt.astype(np.float32),
+                             np.full(len(i), e.world_id, np.int64), np.full(len(i), k, np.int64),
+                             i.astype(np.int64), offset))
     if not parts:
         raise ValueError("no episode has a whole model step: the datasets are empty or too short")
-    cols = [np.concatenate([p[j] for p in parts]) for j in range(6)]
-    return Samples(cols[0].astype(np.float32), cols[1].astype(np.float32), cols[2].astype(np.float32),
-                   cols[3].astype(np.int64), cols[4].astype(np.int64), cols[5].astype(np.int64))
+    return Samples.concatenate(parts)

@@ -1,6 +1,9 @@
-"""The kinodynamic model in PyTorch (layout ``vertibench-kino-v1``, ``planners/learned/KINO.md``): a small CNN encoder
-of the 16x16 elevation crop to a 32-entry terrain code, shared by an ensemble of MLP heads (2 x ``hidden`` tanh) that
-each predict the 7 scaled targets. Tensor names match the Rust reader (``learned::kino::KinoNet``)."""
+"""The kinodynamic models in PyTorch (``planners/learned/KINO.md``). ``kino`` (layout ``vertibench-kino-v1``): a small
+CNN encoder of the 16x16 elevation crop to a 32-entry terrain code, shared by an ensemble of MLP heads (2 x
+``hidden`` tanh) that each predict the 7 scaled targets. ``tal`` (``vertibench-tal-v1``): the same convolutions on a
+32x32 map taken at an anchor pose, gated element-wise by a sigmoid of the pose's offset from the anchor and fused
+into the terrain code the same heads read. Tensor names match the Rust readers (``learned::kino::{KinoNet,
+TalNet}``)."""
 
 from __future__ import annotations
 
@@ -38,32 +41,97 @@ class Head(nn.Module):
         return self.out(torch.tanh(self.fc2(torch.tanh(self.fc1(x)))))
 
 
+def _members(members: int) -> int:
+    if not 1 <= members <= 16:
+        raise ValueError(f"members={members} must be in 1..16")
+    return members
+
+
 class KinoModel(nn.Module):
     """``forward(vec [n, 16], crop [n, 16, 16]) -> [n, members, 7]``."""
 
+    kind = "kino"
+    layout = str(_core.KINO_LAYOUT)
+
     def __init__(self, members: int = 4, hidden: int = 64) -> None:
         super().__init__()
-        if not 1 <= members <= 16:
-            raise ValueError(f"members={members} must be in 1..16")
         self.enc = Encoder()
-        self.heads = nn.ModuleList(Head(hidden) for _ in range(members))
+        self.heads = nn.ModuleList(Head(hidden) for _ in range(_members(members)))
 
     @property
     def members(self) -> int:
         return len(self.heads)
+
+    def layout_metadata(self) -> dict[str, str]:
+        return {"crop": str(_core.KINO_CROP_META)}
 
     def forward(self, vec: torch.Tensor, crop: torch.Tensor) -> torch.Tensor:
         x = torch.cat([self.enc(crop), vec], dim=1)
         return torch.stack([h(x) for h in self.heads], dim=1)
 
 
-def metadata(model: KinoModel, extra: dict[str, str]) -> dict[str, str]:
+class MapEncoder(nn.Module):
+    """The crop encoder's two convolutions on the 32x32 map: ``[n, 32, 32] -> [n, 784]``."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.conv1 = nn.Conv2d(1, 8, 3, stride=2)
+        self.conv2 = nn.Conv2d(8, 16, 3, stride=2)
+
+    def forward(self, m: torch.Tensor) -> torch.Tensor:
+        return torch.relu(self.conv2(torch.relu(self.conv1(m.unsqueeze(1))))).flatten(1)
+
+
+class Attention(nn.Module):
+    """Terrain attention: ``code = relu(fuse(embedding * sigmoid(gate2(sigmoid(gate1(offset))))))``."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        embed, hidden = int(_core.TAL_EMBED), int(_core.TAL_GATE_HIDDEN)
+        self.gate1 = nn.Linear(len(_core.TAL_OFFSETS), hidden)
+        self.gate2 = nn.Linear(hidden, embed)
+        self.fuse = nn.Linear(embed, CODE)
+
+    def forward(self, embedding: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:
+        gate = torch.sigmoid(self.gate2(torch.sigmoid(self.gate1(offset))))
+        return torch.relu(self.fuse(embedding * gate))
+
+
+class TalModel(nn.Module):
+    """``forward(vec [n, 16], map [n, 32, 32], offset [n, 5]) -> [n, members, 7]``."""
+
+    kind = "tal"
+    layout = str(_core.TAL_LAYOUT)
+
+    def __init__(self, members: int = 4, hidden: int = 64) -> None:
+        super().__init__()
+        self.enc = MapEncoder()
+        self.att = Attention()
+        self.heads = nn.ModuleList(Head(hidden) for _ in range(_members(members)))
+
+    @property
+    def members(self) -> int:
+        return len(self.heads)
+
+    def layout_metadata(self) -> dict[str, str]:
+        return {"offsets": ",".join(_core.TAL_OFFSETS), "map": str(_core.TAL_MAP_META)}
+
+    def forward(self, vec: torch.Tensor, map: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:
+        x = torch.cat([self.att(self.enc(map), offset), vec], dim=1)
+        return torch.stack([h(x) for h in self.heads], dim=1)
+
+
+#: The model kinds ``python -m vertibench.kino train --model`` offers.
+MODELS = {"kino": KinoModel, "tal": TalModel}
+
+
+def metadata(model: nn.Module, extra: dict[str, str]) -> dict[str, str]:
     """What a weights file records: the layout the Rust reader checks, then the card's entries."""
     meta = {
-        "format": str(_core.KINO_LAYOUT),
+        "format": model.layout,
         "features": ",".join(_core.KINO_FEATURES),
         "targets": ",".join(_core.KINO_TARGETS),
-        "crop": str(_core.KINO_CROP_META),
+        **model.layout_metadata(),
         "ensemble": str(model.members),
         "step_frames": str(_core.KINO_STEP_FRAMES),
     }
@@ -71,21 +139,22 @@ def metadata(model: KinoModel, extra: dict[str, str]) -> dict[str, str]:
     return meta
 
 
-def save(model: KinoModel, path, extra: dict[str, str]) -> None:
+def save(model: nn.Module, path, extra: dict[str, str]) -> None:
     from safetensors.torch import save_file
 
     tensors = {k: v.detach().float().contiguous().clone() for k, v in model.state_dict().items()}
     save_file(tensors, str(path), metadata=metadata(model, extra))
 
 
-def load(path) -> KinoModel:
+def load(path) -> nn.Module:
     from safetensors import safe_open
 
     with safe_open(str(path), framework="pt") as f:
         meta = f.metadata() or {}
-        if meta.get("format") != _core.KINO_LAYOUT:
-            raise ValueError(f"{path}: format {meta.get('format')!r}, expected {_core.KINO_LAYOUT!r}")
+        kinds = {m.layout: m for m in MODELS.values()}
+        if meta.get("format") not in kinds:
+            raise ValueError(f"{path}: format {meta.get('format')!r}, expected one of {sorted(kinds)}")
         state = {k: f.get_tensor(k) for k in f.keys()}
-    model = KinoModel(int(meta["ensemble"]), int(state["heads.0.fc1.weight"].shape[0]))
+    model = kinds[meta["format"]](int(meta["ensemble"]), int(state["heads.0.fc1.weight"].shape[0]))
     model.load_state_dict(state)
     return model.eval()

@@ -21,7 +21,7 @@ ERRORS = ("position_m", "z_m", "roll_deg", "pitch_deg", "yaw_deg")
 
 
 def write_card(card: dict, path: Path) -> None:
-    lines = [f"# {card['name']}: learned kinodynamic model (vertibench-kino-v1)", "",
+    lines = [f"# {card['name']}: learned kinodynamic model ({card.get('layout', 'vertibench-kino-v1')})", "",
              f"- command: `{card['command']}`",
              f"- data: " + "; ".join(f"{d['kind']} {d['episodes']} episodes, {d['samples']} samples (seed "
                                      f"{d['seed']})" for d in card["data"]),
@@ -68,16 +68,25 @@ def _errors(pred: np.ndarray, true: np.ndarray) -> np.ndarray:
                      *(np.degrees(np.abs(_wrap(pred[:, j] - true[:, j]))) for j in (3, 4, 5))], axis=1)
 
 
-def rollout_model(predict, maker, e: kd.Episode, starts: np.ndarray, steps: int) -> np.ndarray:
-    """Poses ``[len(starts), 6]`` after ``steps`` model steps from each start, with the recorded actions."""
+def rollout_model(predict, maker, e: kd.Episode, starts: np.ndarray, steps: int,
+                  attention: bool = False) -> np.ndarray:
+    """Poses ``[len(starts), 6]`` after ``steps`` model steps from each start, with the recorded actions. A
+    terrain-attentive model (``attention``) takes a new map every ``TAL_ANCHOR_STEPS`` steps, at the predicted pose,
+    as the planner does once per decision."""
     S = kd.STEP
     now = e.poses[starts].copy()
     before = e.poses[np.where(starts >= S, starts - S, starts)].copy()
     steer = e.steering[starts].copy()
+    anchor = now
     for j in range(steps):
         act = kd.mean_actions(e.actions, starts + j * S)
         vec, crop = maker.features(e.world_id, before, now, steer, act)
-        pred = predict(vec, crop)
+        if attention:
+            if j % int(_core.TAL_ANCHOR_STEPS) == 0:
+                anchor = now.copy()
+            pred = predict(vec, *maker.tal_inputs(e.world_id, anchor, now))
+        else:
+            pred = predict(vec, crop)
         after = maker.apply(now, pred)
         before, now, steer = now, after, pred[:, 6].astype(np.float64)
     return now
@@ -101,11 +110,15 @@ def accuracy(weights: str | Path, data: list[str], task_set: str | None = None, 
              backend: str = "rust") -> dict:
     """The open-loop report on the held-out episodes of ``data``: ``{"rows": [...], "summary": {...}}``, one row
     per (model, horizon, ground, level) with the mean errors and the count."""
-    if backend == "rust":
-        net = _core.KinoNet(str(weights))
+    from safetensors import safe_open
 
-        def predict(vec, crop):
-            return net.predict(vec, crop).mean(1)
+    with safe_open(str(weights), framework="np") as f:
+        attention = (f.metadata() or {}).get("format") == _core.TAL_LAYOUT
+    if backend == "rust":
+        net = (_core.TalNet if attention else _core.KinoNet)(str(weights))
+
+        def predict(*inputs):
+            return net.predict(*inputs).mean(1)
     else:
         import torch
 
@@ -113,9 +126,9 @@ def accuracy(weights: str | Path, data: list[str], task_set: str | None = None, 
 
         m = load(weights)
 
-        def predict(vec, crop):
+        def predict(*inputs):
             with torch.no_grad():
-                return m(torch.from_numpy(vec), torch.from_numpy(crop)).mean(1).numpy()
+                return m(*(torch.from_numpy(x) for x in inputs)).mean(1).numpy()
     records: list[tuple[str, float, str, str, np.ndarray]] = []
     maker = None
     for d in data:
@@ -139,7 +152,7 @@ def accuracy(weights: str | Path, data: list[str], task_set: str | None = None, 
                 g = maker.features(e.world_id, e.poses[starts], e.poses[starts], e.steering[starts],
                                    np.zeros((len(starts), 3)))[0][:, 12:16]
                 ground = np.where(g[:, 0] > 0, 0, 1 + np.argmax(g[:, 1:], axis=1))
-                for name, pred in (("learned", rollout_model(predict, maker, e, starts, steps)),
+                for name, pred in (("learned", rollout_model(predict, maker, e, starts, steps, attention)),
                                    ("bicycle", rollout_bicycle(maker.vehicle, e, starts, frames, fps))):
                     err = _errors(pred, true)
                     for gi in np.unique(ground):

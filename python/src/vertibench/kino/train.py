@@ -1,7 +1,8 @@
 """Training a kinodynamic model on datasets (``python -m vertibench.kino train``): one-step regression of the
 scaled targets, each ensemble member on its own bootstrap weights of the samples, Adam, a fixed seed; one epoch at a
 time with a checkpoint after each (a run resumes from its ``--out`` directory), a learning curve (held-out RMSE per
-target) and, at the end, the weights (``kino.safetensors``) with their card."""
+target) and, at the end, the weights (``kino.safetensors`` or ``tal.safetensors``, by ``--model``) with their
+card."""
 
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ from . import model as km
 class TrainSpec:
     data: list[str]
     out: str
+    model: str = "kino"
     task_set: str | None = None
     epochs: int = 20
     seed: int = 0
@@ -41,9 +43,13 @@ def load_samples(spec: TrainSpec) -> tuple[kd.Samples, dict]:
     cache, about_path = out / "samples.npz", out / "data.json"
     if cache.exists() and about_path.exists():
         about = json.loads(about_path.read_text())
-        if about.get("data") == [str(Path(d).resolve()) for d in spec.data] and about.get("stride") == spec.stride:
+        if (about.get("data") == [str(Path(d).resolve()) for d in spec.data] and about.get("stride") == spec.stride
+                and about.get("model", "kino") == spec.model and about.get("seed") == spec.seed):
             return kd.Samples.load(cache), about
-    parts, about = [], {"data": [str(Path(d).resolve()) for d in spec.data], "stride": spec.stride, "sets": []}
+    parts, about = [], {"data": [str(Path(d).resolve()) for d in spec.data], "stride": spec.stride,
+                        "model": spec.model, "seed": spec.seed, "sets": []}
+    # Which earlier step a terrain-attentive sample's map is anchored at: drawn from the training seed.
+    rng = np.random.default_rng(spec.seed)
     maker, key = None, None
     for d in spec.data:
         ds_spec, eps = kd.episodes(d, spec.task_set)
@@ -63,7 +69,7 @@ def load_samples(spec: TrainSpec) -> tuple[kd.Samples, dict]:
                                  f"--task-set DIR")
             maker = _core.KinoData(str(task_dir), ds_spec["vehicle"], float(ds_spec["scale"]))
         key = k
-        s = kd.samples(eps, maker, spec.stride)
+        s = kd.samples(eps, maker, spec.stride, spec.model, rng)
         # Episodes are numbered across datasets: this one's follow the last one's.
         s.episode = s.episode + (int(parts[-1].episode.max()) + 1 if parts else 0)
         parts.append(s)
@@ -72,8 +78,7 @@ def load_samples(spec: TrainSpec) -> tuple[kd.Samples, dict]:
                               "sim_version": ds_spec["sim_version"]})
     about.update(vehicle=key[0], scale=key[1], task_set_version=key[2], sim_version=key[3],
                  target_factors=list(maker.target_factors), vehicle_facts=dict(maker.vehicle))
-    allv = kd.Samples(*(np.concatenate([getattr(p, f) for p in parts])
-                        for f in ("vec", "crop", "target", "world", "episode", "frame")))
+    allv = kd.Samples.concatenate(parts)
     out.mkdir(parents=True, exist_ok=True)
     allv.save(cache)
     about_path.write_text(json.dumps(about, indent=1))
@@ -85,7 +90,7 @@ def split(s: kd.Samples) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(~held), np.flatnonzero(held)
 
 
-def rmse(model: "km.KinoModel", s: kd.Samples, rows: np.ndarray, batch: int = 8192) -> np.ndarray:
+def rmse(model, s: kd.Samples, rows: np.ndarray, batch: int = 8192) -> np.ndarray:
     """Held-out RMSE per scaled target of the ensemble mean."""
     import torch
 
@@ -93,7 +98,7 @@ def rmse(model: "km.KinoModel", s: kd.Samples, rows: np.ndarray, batch: int = 81
     with torch.no_grad():
         for a in range(0, len(rows), batch):
             r = rows[a:a + batch]
-            p = model(torch.from_numpy(s.vec[r]), torch.from_numpy(s.crop[r])).mean(1).numpy()
+            p = model(*(torch.from_numpy(x) for x in s.inputs(r))).mean(1).numpy()
             se += ((p - s.target[r]) ** 2).sum(0)
     return np.sqrt(se / max(len(rows), 1))
 
@@ -113,7 +118,9 @@ def train(spec: TrainSpec, log=print) -> Path:
                          f"(held out: world id 9 mod 10)")
     log(f"vertibench.kino: {len(tr)} training, {len(ho)} held-out samples ({data_s:.0f} s to make)")
     torch.manual_seed(spec.seed)
-    model = km.KinoModel(spec.members, spec.hidden)
+    if spec.model not in km.MODELS:
+        raise ValueError(f"--model {spec.model!r}: expected one of {sorted(km.MODELS)}")
+    model = km.MODELS[spec.model](spec.members, spec.hidden)
     opt = torch.optim.Adam(model.parameters(), lr=spec.lr)
     rng = np.random.default_rng(spec.seed)
     # Bootstrap: member m weighs training sample i by a Poisson(1) count (drawn once).
@@ -127,7 +134,7 @@ def train(spec: TrainSpec, log=print) -> Path:
         epoch, curve, train_s = c["epoch"], c["curve"], c["train_s"]
         rng.bit_generator.state = c["rng"]
         log(f"vertibench.kino: resumed at epoch {epoch}")
-    vec, crop, tgt = (torch.from_numpy(a) for a in (s.vec, s.crop, s.target))
+    inputs, tgt = [torch.from_numpy(a) for a in s.inputs()], torch.from_numpy(s.target)
     bw = torch.from_numpy(boot)
     while epoch < spec.epochs:
         e0 = time.monotonic()
@@ -137,7 +144,7 @@ def train(spec: TrainSpec, log=print) -> Path:
         for a in range(0, len(order), spec.batch):
             r = order[a:a + spec.batch]
             rows = torch.from_numpy(tr[r])
-            pred = model(vec[rows], crop[rows])  # [b, m, 7]
+            pred = model(*(x[rows] for x in inputs))  # [b, m, 7]
             err = ((pred - tgt[rows].unsqueeze(1)) ** 2).mean(2)  # [b, m]
             w = bw[torch.from_numpy(r)]
             loss = (err * w).sum() / w.sum().clamp(min=1.0)
@@ -176,7 +183,7 @@ def finish(spec: TrainSpec, model, s: kd.Samples, ho: np.ndarray, about: dict, c
     factors = np.asarray(about["target_factors"])
     physical = {n: float(v * f) for n, v, f in zip(_core.KINO_TARGETS, h, factors)}
     card = {
-        "name": spec.name, "command": spec.command, "seed": spec.seed, "epochs": spec.epochs,
+        "name": spec.name, "model": spec.model, "layout": model.layout, "command": spec.command, "seed": spec.seed, "epochs": spec.epochs,
         "members": spec.members, "hidden": spec.hidden, "batch": spec.batch, "lr": spec.lr,
         "samples": len(s), "heldout_samples": int(len(ho)), "train_s": round(train_s, 1),
         "data_s": round(data_s, 1), "heldout_rmse_scaled": {n: float(v) for n, v in zip(_core.KINO_TARGETS, h)},
@@ -189,7 +196,7 @@ def finish(spec: TrainSpec, model, s: kd.Samples, ho: np.ndarray, about: dict, c
             "scale": about["scale"], "task_set_version": about["task_set_version"],
             "sim_version": about["sim_version"], "command": spec.command,
             "heldout_rmse_one_step": json.dumps(physical)}
-    weights = out / "kino.safetensors"
+    weights = out / f"{spec.model}.safetensors"
     km.save(model, weights, meta)
     (out / "card.json").write_text(json.dumps(card, indent=1))
     from .report import write_card, plot_curve
