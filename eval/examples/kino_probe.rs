@@ -1,0 +1,62 @@
+//! Runs MPPI-6 over a learned kinodynamic model (`mppi6`, `tal`: either weights layout) on tasks of a **training**
+//! task set for a choice of the uncertainty weight: how the hybrids' planner parameters are looked at without
+//! touching the benchmark's tasks.
+//!
+//! `cargo run --release -p eval --example kino_probe -- WEIGHTS TASK_DIR [UNCERTAINTY] [EVERY_NTH_WORLD]` runs task
+//! `w % 10` of every `EVERY_NTH_WORLD`-th world (default 4) with the full-scale HMMWV, in parallel, and prints the
+//! outcomes, the wall time and the model predictions per decision.
+
+use anyhow::Context;
+use learned::kino::{KinoMppi, KinoMppiConfig};
+use rayon::prelude::*;
+use sim_core::episode::EpisodeConfig;
+use std::path::Path;
+use std::time::Instant;
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (Some(weights), Some(dir)) = (args.first(), args.get(1)) else {
+        anyhow::bail!("usage: kino_probe WEIGHTS TASK_DIR [UNCERTAINTY] [EVERY_NTH_WORLD]");
+    };
+    let arg = |i: usize, d: f64| args.get(i).and_then(|s| s.parse().ok()).unwrap_or(d);
+    let model = learned::kino::load(Path::new(weights))?;
+    let cfg = KinoMppiConfig {
+        uncertainty: arg(2, KinoMppiConfig::default().uncertainty),
+        ..KinoMppiConfig::default()
+    };
+    let nth = arg(3, 4.0) as u32;
+    let set = tasks::TaskSet::load(Path::new(dir)).context("the task set")?;
+    let vehicle = sim_core::vehicle::vehicle_by_name("hmmwv")?;
+    let todo: Vec<u32> = set
+        .world_ids()
+        .into_iter()
+        .filter(|w| w % nth.max(1) == 0)
+        .collect();
+    let t0 = Instant::now();
+    let rows: Vec<(String, u64, u64)> = todo
+        .par_iter()
+        .map(|&w| {
+            let world = set.world(w, 1.0).expect("world");
+            let task = set.tasks(w, 1.0).expect("tasks")[(w % 10) as usize].clone();
+            let mut p = KinoMppi::new("probe", model.clone(), cfg);
+            let r =
+                sim_core::run_episode(&world, &task, &vehicle, &mut p, &EpisodeConfig::default());
+            (r.outcome.as_str().to_string(), p.decisions, p.predictions)
+        })
+        .collect();
+    let count = |o: &str| rows.iter().filter(|r| r.0 == o).count();
+    let dec: u64 = rows.iter().map(|r| r.1).sum();
+    let pred: u64 = rows.iter().map(|r| r.2).sum();
+    println!(
+        "uncertainty {}: {} tasks, wall {:.1} s, {:.0} predictions/decision; success {} stuck {} rollover {} timeout {}",
+        cfg.uncertainty,
+        rows.len(),
+        t0.elapsed().as_secs_f64(),
+        pred as f64 / dec.max(1) as f64,
+        count("success"),
+        count("stuck"),
+        count("rollover"),
+        count("timeout"),
+    );
+    Ok(())
+}
