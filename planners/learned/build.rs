@@ -1,6 +1,6 @@
 //! Compiles the committed weights of the built-in learned planners (`weights/<name>.safetensors`: the policies of
-//! rl, mcl, acl and the kinodynamic models of mppi6 and tal) into the crate, so `vb`, the workers and the Python wheel carry
-//! them; a name without a file is built without weights.
+//! rl, mcl, acl and the kinodynamic models of mppi6 and tal) into the crate, so `vb`, the workers and the Python
+//! wheel carry them; a name without a file is built without weights.
 
 use std::path::Path;
 

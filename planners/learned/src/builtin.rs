@@ -1,6 +1,7 @@
 //! The built-in learned planners: the end-to-end policies `rl`, `mcl`, `acl`, and the hybrids `mppi6` and `wmvct`
-//! (MPPI-6 over a learned kinodynamic model, whole or decomposed) and `tal` (over the terrain-attentive model), with the weights committed in `planners/learned/weights/`, compiled in, or any weights file
-//! a user trained (its `format` says which kind of planner it makes).
+//! (MPPI-6 over a learned kinodynamic model, whole or decomposed) and `tal` (over the terrain-attentive model), with
+//! the weights committed in `planners/learned/weights/`, compiled in, or any weights file a user trained (its
+//! `format` says which kind of planner it makes).
 
 use crate::kino::{Dynamics, KinoMppi, KinoMppiConfig, Rollout};
 use crate::net::{PolicyNet, WeightsError};
@@ -13,50 +14,58 @@ include!(concat!(env!("OUT_DIR"), "/builtin.rs"));
 /// Names of the built-in learned planners.
 pub const NAMES: [&str; 6] = ["rl", "mcl", "acl", "mppi6", "wmvct", "tal"];
 
-/// The built-in learned planners: their weights file, and for a kinodynamic model how MPPI-6 rolls it out (`wmvct`
-/// rolls out `mppi6`'s model, decomposed). Any other name given a model file rolls it out whole.
-const PLANNERS: [(&str, &str, Option<Rollout>); 6] = [
-    ("rl", "rl", None),
-    ("mcl", "mcl", None),
-    ("acl", "acl", None),
-    ("mppi6", "mppi6", Some(Rollout::Learned)),
-    ("wmvct", "mppi6", Some(Rollout::Decomposed)),
-    ("tal", "tal", Some(Rollout::Learned)),
+/// What a built-in learned planner runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// An end-to-end policy (`python -m vertibench.train NAME`).
+    Policy,
+    /// A kinodynamic model of `python -m vertibench.kino train --model MODEL`, rolled out by MPPI-6 so.
+    Model(&'static str, Rollout),
+}
+
+/// The built-in learned planners: their weights file and what it holds (`wmvct` rolls out `mppi6`'s model,
+/// decomposed). Any other name given a model file rolls it out whole.
+const PLANNERS: [(&str, &str, Kind); 6] = [
+    ("rl", "rl", Kind::Policy),
+    ("mcl", "mcl", Kind::Policy),
+    ("acl", "acl", Kind::Policy),
+    ("mppi6", "mppi6", Kind::Model("kino", Rollout::Learned)),
+    ("wmvct", "mppi6", Kind::Model("kino", Rollout::Decomposed)),
+    ("tal", "tal", Kind::Model("tal", Rollout::Learned)),
 ];
 
-/// Whose weights file a built-in planner runs.
-fn weights_name(name: &str) -> &str {
+/// A built-in planner's weights file and kind.
+fn planner(name: &str) -> Option<(&'static str, Kind)> {
     PLANNERS
         .iter()
         .find(|(n, _, _)| *n == name)
-        .map_or(name, |(_, file, _)| file)
+        .map(|&(_, file, kind)| (file, kind))
+}
+
+/// Whose weights file a built-in planner runs.
+fn weights_name(name: &str) -> &str {
+    planner(name).map_or(name, |(file, _)| file)
 }
 
 /// How MPPI-6 rolls out a kinodynamic model for the planner `name`.
 fn rollout_of(name: &str) -> Rollout {
-    PLANNERS
-        .iter()
-        .find_map(|(n, _, r)| (*n == name).then_some(*r).flatten())
-        .unwrap_or(Rollout::Learned)
+    match planner(name) {
+        Some((_, Kind::Model(_, rollout))) => rollout,
+        _ => Rollout::Learned,
+    }
 }
 
 /// How a built-in planner's weights are made.
 fn how_to_train(name: &str) -> String {
-    let model = match weights_name(name) {
-        "mppi6" => Some("kino"),
-        "tal" => Some("tal"),
-        _ => None,
-    };
-    if let Some(model) = model {
-        format!(
+    match planner(name) {
+        Some((_, Kind::Model(model, _))) => format!(
             "generate datasets and train a model with `python -m vertibench.kino train --model {model} --data \
              DIR... --out DIR` (planners/learned/KINO.md) and run it with `--weights DIR/{model}.safetensors`"
-        )
-    } else {
-        format!(
+        ),
+        _ => format!(
             "train it with `python -m vertibench.train {name} --out DIR` and run it with `--weights \
              DIR/policy.safetensors`"
-        )
+        ),
     }
 }
 

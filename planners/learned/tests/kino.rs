@@ -226,14 +226,9 @@ fn the_attentive_model_reads_both_layouts_apart_and_attends_to_the_map_where_the
         assert_eq!(out[2], out[9], "the members agree");
         out[2]
     };
-    let flat = World::uniform(
-        Heightmap::from_fn(0.5, |_, _| 0.0),
-        Semantic::Dirt,
-        Surface::Rigid { friction: 0.8 },
-    );
     let here = up(&mut net, &ramp, &anchor, &anchor);
     assert!(here.abs() > 1e-4, "{here}");
-    let on_flat = up(&mut net, &flat, &anchor, &anchor);
+    let on_flat = up(&mut net, &flat(0.5), &anchor, &anchor);
     assert!(
         (here - on_flat).abs() > 1e-5,
         "the map matters: {here} vs {on_flat}"
@@ -255,56 +250,33 @@ fn the_attentive_model_reads_both_layouts_apart_and_attends_to_the_map_where_the
 
 #[test]
 fn tal_with_a_hand_built_model_reaches_goals_ahead_and_beside_deterministically() {
-    let w = World::uniform(
-        Heightmap::from_fn(1.0, |_, _| 0.0),
-        Semantic::Dirt,
-        Surface::Rigid { friction: 0.8 },
-    );
-    let spec = vehicle_by_name("hmmwv").unwrap();
-    let cfg = EpisodeConfig {
-        max_time: 40.0,
-        ..Default::default()
-    };
     let net = TalNet::from_bytes(&bicycle_like(tal_metadata(2))).unwrap();
-    let small = KinoMppiConfig {
-        samples: 16,
-        horizon_steps: 6,
-        ..Default::default()
-    };
-    reaches_goals(&w, &spec, &cfg, &Dynamics::from(net), small);
+    reaches_goals(&Dynamics::from(net), Rollout::Learned);
 }
 
 #[test]
 fn mppi6_and_wmvct_with_a_hand_built_model_reach_goals_ahead_and_beside_deterministically() {
-    let w = World::uniform(
-        Heightmap::from_fn(1.0, |_, _| 0.0),
-        Semantic::Dirt,
-        Surface::Rigid { friction: 0.8 },
-    );
-    let spec = vehicle_by_name("hmmwv").unwrap();
-    let cfg = EpisodeConfig {
-        max_time: 40.0,
-        ..Default::default()
-    };
     let net = KinoNet::from_bytes(&bicycle_like(metadata(2))).unwrap();
     for rollout in [Rollout::Learned, Rollout::Decomposed] {
-        let small = KinoMppiConfig {
-            samples: 16,
-            horizon_steps: 6,
-            rollout,
-            ..Default::default()
-        };
-        reaches_goals(&w, &spec, &cfg, &Dynamics::from(net.clone()), small);
+        reaches_goals(&Dynamics::from(net.clone()), rollout);
     }
 }
 
-fn reaches_goals(
-    w: &World,
-    spec: &sim_core::VehicleSpec,
-    cfg: &EpisodeConfig,
-    net: &Dynamics,
-    small: KinoMppiConfig,
-) {
+/// MPPI-6 (16 samples, 6 steps) rolling out `net` drives the HMMWV on flat rigid ground to goals ahead and to
+/// either side, and the same episode again gives the same metrics.
+fn reaches_goals(net: &Dynamics, rollout: Rollout) {
+    let w = &flat(1.0);
+    let spec = &vehicle_by_name("hmmwv").unwrap();
+    let cfg = &EpisodeConfig {
+        max_time: 40.0,
+        ..Default::default()
+    };
+    let small = KinoMppiConfig {
+        samples: 16,
+        horizon_steps: 6,
+        rollout,
+        ..Default::default()
+    };
     for goal in [[40.0, 0.0], [10.0, 40.0], [10.0, -40.0]] {
         let task = Task {
             world_id: 1,
@@ -325,4 +297,13 @@ fn reaches_goals(
         let r2 = sim_core::run_episode(w, &task, spec, &mut again, cfg);
         assert_eq!(r.metrics, r2.metrics, "deterministic");
     }
+}
+
+/// Flat rigid ground of `cell`-metre cells.
+fn flat(cell: f64) -> World {
+    World::uniform(
+        Heightmap::from_fn(cell, |_, _| 0.0),
+        Semantic::Dirt,
+        Surface::Rigid { friction: 0.8 },
+    )
 }

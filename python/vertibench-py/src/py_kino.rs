@@ -20,6 +20,19 @@ fn bad(msg: String) -> PyErr {
     PyValueError::new_err(msg)
 }
 
+/// A kinodynamic weights file of either layout; a bad file raises ValueError saying what differs.
+pub(crate) fn load_model(path: &std::path::Path) -> PyResult<learned::kino::Dynamics> {
+    learned::kino::load(path).map_err(|e| bad(e.to_string()))
+}
+
+/// The error for a file of the other model layout, naming the class that reads it.
+pub(crate) fn other_layout(path: &std::path::Path, reader: &str) -> PyErr {
+    bad(format!(
+        "{}: a model of another layout: read it with {reader}",
+        path.display()
+    ))
+}
+
 fn rows<const N: usize>(
     name: &str,
     a: &numpy::ndarray::ArrayView2<'_, f64>,
@@ -242,12 +255,9 @@ impl KinoNet {
     /// Reads `path`; a file of another layout raises ValueError saying what differs.
     #[new]
     fn new(path: PathBuf) -> PyResult<Self> {
-        match learned::kino::load(&path).map_err(|e| bad(e.to_string()))? {
+        match load_model(&path)? {
             learned::kino::Dynamics::Crop(net) => Ok(KinoNet { net }),
-            learned::kino::Dynamics::Attention(_) => Err(bad(format!(
-                "{}: a terrain-attentive model (vertibench-tal-v1): read it with TalNet",
-                path.display()
-            ))),
+            _ => Err(other_layout(&path, "TalNet")),
         }
     }
 

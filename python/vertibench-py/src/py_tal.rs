@@ -19,12 +19,9 @@ impl TalNet {
     /// Reads `path`; a file of another layout raises ValueError saying what differs.
     #[new]
     fn new(path: PathBuf) -> PyResult<Self> {
-        match learned::kino::load(&path).map_err(|e| PyValueError::new_err(e.to_string()))? {
+        match crate::py_kino::load_model(&path)? {
             learned::kino::Dynamics::Attention(net) => Ok(TalNet { net }),
-            learned::kino::Dynamics::Crop(_) => Err(PyValueError::new_err(format!(
-                "{}: a crop model (vertibench-kino-v1): read it with KinoNet",
-                path.display()
-            ))),
+            _ => Err(crate::py_kino::other_layout(&path, "KinoNet")),
         }
     }
 

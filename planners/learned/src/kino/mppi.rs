@@ -9,10 +9,11 @@
 //! steps. Per sample and step: the knots give the steering and the target speed; the speed controller (at the model
 //! step's rate, on the speed the model predicted for the last step) gives throttle and brake; the model's inputs are
 //! made from the predicted pose ([`features`](super::features): its crop of the world, or its offset from the
-//! decision's map, the ground under it, the previous predicted change of pose); the members' mean moves the pose. Costs per step: `step_cost` (progress on the
-//! cost-to-go, local goal, roll and pitch) plus `uncertainty` times the members' summed standard deviation of the six
-//! scaled pose changes; entering an obstacle cell (inflated by half the vehicle's width) ends the rollout with 100,
-//! a predicted rollover (|roll| > 30 deg) or leaving the map with 200; reaching the goal ends it as in the oracle.
+//! decision's map, the ground under it, the previous predicted change of pose); the members' mean moves the pose.
+//! Costs per step: `step_cost` (progress on the cost-to-go, local goal, roll and pitch) plus `uncertainty` times the
+//! members' summed standard deviation of the six scaled pose changes; entering an obstacle cell (inflated by half
+//! the vehicle's width) ends the rollout with 100, a predicted rollover (|roll| > 30 deg) or leaving the map with
+//! 200; reaching the goal ends it as in the oracle.
 //! The model never saw reversing (its datasets drive forwards), so speed factors stay in [0, 1]. With
 //! [`Rollout::Decomposed`] (`wmvct`) x, y and yaw come from a kinematic bicycle instead, as WM-VCT decomposes the
 //! motion (the release's WMVCT does the same with TAL's network); the cost is the same.

@@ -17,17 +17,28 @@ TARGETS = len(_core.KINO_TARGETS)
 CODE = int(_core.KINO_CODE)
 
 
-class Encoder(nn.Module):
+class Convolutions(nn.Module):
+    """The two convolutions both layouts start with: ``[n, S, S] -> [n, 16 x s x s]`` (``s`` = 3 on the 16x16 crop,
+    7 on the 32x32 map)."""
+
     def __init__(self) -> None:
         super().__init__()
         self.conv1 = nn.Conv2d(1, 8, 3, stride=2)
         self.conv2 = nn.Conv2d(8, 16, 3, stride=2)
+
+    def forward(self, terrain: torch.Tensor) -> torch.Tensor:
+        return torch.relu(self.conv2(torch.relu(self.conv1(terrain.unsqueeze(1))))).flatten(1)
+
+
+class Encoder(Convolutions):
+    """The crop model's encoder: the convolutions, then a dense layer to the terrain code."""
+
+    def __init__(self) -> None:
+        super().__init__()
         self.code = nn.Linear(16 * 3 * 3, CODE)
 
     def forward(self, crop: torch.Tensor) -> torch.Tensor:
-        x = torch.relu(self.conv1(crop.unsqueeze(1)))
-        x = torch.relu(self.conv2(x))
-        return torch.relu(self.code(x.flatten(1)))
+        return torch.relu(self.code(super().forward(crop)))
 
 
 class Head(nn.Module):
@@ -41,45 +52,40 @@ class Head(nn.Module):
         return self.out(torch.tanh(self.fc2(torch.tanh(self.fc1(x)))))
 
 
-def _members(members: int) -> int:
-    if not 1 <= members <= 16:
-        raise ValueError(f"members={members} must be in 1..16")
-    return members
+class Ensemble(nn.Module):
+    """What both layouts end in: ``members`` heads on the terrain code and the vector features."""
 
+    layout: str
 
-class KinoModel(nn.Module):
-    """``forward(vec [n, 16], crop [n, 16, 16]) -> [n, members, 7]``."""
-
-    kind = "kino"
-    layout = str(_core.KINO_LAYOUT)
-
-    def __init__(self, members: int = 4, hidden: int = 64) -> None:
-        super().__init__()
-        self.enc = Encoder()
-        self.heads = nn.ModuleList(Head(hidden) for _ in range(_members(members)))
+    def _add_heads(self, members: int, hidden: int) -> None:
+        if not 1 <= members <= 16:
+            raise ValueError(f"members={members} must be in 1..16")
+        self.heads = nn.ModuleList(Head(hidden) for _ in range(members))
 
     @property
     def members(self) -> int:
         return len(self.heads)
 
+    def _predict(self, code: torch.Tensor, vec: torch.Tensor) -> torch.Tensor:
+        x = torch.cat([code, vec], dim=1)
+        return torch.stack([h(x) for h in self.heads], dim=1)
+
+
+class KinoModel(Ensemble):
+    """``forward(vec [n, 16], crop [n, 16, 16]) -> [n, members, 7]``."""
+
+    layout = str(_core.KINO_LAYOUT)
+
+    def __init__(self, members: int = 4, hidden: int = 64) -> None:
+        super().__init__()
+        self.enc = Encoder()
+        self._add_heads(members, hidden)
+
     def layout_metadata(self) -> dict[str, str]:
         return {"crop": str(_core.KINO_CROP_META)}
 
     def forward(self, vec: torch.Tensor, crop: torch.Tensor) -> torch.Tensor:
-        x = torch.cat([self.enc(crop), vec], dim=1)
-        return torch.stack([h(x) for h in self.heads], dim=1)
-
-
-class MapEncoder(nn.Module):
-    """The crop encoder's two convolutions on the 32x32 map: ``[n, 32, 32] -> [n, 784]``."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.conv1 = nn.Conv2d(1, 8, 3, stride=2)
-        self.conv2 = nn.Conv2d(8, 16, 3, stride=2)
-
-    def forward(self, m: torch.Tensor) -> torch.Tensor:
-        return torch.relu(self.conv2(torch.relu(self.conv1(m.unsqueeze(1))))).flatten(1)
+        return self._predict(self.enc(crop), vec)
 
 
 class Attention(nn.Module):
@@ -97,35 +103,29 @@ class Attention(nn.Module):
         return torch.relu(self.fuse(embedding * gate))
 
 
-class TalModel(nn.Module):
+class TalModel(Ensemble):
     """``forward(vec [n, 16], map [n, 32, 32], offset [n, 5]) -> [n, members, 7]``."""
 
-    kind = "tal"
     layout = str(_core.TAL_LAYOUT)
 
     def __init__(self, members: int = 4, hidden: int = 64) -> None:
         super().__init__()
-        self.enc = MapEncoder()
+        self.enc = Convolutions()
         self.att = Attention()
-        self.heads = nn.ModuleList(Head(hidden) for _ in range(_members(members)))
-
-    @property
-    def members(self) -> int:
-        return len(self.heads)
+        self._add_heads(members, hidden)
 
     def layout_metadata(self) -> dict[str, str]:
         return {"offsets": ",".join(_core.TAL_OFFSETS), "map": str(_core.TAL_MAP_META)}
 
     def forward(self, vec: torch.Tensor, map: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:
-        x = torch.cat([self.att(self.enc(map), offset), vec], dim=1)
-        return torch.stack([h(x) for h in self.heads], dim=1)
+        return self._predict(self.att(self.enc(map), offset), vec)
 
 
 #: The model kinds ``python -m vertibench.kino train --model`` offers.
 MODELS = {"kino": KinoModel, "tal": TalModel}
 
 
-def metadata(model: nn.Module, extra: dict[str, str]) -> dict[str, str]:
+def metadata(model: Ensemble, extra: dict[str, str]) -> dict[str, str]:
     """What a weights file records: the layout the Rust reader checks, then the card's entries."""
     meta = {
         "format": model.layout,
@@ -139,14 +139,14 @@ def metadata(model: nn.Module, extra: dict[str, str]) -> dict[str, str]:
     return meta
 
 
-def save(model: nn.Module, path, extra: dict[str, str]) -> None:
+def save(model: Ensemble, path, extra: dict[str, str]) -> None:
     from safetensors.torch import save_file
 
     tensors = {k: v.detach().float().contiguous().clone() for k, v in model.state_dict().items()}
     save_file(tensors, str(path), metadata=metadata(model, extra))
 
 
-def load(path) -> nn.Module:
+def load(path) -> Ensemble:
     from safetensors import safe_open
 
     with safe_open(str(path), framework="pt") as f:
