@@ -8,7 +8,7 @@ use crate::layout::{write_atomic, CARD, CARD_DIR};
 use crate::meta::{Layout, Totals, CODEBASE_VERSION, FORMAT};
 use crate::plot::{blank_tile, draw_paths, histogram_svg, outcome_colour, sheet, CardData, Tile};
 use crate::record::DatasetKind;
-use crate::spec::{DatasetSpec, Variant};
+use crate::spec::{DatasetSpec, SpeedProfile, Variant};
 use contracts::Outcome;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -159,6 +159,10 @@ fn readme(input: &CardInput, paths: bool) -> String {
         "# vertibench {kind} dataset ({variant})\n\n{}",
         describe(spec.kind)
     );
+    if spec.speed_profile == SpeedProfile::StopAndGo {
+        s += "\nStop-and-go speed profile: the commanded speed stops periodically, alternately braked and coasting \
+              (policy parameters `stop_go`, `stop_duration`, `stop_offset`).\n";
+    }
     if spec.analysis_only {
         s += "\n**For analysis only.** Made from the benchmark's own tasks (`--allow-benchmark-tasks`): never train a \
               system that is evaluated on the benchmark with it.\n";

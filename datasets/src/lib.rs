@@ -35,7 +35,7 @@ pub mod writer;
 
 pub use error::DatasetError;
 pub use record::{DatasetKind, EpisodeMeta, EpisodeRecord, FailureClass, FailureWindow, Frames};
-pub use spec::{CropSpec, DatasetSpec, Variant};
+pub use spec::{CropSpec, DatasetSpec, SpeedProfile, Variant};
 pub use summary::info;
 pub use validate::{validate, Problem, Report};
 pub use writer::{DatasetWriter, ResumePoint, Summary, WriterOptions};

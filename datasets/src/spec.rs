@@ -14,6 +14,25 @@ pub enum Variant {
     Full,
 }
 
+/// How a random exploration run's speed command varies within an episode.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpeedProfile {
+    /// The paper's: the commanded speed throughout (every dataset before this field existed).
+    #[default]
+    Constant,
+    /// The commanded speed with periodic stops, alternately braked and coasting, so the data holds a vehicle
+    /// standing, held or rolling back on slopes, and starting again (`generate::random::Stops`).
+    StopAndGo,
+}
+
+impl SpeedProfile {
+    /// The paper's profile (left out of `info.json`, so such datasets read as they did before the field).
+    pub fn is_constant(&self) -> bool {
+        *self == SpeedProfile::Constant
+    }
+}
+
 /// Heading-aligned map crops: `size x size` cells of `resolution` m.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CropSpec {
@@ -41,6 +60,9 @@ pub struct DatasetSpec {
     pub task_set_seed: Option<u64>,
     /// The run's seed: episode `i` draws from it and `i` alone.
     pub seed: u64,
+    /// Random exploration's speed command (`constant` for the other kinds).
+    #[serde(default, skip_serializing_if = "SpeedProfile::is_constant")]
+    pub speed_profile: SpeedProfile,
     /// True when made from the benchmark's own tasks (`--allow-benchmark-tasks`): for analysis, never for
     /// training a system evaluated on the benchmark.
     pub analysis_only: bool,

@@ -149,6 +149,7 @@ fn the_speed_loop_holds_2_mps_on_flat_rigid_ground() -> Result<()> {
             phase: 0.0,
             speed: 2.0,
         },
+        stops: None,
     };
     let rules = EpisodeConfig {
         max_time: 40.0,

@@ -5,7 +5,7 @@ use anyhow::Result;
 use datasets::generate::source::BENCHMARK_TASK_SET_VERSION;
 use datasets::generate::*;
 use datasets::record::{GOAL_FIELDS, STATE_FIELDS};
-use datasets::DatasetKind;
+use datasets::{DatasetKind, SpeedProfile};
 use sim_core::world::{Heightmap, Semantic, Surface, World};
 use tasks::TaskSet;
 
@@ -43,6 +43,14 @@ fn the_benchmark_set_is_refused_unless_allowed_and_then_marked() -> Result<()> {
     let s = spec(&cfg)?;
     assert!(!s.analysis_only && s.task_set_seed == Some(7) && s.wheels == 4 && s.seed == 11);
     assert!((s.control_rate_hz - 1.0 / PERIOD).abs() < 1e-9);
+    // The paper's profile is left out of info.json (datasets made before the field read the same); stop-and-go
+    // is written, and read back.
+    assert!(!serde_json::to_string(&s)?.contains("speed_profile"));
+    cfg.speed_profile = SpeedProfile::StopAndGo;
+    let s = spec(&cfg)?;
+    let json = serde_json::to_string(&s)?;
+    assert!(json.contains(r#""speed_profile":"stop_and_go""#), "{json}");
+    assert_eq!(serde_json::from_str::<datasets::DatasetSpec>(&json)?, s);
     Ok(())
 }
 
@@ -65,6 +73,10 @@ fn bad_options_are_refused_with_their_name() -> Result<()> {
     bad(&|c| c.crop_size = 0, "crop_size");
     bad(&|c| c.scale = Some(2.0), "scale");
     bad(&|c| c.vehicle = "tank".into(), "tank");
+    bad(
+        &|c| c.speed_profile = SpeedProfile::StopAndGo,
+        "speed_profile",
+    );
     let cfg = config(DatasetKind::Failures, 1.0);
     let (mut a, mut b) = (Vec::new(), Vec::new());
     let e = run(&cfg, &Resume::default(), &mut a, Some(&mut b), &|_| {}).expect_err("refused");

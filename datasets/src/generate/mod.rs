@@ -3,7 +3,8 @@
 //!
 //! - `random`: the paper's random exploration. Episode `i` drives world `i mod n` (so every kind of ground is
 //!   covered) from a start drawn uniformly over the world's free area, in a uniformly drawn heading, with sinusoidal
-//!   steering and a commanded 2 m/s through the baselines' speed loop ([`random`]). Every episode is kept, whatever
+//!   steering and a commanded 2 m/s through the baselines' speed loop ([`random`]); with
+//!   [`SpeedProfile::StopAndGo`] that command stops periodically, braked or coasting. Every episode is kept, whatever
 //!   its end (rollover, stuck, off map, time limit, or success if it happens to reach its goal).
 //! - `expert`: successful episodes of a built-in planner (default `pid`): first the task set's tasks, then start/goal
 //!   pairs drawn on the same worlds the way the task generator draws them ([`expert`]).
@@ -33,7 +34,7 @@ pub use plan::{contact_count, failures_spec, spec};
 pub use run::run;
 
 use crate::record::{DatasetKind, EpisodeMeta, EpisodeRecord};
-use crate::spec::Variant;
+use crate::spec::{SpeedProfile, Variant};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
@@ -79,6 +80,8 @@ pub struct GenerateConfig {
     /// Built-in planners: `expert` drives with the one given (default `pid`); `failures` scans the evaluation
     /// runs of each (default `pid`, `eh`); `random` uses none.
     pub planners: Vec<String>,
+    /// Random exploration's speed command: the paper's constant one, or with stops ([`random::Stops`]).
+    pub speed_profile: SpeedProfile,
     /// Accept the benchmark's own task set, for an analysis-only dataset (`DatasetSpec::analysis_only`).
     pub allow_benchmark_tasks: bool,
     /// Worker threads (0: one per core).
@@ -112,6 +115,7 @@ impl GenerateConfig {
             crop_resolution: None,
             max_time: DEFAULT_MAX_TIME,
             planners,
+            speed_profile: SpeedProfile::Constant,
             allow_benchmark_tasks: false,
             threads: 0,
         }

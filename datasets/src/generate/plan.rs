@@ -52,6 +52,15 @@ pub(crate) fn check(cfg: &GenerateConfig) -> Result<(), GenerateError> {
             format!("{} s must be in (0, 3600]", cfg.max_time),
         ));
     }
+    if cfg.kind != DatasetKind::Random && !cfg.speed_profile.is_constant() {
+        return Err(bad(
+            "speed_profile",
+            format!(
+                "{:?} applies to random exploration only (a {:?} run's speeds are its planners')",
+                cfg.speed_profile, cfg.kind
+            ),
+        ));
+    }
     let names = || cfg.planners.join(", ");
     match cfg.kind {
         DatasetKind::Random if !cfg.planners.is_empty() => {
@@ -145,6 +154,7 @@ pub fn make_spec(
         task_set_version: set.version().to_string(),
         task_set_seed: set.manifest.seed,
         seed: cfg.seed,
+        speed_profile: cfg.speed_profile,
         // Only a set the training check refuses makes an analysis-only dataset (the flag alone does not).
         analysis_only: check_training_set(set).is_err(),
     }

@@ -12,11 +12,19 @@
 //! - the sinusoid ([`Sinusoid::draw`]): amplitude A ~ U([`AMPLITUDE`]), period T ~ U([`PERIOD_S`]) s and phase
 //!   phi ~ U(0, 2 pi); steering `A sin(2 pi t / T + phi)` at the observation's time `t`.
 //!
-//! The speed command is [`SPEED`] m/s through the baselines' speed loop ([`baselines::SpeedControl`]). On scaled
-//! worlds speeds and times follow Froude similitude: the speed and the period are multiplied by `sqrt(scale)`.
+//! - with [`SpeedProfile::StopAndGo`] only, last, the stops ([`Stops::draw`]).
+//!
+//! The speed command is [`SPEED`] m/s through the baselines' speed loop ([`baselines::SpeedControl`]). With stops,
+//! every `go + stop` seconds the driver stops for `stop` seconds: full brake in even-numbered stops, throttle and
+//! brake released in odd ones (so the vehicle is held, or rolls back, on whatever slope it stands), then starts
+//! again from the speed loop's initial state. The paper's constant speed never stands the vehicle still with the
+//! throttle off, so a model trained on it alone cannot know what braking or a stop does on a slope. On scaled
+//! worlds speeds and times follow Froude similitude: the speed, the period and the stop times are multiplied by
+//! `sqrt(scale)`.
 //! The episode ends on rollover, stuck, off map, success or the run's time limit; every episode is kept.
 
 use super::recorder::{drive, Recorded};
+use crate::spec::SpeedProfile;
 use baselines::SpeedControl;
 use rand::Rng;
 use sim_core::episode::EpisodeConfig;
@@ -43,6 +51,13 @@ pub const EDGE_MARGIN: f64 = 10.0;
 pub const GOAL_EDGE_MARGIN: f64 = 4.0;
 /// Clearance between the vehicle's footprint circle and an obstacle at a start, full-scale m.
 pub const OBSTACLE_CLEARANCE: f64 = 1.0;
+/// Range of the driving time between stops at full scale, s (at least 8 m at 2 m/s, so a stop never makes the
+/// default stuck rule's 1 m in 10 s fire by itself).
+pub const GO_S: [f64; 2] = [5.0, 12.0];
+/// Range of a stop's duration at full scale, s.
+pub const STOP_S: [f64; 2] = [1.5, 4.0];
+/// Brake in a braked stop (the speed loop's full brake).
+pub const STOP_BRAKE: f64 = 0.5;
 /// Tries for a start or a goal.
 pub const DRAWS: usize = 1000;
 
@@ -86,19 +101,70 @@ impl Sinusoid {
     }
 }
 
+/// One episode's stops: after `offset` seconds of a first `go`, and then every `go + stop` seconds, `stop` seconds
+/// without throttle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stops {
+    /// Driving time between stops, s.
+    pub go: f64,
+    /// Duration of a stop, s.
+    pub stop: f64,
+    /// Time already driven at the episode's start, s, in `[0, go)`: the first stop comes after `go - offset`.
+    pub offset: f64,
+}
+
+/// What the driver does at one time of a stop-and-go episode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    Go,
+    /// A stop with full brake.
+    Brake,
+    /// A stop with throttle and brake released.
+    Coast,
+}
+
+impl Stops {
+    /// Draws go, stop and offset for a world of scale `scale`.
+    pub fn draw(rng: &mut impl Rng, scale: f64) -> Stops {
+        let time = scale.sqrt();
+        let go = rng.gen_range(GO_S[0]..GO_S[1]) * time;
+        Stops {
+            go,
+            stop: rng.gen_range(STOP_S[0]..STOP_S[1]) * time,
+            offset: rng.gen_range(0.0..go),
+        }
+    }
+
+    /// The phase at time `t` (s since the episode's start): stops are numbered from 0, even ones braked.
+    pub fn phase(&self, t: f64) -> Phase {
+        let cycle = self.go + self.stop;
+        let u = t.max(0.0) + self.offset;
+        let k = (u / cycle).floor();
+        if u - k * cycle < self.go {
+            Phase::Go
+        } else if (k as u64) % 2 == 0 {
+            Phase::Brake
+        } else {
+            Phase::Coast
+        }
+    }
+}
+
 /// The random exploration's driver, a [`Planner`]: steering from its [`Sinusoid`] at the observation's time,
 /// throttle and brake from the baselines' speed loop to the sinusoid's speed.
 #[derive(Clone, Debug)]
 pub struct SinusoidDriver {
     sinusoid: Sinusoid,
+    stops: Option<Stops>,
     rate_hz: f64,
     speed: SpeedControl,
 }
 
 impl SinusoidDriver {
-    pub fn new(sinusoid: Sinusoid, rate_hz: f64) -> Self {
+    pub fn new(sinusoid: Sinusoid, stops: Option<Stops>, rate_hz: f64) -> Self {
         SinusoidDriver {
             sinusoid,
+            stops,
             rate_hz,
             speed: SpeedControl::new(sinusoid.speed, rate_hz),
         }
@@ -117,9 +183,19 @@ impl Planner for SinusoidDriver {
         Ok(())
     }
     fn act(&mut self, obs: &Observation) -> Result<Action, PlannerError> {
-        let (throttle, brake) = self.speed.command(obs.state.speed);
+        let t = obs.state.time;
+        let phase = self.stops.map_or(Phase::Go, |s| s.phase(t));
+        if phase != Phase::Go {
+            // Each start begins from the speed loop's initial state.
+            self.speed = SpeedControl::new(self.sinusoid.speed, self.rate_hz);
+        }
+        let (throttle, brake) = match phase {
+            Phase::Go => self.speed.command(obs.state.speed),
+            Phase::Brake => (0.0, STOP_BRAKE),
+            Phase::Coast => (0.0, 0.0),
+        };
         Ok(Action {
-            steering: self.sinusoid.steering(obs.state.time).clamp(-1.0, 1.0),
+            steering: self.sinusoid.steering(t).clamp(-1.0, 1.0),
             throttle,
             brake,
         })
@@ -177,19 +253,45 @@ pub struct RandomStart {
     pub start: [f64; 3],
     pub goal: [f64; 2],
     pub sinusoid: Sinusoid,
+    /// With [`SpeedProfile::StopAndGo`].
+    pub stops: Option<Stops>,
 }
 
-/// Draws a random episode on `world` (start, heading, goal, sinusoid, in that order); `None` when no free start
-/// was found.
-pub fn draw(world: &World, vehicle: &VehicleInfo, rng: &mut impl Rng) -> Option<RandomStart> {
+impl RandomStart {
+    /// The `policy_params` of its episode: the sinusoid's, and with stops `stop_go`, `stop_duration` and
+    /// `stop_offset` (s).
+    pub fn params(&self) -> BTreeMap<String, f64> {
+        let mut p = self.sinusoid.params();
+        if let Some(s) = self.stops {
+            p.insert("stop_go".into(), s.go);
+            p.insert("stop_duration".into(), s.stop);
+            p.insert("stop_offset".into(), s.offset);
+        }
+        p
+    }
+}
+
+/// Draws a random episode on `world` (start, heading, goal, sinusoid, and with `profile`'s stops those, in that
+/// order); `None` when no free start was found.
+pub fn draw(
+    world: &World,
+    vehicle: &VehicleInfo,
+    profile: SpeedProfile,
+    rng: &mut impl Rng,
+) -> Option<RandomStart> {
     let p = draw_start(world, vehicle, rng)?;
     let yaw = rng.gen_range(-PI..PI);
     let goal = draw_goal(world, p, rng);
     let sinusoid = Sinusoid::draw(rng, world.scale);
+    let stops = match profile {
+        SpeedProfile::Constant => None,
+        SpeedProfile::StopAndGo => Some(Stops::draw(rng, world.scale)),
+    };
     Some(RandomStart {
         start: [p[0], p[1], yaw],
         goal,
         sinusoid,
+        stops,
     })
 }
 
@@ -211,6 +313,6 @@ pub fn drive_sinusoid(
         path: vec![[at.start[0], at.start[1]], at.goal],
     };
     let run = EpisodeRun::new_heading(world.clone(), &task, vehicle, rules, at.start[2]);
-    let mut driver = SinusoidDriver::new(at.sinusoid, rate_hz);
+    let mut driver = SinusoidDriver::new(at.sinusoid, at.stops, rate_hz);
     drive(run, &mut driver, world, &task, crop, rules.max_time)
 }

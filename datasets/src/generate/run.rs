@@ -105,23 +105,24 @@ fn episode(ctx: &Ctx<'_>, i: u64) -> Result<Output, GenerateError> {
     match cfg.kind {
         DatasetKind::Random => {
             let world = &src.worlds[(i % src.worlds.len() as u64) as usize].world;
-            let at = draw(world, &src.vehicle.info(), &mut rng).ok_or_else(|| {
-                GenerateError::Episode {
-                    index: i,
-                    message: format!(
-                        "world {}: no free start in {} draws",
-                        world.id,
-                        random::DRAWS
-                    ),
-                }
-            })?;
+            let at =
+                draw(world, &src.vehicle.info(), cfg.speed_profile, &mut rng).ok_or_else(|| {
+                    GenerateError::Episode {
+                        index: i,
+                        message: format!(
+                            "world {}: no free start in {} draws",
+                            world.id,
+                            random::DRAWS
+                        ),
+                    }
+                })?;
             let rules = EpisodeConfig {
                 max_time: cfg.max_time,
                 ..EpisodeConfig::default()
             };
             let crop = ctx.plan.record_crop.as_ref();
             let rec = drive_sinusoid(world, &src.vehicle, &at, &rules, cfg.control_rate_hz, crop);
-            let params = at.sinusoid.params();
+            let params = at.params();
             let main = record(
                 cfg.kind, world, None, at.start, at.goal, "sinusoid", params, seed, rec,
             );

@@ -4,7 +4,7 @@
 use contracts::{ElevationLevel, EndReason, ObstacleDensity, Outcome, SemanticsKind, TaskId};
 use datasets::{
     CropSpec, DatasetKind, DatasetSpec, EpisodeMeta, EpisodeRecord, FailureClass, FailureWindow,
-    Frames, Variant, WriterOptions,
+    Frames, SpeedProfile, Variant, WriterOptions,
 };
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -28,6 +28,7 @@ pub fn spec(kind: DatasetKind, variant: Variant) -> DatasetSpec {
         task_set_version: "test-set".into(),
         task_set_seed: Some(7),
         seed: 42,
+        speed_profile: SpeedProfile::Constant,
         analysis_only: false,
     }
 }

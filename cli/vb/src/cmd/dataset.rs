@@ -2,7 +2,7 @@
 //! layout, and check or summarise one.
 
 use datasets::generate::GenerateConfig;
-use datasets::{DatasetKind, Variant};
+use datasets::{DatasetKind, SpeedProfile, Variant};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -17,6 +17,12 @@ pub enum Kind {
 pub enum VariantArg {
     Lite,
     Full,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum ProfileArg {
+    Constant,
+    StopAndGo,
 }
 
 #[derive(clap::Subcommand)]
@@ -61,6 +67,10 @@ pub enum DatasetCmd {
         /// Time limit of a random episode, s.
         #[arg(long, default_value_t = datasets::generate::DEFAULT_MAX_TIME)]
         max_time: f64,
+        /// Random exploration's speed command: constant (the paper's 2 m/s) or stop-and-go (periodic stops,
+        /// alternately braked and coasting, so the data holds standing and starting on slopes).
+        #[arg(long, value_enum, default_value = "constant")]
+        speed_profile: ProfileArg,
         /// Built-in planners (expert: one, default pid; failures: default pid,eh).
         #[arg(long, value_delimiter = ',')]
         planners: Vec<String>,
@@ -93,6 +103,7 @@ pub fn run(cmd: DatasetCmd) -> anyhow::Result<()> {
             crop_size,
             crop_resolution,
             max_time,
+            speed_profile,
             planners,
             allow_benchmark_tasks,
             threads,
@@ -114,6 +125,10 @@ pub fn run(cmd: DatasetCmd) -> anyhow::Result<()> {
             cfg.crop_size = crop_size;
             cfg.crop_resolution = crop_resolution;
             cfg.max_time = max_time;
+            cfg.speed_profile = match speed_profile {
+                ProfileArg::Constant => SpeedProfile::Constant,
+                ProfileArg::StopAndGo => SpeedProfile::StopAndGo,
+            };
             if !planners.is_empty() {
                 cfg.planners = planners;
             }

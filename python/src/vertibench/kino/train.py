@@ -74,7 +74,9 @@ def load_samples(spec: TrainSpec) -> tuple[kd.Samples, dict]:
         s.episode = s.episode + (int(parts[-1].episode.max()) + 1 if parts else 0)
         parts.append(s)
         about["sets"].append({"path": str(d), "kind": ds_spec["kind"], "episodes": len(eps), "samples": len(s),
-                              "seed": ds_spec["seed"], "task_set_version": ds_spec["task_set_version"],
+                              "seed": ds_spec["seed"],
+                              "speed_profile": ds_spec.get("speed_profile", "constant"),
+                              "task_set_version": ds_spec["task_set_version"],
                               "sim_version": ds_spec["sim_version"]})
     about.update(vehicle=key[0], scale=key[1], task_set_version=key[2], sim_version=key[3],
                  target_factors=list(maker.target_factors), vehicle_facts=dict(maker.vehicle))

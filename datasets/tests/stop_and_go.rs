@@ -1,0 +1,143 @@
+//! Random exploration's stop-and-go profile: what the stops do on a grade (braked: held; coasting: rolling back at
+//! the grade's acceleration) and that the profile's draws come after the paper's (`generate_rules.rs`: only random
+//! runs take it).
+
+use anyhow::Result;
+use datasets::generate::random::{draw, drive_sinusoid, Phase, RandomStart, Sinusoid, Stops};
+use datasets::SpeedProfile;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use sim_core::episode::EpisodeConfig;
+use sim_core::vehicle::vehicle_by_name;
+use sim_core::world::{Heightmap, Semantic, Surface, World};
+use std::sync::Arc;
+
+/// Grade of the test plane, deg: rising along +x.
+const GRADE_DEG: f64 = 8.0;
+const G: f64 = 9.81;
+
+#[test]
+fn braked_stops_hold_the_vehicle_and_coasting_ones_roll_it_back_down_the_grade() -> Result<()> {
+    let tan = GRADE_DEG.to_radians().tan();
+    let world = Arc::new(World::uniform(
+        Heightmap::from_fn(1.0, |x, _| x * tan),
+        Semantic::Dirt,
+        Surface::Rigid { friction: 0.8 },
+    ));
+    let stops = Stops {
+        go: 8.0,
+        stop: 4.0,
+        offset: 0.0,
+    };
+    let at = RandomStart {
+        start: [-50.0, 0.0, 0.0],
+        goal: [10.0, 0.0],
+        sinusoid: Sinusoid {
+            amplitude: 0.0,
+            period: 6.0,
+            phase: 0.0,
+            speed: 2.0,
+        },
+        stops: Some(stops),
+    };
+    let rules = EpisodeConfig {
+        max_time: 36.0,
+        ..EpisodeConfig::default()
+    };
+    let rec = drive_sinusoid(&world, &vehicle_by_name("hmmwv")?, &at, &rules, 20.0, None);
+    // Frames by phase: (time, forward speed, throttle, brake).
+    let frames: Vec<(f64, f64, f32, f32)> = rec
+        .frames
+        .state
+        .iter()
+        .zip(&rec.frames.action)
+        .map(|(s, a)| (s[14], s[12], a[1], a[2]))
+        .collect();
+    assert!(
+        frames.last().is_some_and(|f| f.0 > 35.0),
+        "episode ended early: {:?}",
+        rec.outcome
+    );
+    let (mut braked, mut coasting) = (0, 0);
+    for k in 0..3u32 {
+        // Stop k spans [8 + 12 k, 12 + 12 k).
+        let t0 = 8.0 + 12.0 * f64::from(k);
+        let in_stop: Vec<_> = frames
+            .iter()
+            .filter(|f| f.0 >= t0 + 0.05 && f.0 < t0 + 3.95)
+            .collect();
+        let phase = stops.phase(t0 + 1.0);
+        assert!(in_stop.iter().all(|f| f.2 == 0.0), "throttle in stop {k}");
+        match phase {
+            Phase::Brake => {
+                braked += 1;
+                assert!(in_stop.iter().all(|f| f.3 == 0.5));
+                // Textbook: a braked wheel on dry ground (friction 0.8) holds an 8 deg grade (tan 0.14).
+                let end = in_stop.iter().filter(|f| f.0 >= t0 + 2.0);
+                for f in end {
+                    assert!(
+                        f.1.abs() < 0.05,
+                        "braked stop {k}: {} m/s at {} s",
+                        f.1,
+                        f.0
+                    );
+                }
+            }
+            Phase::Coast => {
+                coasting += 1;
+                assert!(in_stop.iter().all(|f| f.3 == 0.0));
+                // Textbook (Wong, Theory of Ground Vehicles, 3.1): a free-rolling vehicle accelerates down the grade
+                // at g (sin(grade) - f cos(grade)); a tyre's rolling resistance f on hard ground is 0 to 0.03, so
+                // over the stop's last 2 s it rolls back at 0.78 to 1.0 g sin(grade).
+                let at_t = |t: f64| {
+                    frames
+                        .iter()
+                        .find(|f| f.0 >= t)
+                        .map(|f| f.1)
+                        .unwrap_or(f64::NAN)
+                };
+                let a = (at_t(t0 + 3.9) - at_t(t0 + 1.9)) / 2.0;
+                let g_sin = G * GRADE_DEG.to_radians().sin();
+                eprintln!("coasting stop {k}: {a:.3} m/s^2 against -{g_sin:.3}");
+                assert!(at_t(t0 + 3.9) < -0.5, "coasting stop {k} did not roll back");
+                assert!((-1.0 * g_sin..=-0.78 * g_sin).contains(&a), "{a} m/s^2");
+            }
+            Phase::Go => panic!("stop {k} is not a stop"),
+        }
+    }
+    assert_eq!((braked, coasting), (2, 1));
+    Ok(())
+}
+
+#[test]
+fn stops_are_drawn_after_the_papers_draws_so_those_stay_the_same() -> Result<()> {
+    let world = World::uniform(
+        Heightmap::from_fn(1.0, |_, _| 0.0),
+        Semantic::Dirt,
+        Surface::Rigid { friction: 0.8 },
+    );
+    let info = vehicle_by_name("hmmwv")?.info();
+    for seed in 0..20 {
+        let c = draw(
+            &world,
+            &info,
+            SpeedProfile::Constant,
+            &mut ChaCha8Rng::seed_from_u64(seed),
+        );
+        let s = draw(
+            &world,
+            &info,
+            SpeedProfile::StopAndGo,
+            &mut ChaCha8Rng::seed_from_u64(seed),
+        );
+        let (c, s) = (c.expect("free start"), s.expect("free start"));
+        assert_eq!((c.start, c.goal, c.sinusoid), (s.start, s.goal, s.sinusoid));
+        assert!(c.stops.is_none());
+        let st = s.stops.expect("stops drawn");
+        assert!((5.0..12.0).contains(&st.go) && (1.5..4.0).contains(&st.stop) && st.offset < st.go);
+        assert_eq!(st.phase(0.0), Phase::Go);
+        let p = s.params();
+        assert_eq!((p["stop_go"], p["stop_duration"]), (st.go, st.stop));
+    }
+    Ok(())
+}
