@@ -142,7 +142,7 @@ impl Stops {
         let k = (u / cycle).floor();
         if u - k * cycle < self.go {
             Phase::Go
-        } else if (k as u64) % 2 == 0 {
+        } else if (k as u64).is_multiple_of(2) {
             Phase::Brake
         } else {
             Phase::Coast
