@@ -20,10 +20,16 @@ GROUNDS = ("rigid", "mud", "sand", "snow")
 ERRORS = ("position_m", "z_m", "roll_deg", "pitch_deg", "yaw_deg")
 
 
+def _kind(d: dict) -> str:
+    """A dataset's kind, with a random one's speed profile when it is not the paper's constant one."""
+    profile = d.get("speed_profile", "constant")
+    return d["kind"] if profile == "constant" else f"{d['kind']} ({profile.replace('_', '-')})"
+
+
 def write_card(card: dict, path: Path) -> None:
     lines = [f"# {card['name']}: learned kinodynamic model ({card.get('layout', 'vertibench-kino-v1')})", "",
              f"- command: `{card['command']}`",
-             f"- data: " + "; ".join(f"{d['kind']} {d['episodes']} episodes, {d['samples']} samples (seed "
+             f"- data: " + "; ".join(f"{_kind(d)} {d['episodes']} episodes, {d['samples']} samples (seed "
                                      f"{d['seed']})" for d in card["data"]),
              f"- task set version {card['task_set_version']} (training worlds only; worlds 9 mod 10 held out), "
              f"simulator {card['sim_version']}, vehicle {card['vehicle']} at scale {card['scale']}",
