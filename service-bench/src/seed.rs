@@ -36,18 +36,16 @@ pub async fn seed(
             0.1 * (t * 0.9).sin()
         );
     }
-    let metrics = serde_json::to_string(&contracts::EpisodeMetrics {
+    let metrics = contracts::EpisodeMetrics {
         time: 42.0,
         path_length: 80.0,
         ..Default::default()
-    })
-    .unwrap_or_default();
+    };
     let worker = store
         .register_worker("bench", 256, "bench", "bench-token", 0.0)
         .await?;
-    let outcomes = [
-        "success", "stuck", "success", "rollover", "timeout", "success",
-    ];
+    use contracts::Outcome::{Rollover, Stuck, Success, Timeout};
+    let outcomes = [Success, Stuck, Success, Rollover, Timeout, Success];
     let mut ids = Vec::new();
     for s in 0..submissions {
         let sub = NewSubmission {
@@ -79,10 +77,10 @@ pub async fn seed(
                     lease_id: l.lease_id,
                     submission_id: l.submission.id,
                     task_id: l.task_id,
-                    outcome: outcome.into(),
-                    reason: outcome.into(),
+                    outcome: contracts::RecordedOutcome::Episode(outcome),
+                    reason: contracts::RecordedOutcome::Episode(outcome).plain_reason(),
                     detail: String::new(),
-                    metrics_json: metrics.clone(),
+                    metrics: Some(metrics.clone()),
                     trajectory_csv: trajectory.clone(),
                     trajectory_gz: None,
                     planner_log: "planner: ready\n".into(),

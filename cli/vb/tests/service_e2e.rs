@@ -135,6 +135,18 @@ async fn workers_die_and_the_coordinator_restarts_yet_every_task_has_exactly_one
     ] {
         assert!(!text.contains(&command), "{what} shows the command line");
     }
+    // Episodes come typed: a reason by its name, metrics as an object (not the stored JSON text).
+    let eps: serde_json::Value = serde_json::from_str(&episodes_api)?;
+    let eps = eps.as_array().expect("an array of episodes");
+    assert_eq!(eps.len(), 20);
+    for e in eps {
+        let reason = e["reason"].as_str().expect("a reason");
+        assert!(contracts::EndReason::parse(reason).is_ok(), "{reason}");
+        assert!(
+            e["metrics"]["time"].as_f64().is_some_and(|t| t > 0.0),
+            "{e}"
+        );
+    }
     let api: serde_json::Value = serde_json::from_str(&api_text)?;
     assert_eq!(api["progress"]["finished"], 20);
     assert_eq!(api["summary"]["overall"]["episodes"], 20);

@@ -78,14 +78,11 @@ pub fn status(s: &Submission, p: &Progress, throughput_per_s: Option<f64>) -> pb
     }
 }
 
-/// An episode as the results API returns it; `terrain`: its world's terrain group in the task set. A stored value
-/// that names nothing (a corrupt row) is an internal error.
-pub fn result_row(e: &EpisodeRecord, terrain: Option<u32>) -> Result<pb::EpisodeResultRow, Status> {
-    let internal = |e: vb_store::StoreError| vb_proto::status(&e);
-    let reason = e.end_reason().map_err(internal)?;
-    let metrics = e.metrics().map_err(internal)?;
-    Ok(pb::EpisodeResultRow {
-        task_id: e.task_id.clone(),
+/// An episode as the results API returns it; `terrain`: its world's terrain group in the task set (a corrupt
+/// stored value already failed the store's read).
+pub fn result_row(e: &EpisodeRecord, terrain: Option<u32>) -> pb::EpisodeResultRow {
+    pb::EpisodeResultRow {
+        task_id: e.task_id.to_string(),
         world_id: e.world_id,
         task_index: e.task_index,
         level: e.level.wire(),
@@ -93,15 +90,15 @@ pub fn result_row(e: &EpisodeRecord, terrain: Option<u32>) -> Result<pb::Episode
         density: e.density.wire(),
         state: e.state.wire(),
         outcome: e.outcome.map(ProtoEnum::wire),
-        reason: reason.map(ProtoEnum::wire),
+        reason: e.reason.map(ProtoEnum::wire),
         detail: e.detail.clone().unwrap_or_default(),
-        metrics: metrics.map(pb::Metrics::from),
+        metrics: e.metrics.clone().map(pb::Metrics::from),
         wall_time_s: e.wall_time_s.unwrap_or(0.0),
         attempts: e.attempts.max(0) as u32,
         planner_identity: e.planner_identity.clone().unwrap_or_default(),
         sim_version: e.sim_version.clone().unwrap_or_default(),
         terrain,
-    })
+    }
 }
 
 fn truncate(s: &str, max: usize) -> String {
@@ -124,12 +121,6 @@ pub fn report(
 ) -> Result<EpisodeResultIn, Status> {
     let outcome = RecordedOutcome::from_wire(r.outcome)?;
     let reason = EndReason::from_wire(r.reason)?;
-    // Stored as the JSON it always was (the leaderboard and the aggregates read that).
-    let metrics_json = match &r.metrics {
-        None => String::new(),
-        Some(m) => serde_json::to_string(&EpisodeMetrics::from(*m))
-            .map_err(|e| Status::invalid_argument(format!("metrics: {e}")))?,
-    };
     // Checked (size, codec) but stored as the worker compressed it.
     let mut trajectory = String::new();
     if !r.trajectory.is_empty() {
@@ -141,10 +132,10 @@ pub fn report(
         lease_id: r.lease_id.clone(),
         submission_id: r.submission_id.clone(),
         task_id: r.task_id.clone(),
-        outcome: outcome.as_str().into(),
-        reason: reason.as_str().into(),
+        outcome,
+        reason,
         detail: truncate(&r.detail, 16 << 10),
-        metrics_json,
+        metrics: r.metrics.map(EpisodeMetrics::from),
         trajectory_csv: String::new(),
         trajectory_gz: (!r.trajectory.is_empty()).then(|| r.trajectory.clone()),
         planner_log: truncate(&r.planner_log, max_log),
@@ -186,10 +177,10 @@ mod tests {
         m
     }
 
-    /// A report's metrics are stored as the JSON the worker used to send (stored rows are unchanged), and the
-    /// results row gives back the same values, bit for bit.
+    /// A report's values are taken typed, and the results row gives back the same values, bit for bit (the store's
+    /// tests check the stored text is as before).
     #[test]
-    fn a_report_is_stored_as_before_and_read_back_typed() {
+    fn a_report_is_taken_typed_and_read_back_the_same() {
         let m = metrics();
         let r = pb::EpisodeReport {
             outcome: pb::Outcome::Timeout.into(),
@@ -199,13 +190,16 @@ mod tests {
         };
         let stored = report(&r, 1024, 1024).unwrap();
         assert_eq!(
-            (stored.outcome.as_str(), stored.reason.as_str()),
-            ("timeout", "timeout")
+            (stored.outcome, stored.reason),
+            (
+                RecordedOutcome::Episode(Outcome::Timeout),
+                EndReason::Timeout
+            )
         );
-        assert_eq!(stored.metrics_json, serde_json::to_string(&m).unwrap());
+        assert_eq!(format!("{:?}", stored.metrics), format!("{:?}", Some(&m)));
         let rec = EpisodeRecord {
             submission_id: "s1".into(),
-            task_id: "w001-t2".into(),
+            task_id: "w001-t2".parse().unwrap(),
             world_id: 1,
             task_index: 2,
             level: ElevationLevel::High,
@@ -216,13 +210,13 @@ mod tests {
             outcome: Some(RecordedOutcome::Episode(Outcome::Timeout)),
             reason: Some(stored.reason),
             detail: None,
-            metrics_json: Some(stored.metrics_json),
+            metrics: stored.metrics,
             sim_version: None,
             planner_identity: None,
             wall_time_s: Some(1.5),
             finished_at: None,
         };
-        let row = result_row(&rec, Some(3)).unwrap();
+        let row = result_row(&rec, Some(3));
         assert_eq!(
             (row.level(), row.semantics(), row.density(), row.state()),
             (
@@ -244,18 +238,11 @@ mod tests {
             state: EpisodeState::Queued,
             outcome: None,
             reason: None,
-            metrics_json: None,
-            ..rec.clone()
-        };
-        let row = result_row(&queued, None).unwrap();
-        assert_eq!((row.outcome, row.reason, row.metrics), (None, None, None));
-        // A corrupt stored value is the service's fault.
-        let corrupt = EpisodeRecord {
-            reason: Some("exploded".into()),
+            metrics: None,
             ..rec
         };
-        let e = result_row(&corrupt, None).unwrap_err();
-        assert_eq!(e.code(), tonic::Code::Internal, "{e}");
+        let row = result_row(&queued, None);
+        assert_eq!((row.outcome, row.reason, row.metrics), (None, None, None));
     }
 
     #[test]

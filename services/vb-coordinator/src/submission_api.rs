@@ -125,7 +125,7 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
                     let terrain = worlds.get(&e.world_id).and_then(|w| w.terrain);
                     convert::result_row(e, terrain)
                 })
-                .collect::<Result<_, _>>()?,
+                .collect(),
         }))
     }
 

@@ -1,5 +1,5 @@
-//! Markup injected through every user-controlled field (submission name, owner, planner command, reason, detail,
-//! planner log, identity) comes out escaped on every HTML page, in every SVG and in the static leaderboard; the JSON
+//! Markup injected through every user-controlled field (submission name, owner, planner command, detail, planner
+//! log, identity; a reason is one of `EndReason`'s names) comes out escaped on every HTML page, in every SVG and in the static leaderboard; the JSON
 //! API serves it as JSON that browsers may not sniff; every response carries the Content-Security-Policy.
 
 mod common;
@@ -64,15 +64,14 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
     let id = store.create_submission(&sub, &[episode], 0.0).await?;
     let w = store.register_worker("w", 1, "s", "tw", 0.0).await?;
     let lease = store.lease(&w, 1, 30.0, true, 1.0).await?.remove(0);
-    let metrics = serde_json::to_string(&contracts::EpisodeMetrics::default())?;
     let r = EpisodeResultIn {
         lease_id: lease.lease_id.clone(),
         submission_id: id.clone(),
         task_id: "w001-t0".into(),
-        outcome: "planner_failure".into(),
-        reason: EVIL.into(),
+        outcome: contracts::RecordedOutcome::Episode(contracts::Outcome::PlannerFailure),
+        reason: contracts::EndReason::PlannerCrash,
         detail: EVIL.into(),
-        metrics_json: metrics,
+        metrics: Some(contracts::EpisodeMetrics::default()),
         trajectory_csv: format!("{}\n", contracts::trajectory::CSV_HEADER),
         trajectory_gz: None,
         planner_log: format!("{EVIL} {LOG_SECRET}"),

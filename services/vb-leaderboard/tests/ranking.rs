@@ -12,7 +12,7 @@ async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
     std::fs::create_dir_all(&dir)?;
     let store = Store::open(&format!("sqlite://{}", dir.join("vb.db").display())).await?;
     let (set, served) = common::committed()?;
-    let metrics = serde_json::to_string(&contracts::EpisodeMetrics::default())?;
+    let metrics = contracts::EpisodeMetrics::default();
     let w = store.register_worker("w", 64, "s", "tw", 0.0).await?;
     // A full run with some failures, a 2-task run that succeeded on both, and a full run on another simulator
     // that succeeded everywhere.
@@ -60,20 +60,25 @@ async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
             }
             for l in leases {
                 let outcome = if k % succeed_every == 0 {
-                    "success"
+                    contracts::Outcome::Success
                 } else {
-                    "stuck"
+                    contracts::Outcome::Stuck
                 };
                 k += 1;
                 let r = EpisodeResultIn {
                     lease_id: l.lease_id.clone(),
                     submission_id: l.submission.id.clone(),
                     task_id: l.task_id.clone(),
-                    outcome: outcome.into(),
-                    reason: outcome.into(),
-                    metrics_json: metrics.clone(),
+                    outcome: contracts::RecordedOutcome::Episode(outcome),
+                    reason: contracts::RecordedOutcome::Episode(outcome).plain_reason(),
+                    detail: String::new(),
+                    metrics: Some(metrics.clone()),
+                    trajectory_csv: String::new(),
+                    trajectory_gz: None,
+                    planner_log: String::new(),
                     sim_version: sim.into(),
-                    ..Default::default()
+                    planner_identity: String::new(),
+                    wall_time_s: 0.0,
                 };
                 store.report(&w, &r, 3.0).await?;
             }
@@ -181,7 +186,8 @@ async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
     let second = at(2);
     assert!(second.contains("Episodes 101-200 of 1000"));
     assert!(
-        second.contains(&eps[100].task_id) && !second.contains(&format!(">{}<", eps[99].task_id))
+        second.contains(&eps[100].task_id.to_string())
+            && !second.contains(&format!(">{}<", eps[99].task_id))
     );
     // Past the end shows the last page.
     let last = at(99);

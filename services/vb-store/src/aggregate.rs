@@ -39,30 +39,20 @@ pub fn rows(
 }
 
 /// A done episode's own values. One without an outcome (never stored since the store's first schema) reads as an
-/// infrastructure error rather than being dropped; a reason the coordinator did not check (reports were checked
-/// for their outcome only before reasons were typed) reads as its outcome's own reason: summaries never read
-/// reasons, so a page never fails on one.
+/// infrastructure error rather than being dropped, and one without a reason as its outcome's own reason.
 fn values(e: &EpisodeRecord, terrain: Option<u32>) -> Result<EpisodeValues, StoreError> {
     let outcome = e.outcome.unwrap_or(RecordedOutcome::InfrastructureError);
-    let reason = e
-        .end_reason()
-        .ok()
-        .flatten()
-        .unwrap_or(outcome.plain_reason());
     Ok(EpisodeValues {
-        task_id: e
-            .task_id
-            .parse()
-            .map_err(|err| StoreError::Corrupt(format!("episode of {}: {err}", e.submission_id)))?,
+        task_id: e.task_id,
         level: e.level,
         semantics: e.semantics,
         density: e.density,
         terrain,
         sim_version: e.sim_version.clone(),
         outcome,
-        reason,
+        reason: e.reason.unwrap_or(outcome.plain_reason()),
         detail: e.detail.clone().unwrap_or_default(),
-        metrics: e.metrics()?.unwrap_or_default(),
+        metrics: e.metrics.clone().unwrap_or_default(),
         wall_time_s: e.wall_time_s.unwrap_or(0.0),
     })
 }

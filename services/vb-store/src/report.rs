@@ -13,8 +13,14 @@ impl Store {
         r: &EpisodeResultIn,
         now: f64,
     ) -> Result<ReportOutcome> {
-        // Compressed before the single writer's lock is taken: other writes do not wait on it.
+        // Compressed and encoded before the single writer's lock is taken: other writes do not wait on them.
         let blobs = crate::blobs::Compressed::of(r);
+        // Metrics are stored as JSON text (an episode no worker could run has none: the empty string).
+        let metrics_json = match &r.metrics {
+            None => String::new(),
+            Some(m) => serde_json::to_string(m)
+                .map_err(|e| StoreError::Corrupt(format!("metrics of {}: {e}", r.task_id)))?,
+        };
         let _w = self.write.lock().await;
         let row = sqlx::query(
             "SELECT state, lease_id, worker_id FROM episodes WHERE submission_id = $1 AND task_id = $2",
@@ -44,10 +50,10 @@ impl Store {
              sim_version = $5, planner_identity = $6, wall_time_s = $7, finished_at = $8, lease_id = NULL, \
              lease_expires = NULL WHERE submission_id = $9 AND task_id = $10 AND state = 'leased' AND lease_id = $11",
         )
-        .bind(&r.outcome)
-        .bind(&r.reason)
+        .bind(r.outcome.as_str())
+        .bind(r.reason.as_str())
         .bind(&r.detail)
-        .bind(&r.metrics_json)
+        .bind(metrics_json)
         .bind(&r.sim_version)
         .bind(&r.planner_identity)
         .bind(r.wall_time_s)

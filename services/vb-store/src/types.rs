@@ -1,7 +1,9 @@
 //! The store's values: tokens, submissions, episodes, leases, reports and progress, and how rows become them.
 
 use crate::{Result, StoreError};
-use contracts::{ElevationLevel, EndReason, EpisodeMetrics, ObstacleDensity, SemanticsKind};
+use contracts::{
+    ElevationLevel, EndReason, EpisodeMetrics, ObstacleDensity, SemanticsKind, TaskId,
+};
 pub use contracts::{EpisodeState, PlannerKind, RecordedOutcome, SubmissionState};
 use serde::{Deserialize, Serialize};
 use sqlx::any::AnyRow;
@@ -162,16 +164,17 @@ pub struct Lease {
     pub attempt: i64,
 }
 
-/// A finished episode as a worker reported it.
-#[derive(Clone, Debug, Default)]
+/// A finished episode as a worker reported it (the coordinator has checked its outcome, reason and metrics).
+#[derive(Clone, Debug)]
 pub struct EpisodeResultIn {
     pub lease_id: String,
     pub submission_id: String,
     pub task_id: String,
-    pub outcome: String,
-    pub reason: String,
+    pub outcome: RecordedOutcome,
+    pub reason: EndReason,
     pub detail: String,
-    pub metrics_json: String,
+    /// `None` for an episode no worker could run.
+    pub metrics: Option<EpisodeMetrics>,
     pub trajectory_csv: String,
     /// The trajectory already gzip-compressed (as workers send it): stored as it is, instead of compressing
     /// `trajectory_csv`.
@@ -194,10 +197,11 @@ pub enum ReportOutcome {
 }
 
 /// A stored episode (everything but the trajectory and the planner log, which [`Reader::episode_detail`] adds).
+/// Reason and metrics are `None` until it has its result.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EpisodeRecord {
     pub submission_id: String,
-    pub task_id: String,
+    pub task_id: TaskId,
     pub world_id: u32,
     pub task_index: u32,
     pub level: ElevationLevel,
@@ -206,42 +210,13 @@ pub struct EpisodeRecord {
     pub state: EpisodeState,
     pub attempts: i64,
     pub outcome: Option<RecordedOutcome>,
-    pub reason: Option<String>,
+    pub reason: Option<EndReason>,
     pub detail: Option<String>,
-    pub metrics_json: Option<String>,
+    pub metrics: Option<EpisodeMetrics>,
     pub sim_version: Option<String>,
     pub planner_identity: Option<String>,
     pub wall_time_s: Option<f64>,
     pub finished_at: Option<f64>,
-}
-
-impl EpisodeRecord {
-    /// Its metrics (`None` until it has its result, or for one no worker could run).
-    pub fn metrics(&self) -> Result<Option<EpisodeMetrics>> {
-        match self.metrics_json.as_deref() {
-            None | Some("") => Ok(None),
-            Some(m) => serde_json::from_str(m)
-                .map(Some)
-                .map_err(|e| self.corrupt("metrics", &e)),
-        }
-    }
-
-    /// Why it ended (`None` until it has its result).
-    pub fn end_reason(&self) -> Result<Option<EndReason>> {
-        match self.reason.as_deref() {
-            None | Some("") => Ok(None),
-            Some(r) => EndReason::parse(r)
-                .map(Some)
-                .map_err(|e| self.corrupt("reason", &e)),
-        }
-    }
-
-    fn corrupt(&self, what: &str, e: &dyn std::fmt::Display) -> StoreError {
-        StoreError::Corrupt(format!(
-            "episode {} of {}: stored {what}: {e}",
-            self.task_id, self.submission_id
-        ))
-    }
 }
 
 /// One episode with its trajectory (CSV) and the planner's log.
@@ -290,28 +265,53 @@ fn parse_column<T>(
 }
 
 pub(crate) fn episode_from_row(r: &AnyRow) -> Result<EpisodeRecord> {
+    let submission_id: String = r.try_get("submission_id")?;
+    let task: String = r.try_get("task_id")?;
+    let corrupt = |what: &str, e: &dyn std::fmt::Display| {
+        StoreError::Corrupt(format!(
+            "episode {task} of {submission_id}: stored {what}: {e}"
+        ))
+    };
+    let outcome = r
+        .try_get::<Option<String>, _>("outcome")?
+        .map(|o| RecordedOutcome::parse(&o))
+        .transpose()
+        .map_err(|e| corrupt("outcome", &e))?;
+    // Reports were checked for their outcome only before reasons were typed: a stored reason that is none of
+    // EndReason's names reads as its outcome's own reason.
+    let reason = r
+        .try_get::<Option<String>, _>("reason")?
+        .filter(|t| !t.is_empty())
+        .map(|t| match EndReason::parse(&t) {
+            Ok(reason) => Ok(reason),
+            Err(e) => outcome.map(RecordedOutcome::plain_reason).ok_or(e),
+        })
+        .transpose()
+        .map_err(|e| corrupt("reason", &e))?;
+    let metrics = r
+        .try_get::<Option<String>, _>("metrics_json")?
+        .filter(|m| !m.is_empty())
+        .map(|m| serde_json::from_str(&m))
+        .transpose()
+        .map_err(|e| corrupt("metrics", &e))?;
     Ok(EpisodeRecord {
-        submission_id: r.try_get("submission_id")?,
-        task_id: r.try_get("task_id")?,
+        task_id: task.parse().map_err(|e| corrupt("task id", &e))?,
         world_id: r.try_get::<i64, _>("world_id")? as u32,
         task_index: r.try_get::<i64, _>("task_index")? as u32,
         level: parse_column(r, "level", ElevationLevel::parse)?,
         semantics: parse_column(r, "semantics", SemanticsKind::parse)?,
         density: parse_column(r, "density", ObstacleDensity::parse)?,
         state: EpisodeState::parse(&r.try_get::<String, _>("state")?)
-            .map_err(|e| StoreError::Corrupt(e.to_string()))?,
+            .map_err(|e| corrupt("state", &e))?,
         attempts: r.try_get("attempts")?,
-        outcome: r
-            .try_get::<Option<String>, _>("outcome")?
-            .map(|o| RecordedOutcome::parse(&o))
-            .transpose()
-            .map_err(|e| StoreError::Corrupt(e.to_string()))?,
-        reason: r.try_get("reason")?,
+        outcome,
+        reason,
         detail: r.try_get("detail")?,
-        metrics_json: r.try_get("metrics_json")?,
+        metrics,
         sim_version: r.try_get("sim_version")?,
         planner_identity: r.try_get("planner_identity")?,
         wall_time_s: r.try_get("wall_time_s")?,
         finished_at: r.try_get("finished_at")?,
+        submission_id,
     })
 }

@@ -157,7 +157,7 @@ async fn summaries_are_stored_kept_current_and_read_one_row_per_submission() -> 
         assert_eq!(store.reader().counts(500.0).await?.workers_live, 0);
         // A page of episodes, in task order.
         let page = store.reader().episodes_range(&a, 1, 2).await?;
-        let ids: Vec<&str> = page.iter().map(|e| e.task_id.as_str()).collect();
+        let ids: Vec<String> = page.iter().map(|e| e.task_id.to_string()).collect();
         assert_eq!(ids, ["w001-t1", "w001-t2"], "{url}");
     }
     Ok(())

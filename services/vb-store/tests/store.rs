@@ -183,12 +183,12 @@ async fn lost_episodes_are_retried_then_recorded_as_infrastructure_failures() ->
         assert!(store.lease(&w, 1, 5.0, true, t).await?.is_empty());
         let e = &store.reader().episodes(&id).await?[0];
         assert_eq!(
+            (e.state.as_str(), e.outcome.map(|o| o.as_str()), e.reason),
             (
-                e.state.as_str(),
-                e.outcome.map(|o| o.as_str()),
-                e.reason.as_deref()
-            ),
-            ("done", Some("error"), Some("infrastructure"))
+                "done",
+                Some("error"),
+                Some(contracts::EndReason::Infrastructure)
+            )
         );
         assert!(
             e.detail
@@ -229,7 +229,11 @@ async fn lost_episodes_are_retried_then_recorded_as_infrastructure_failures() ->
             t += 1.0;
         }
         let e = &store.reader().episodes(&id2).await?[0];
-        assert_eq!(e.reason.as_deref(), Some("infrastructure"), "{url}");
+        assert_eq!(
+            e.reason,
+            Some(contracts::EndReason::Infrastructure),
+            "{url}"
+        );
         let detail = e.detail.as_deref().unwrap_or("");
         assert!(
             detail.contains("lost by a worker")

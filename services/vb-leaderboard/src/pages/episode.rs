@@ -134,23 +134,19 @@ fn map_view(
 pub fn page(sub: &Submission, d: &PublicEpisode, map: Option<&WorldPicture>) -> String {
     let r = &d.record;
     let traj = parse_trajectory(&d.trajectory_csv);
-    let metrics = r
-        .metrics_json
-        .as_deref()
-        .and_then(|m| serde_json::from_str::<contracts::EpisodeMetrics>(m).ok())
-        .map(|m| {
-            vec![
-                format!("{:.1}", m.time),
-                format!("{:.1}", m.path_length),
-                format!("{:.2}", m.roll_abs.mean),
-                format!("{:.1}", m.roll_abs.max),
-                format!("{:.2}", m.pitch_abs.mean),
-                format!("{:.1}", m.pitch_abs.max),
-                format!("{:.1}", m.energy / 1000.0),
-                m.obstacle_contacts.to_string(),
-                format!("{:.1}", m.final_goal_distance),
-            ]
-        });
+    let metrics = r.metrics.as_ref().map(|m| {
+        vec![
+            format!("{:.1}", m.time),
+            format!("{:.1}", m.path_length),
+            format!("{:.2}", m.roll_abs.mean),
+            format!("{:.1}", m.roll_abs.max),
+            format!("{:.2}", m.pitch_abs.mean),
+            format!("{:.1}", m.pitch_abs.max),
+            format!("{:.1}", m.energy / 1000.0),
+            m.obstacle_contacts.to_string(),
+            format!("{:.1}", m.final_goal_distance),
+        ]
+    });
     let opt = |v: &Option<String>| v.clone().unwrap_or_default();
     let chart = |id, title, unit, k: usize| LineChart {
         id,
@@ -160,10 +156,10 @@ pub fn page(sub: &Submission, d: &PublicEpisode, map: Option<&WorldPicture>) -> 
     };
     let live = matches!(r.state, EpisodeState::Queued | EpisodeState::Leased);
     render(&Page {
-        frame: Frame::served(&r.task_id, live),
+        frame: Frame::served(&r.task_id.to_string(), live),
         back_href: format!("/submissions/{}", sub.id),
         submission_name: sub.name.clone(),
-        task: r.task_id.clone(),
+        task: r.task_id.to_string(),
         world: r.world_id,
         task_index: r.task_index,
         level: r.level.to_string(),
@@ -175,7 +171,7 @@ pub fn page(sub: &Submission, d: &PublicEpisode, map: Option<&WorldPicture>) -> 
                 "outcome",
                 r.outcome.map_or(String::new(), |o| o.as_str().to_string()),
             ),
-            ("reason", opt(&r.reason)),
+            ("reason", r.reason.map_or(String::new(), |e| e.to_string())),
             ("detail", opt(&r.detail)),
             ("attempts", r.attempts.to_string()),
             ("planner identity", opt(&r.planner_identity)),
@@ -193,6 +189,6 @@ pub fn page(sub: &Submission, d: &PublicEpisode, map: Option<&WorldPicture>) -> 
             chart("speed-chart", "speed", "m/s", 5),
         ],
         submission_id: sub.id.clone(),
-        task_id: r.task_id.clone(),
+        task_id: r.task_id.to_string(),
     })
 }

@@ -152,19 +152,18 @@ fn cut(s: &str, max: usize) -> String {
 
 fn episode_line(sub_id: &str, ep: &EpisodeRecord) -> EpisodeLine {
     let time = ep
-        .metrics_json
-        .as_deref()
-        .and_then(|m| serde_json::from_str::<contracts::EpisodeMetrics>(m).ok())
+        .metrics
+        .as_ref()
         .map_or("-".into(), |m| format!("{:.1}", m.time));
     EpisodeLine {
         href: format!("/submissions/{sub_id}/episodes/{}", ep.task_id),
-        task: ep.task_id.clone(),
+        task: ep.task_id.to_string(),
         level: ep.level.to_string(),
         semantics: ep.semantics.to_string(),
         density: ep.density.to_string(),
         state: state_label(ep.state.as_str()),
         outcome: ep.outcome.map_or(String::new(), |o| o.as_str().to_string()),
-        reason: ep.reason.clone().unwrap_or_default(),
+        reason: ep.reason.map_or(String::new(), |e| e.to_string()),
         time,
         attempts: ep.attempts,
         detail: cut(ep.detail.as_deref().unwrap_or(""), 160),

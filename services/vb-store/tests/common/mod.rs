@@ -63,19 +63,30 @@ pub fn episodes(n: u32) -> Vec<NewEpisode> {
         .collect()
 }
 
+/// The metrics every test result carries.
+pub fn metrics() -> contracts::EpisodeMetrics {
+    contracts::EpisodeMetrics {
+        steps: 1234,
+        final_goal_distance: 0.1 + 0.2,
+        ..Default::default()
+    }
+}
+
+/// A result of `lease` with `outcome` (an episode outcome's name) and its own reason.
 pub fn result(lease: &Lease, outcome: &str) -> EpisodeResultIn {
     EpisodeResultIn {
         lease_id: lease.lease_id.clone(),
         submission_id: lease.submission.id.clone(),
         task_id: lease.task_id.clone(),
-        outcome: outcome.into(),
-        reason: outcome.into(),
-        metrics_json: "{}".into(),
+        outcome: RecordedOutcome::parse(outcome).expect("an outcome"),
+        reason: contracts::EndReason::parse(outcome).expect("a reason"),
+        detail: String::new(),
+        metrics: Some(metrics()),
         trajectory_csv: "time,x\n0,0\n".into(),
+        trajectory_gz: None,
         planner_log: "hello".into(),
         sim_version: "sim-core test".into(),
         planner_identity: "builtin:pid".into(),
         wall_time_s: 0.5,
-        ..Default::default()
     }
 }
