@@ -9,7 +9,7 @@ use sim_core::world::*;
 use std::hint::black_box;
 
 fn grid(soil: SoilParams) -> SoilGrid {
-    SoilGrid::new(&World::uniform(
+    SoilGrid::new(World::uniform(
         Heightmap::from_fn(1.0, |_, _| 0.0),
         Semantic::Mud,
         Surface::Deformable { soil },

@@ -36,7 +36,7 @@ fn damping_only(v: f64, z: f64) -> (Vec<Sample>, (f64, f64)) {
         Semantic::Snow,
         Surface::Deformable { soil },
     );
-    let mut grid = SoilGrid::new(&world);
+    let mut grid = SoilGrid::new(world);
     let dt = 1e-3;
     let mut forces = Vec::new();
     for k in 0..(2.5 / (v * dt)) as usize {

@@ -60,7 +60,7 @@ fn flat_plate_static_sinkage_matches_bekker() {
         (SoilParams::MUD, 20e3),
         (SoilParams::SNOW, 20e3),
     ] {
-        let mut grid = SoilGrid::new(&soil_world(soil));
+        let mut grid = SoilGrid::new(soil_world(soil));
         let sim = plate_sinkage(&mut grid, pressure * AREA);
         let z = bekker(soil, SIDE, pressure);
         assert!(
@@ -73,7 +73,7 @@ fn flat_plate_static_sinkage_matches_bekker() {
 #[test]
 fn unloading_and_reloading_follow_the_elastic_line_until_the_previous_yield() {
     let soil = SoilParams::MUD;
-    let mut grid = SoilGrid::new(&soil_world(soil));
+    let mut grid = SoilGrid::new(soil_world(soil));
     let z1 = 0.03;
     let yield_load = press(&mut grid, -z1).normal;
     let yield_p = (soil.k_c / SIDE + soil.k_phi) * z1.powf(soil.n);
@@ -102,7 +102,7 @@ fn unloading_and_reloading_follow_the_elastic_line_until_the_previous_yield() {
 #[test]
 fn janosi_shear_builds_up_with_slip_distance_and_saturates_at_mohr_coulomb() {
     for soil in [SoilParams::SAND, SoilParams::MUD] {
-        let mut grid = SoilGrid::new(&soil_world(soil));
+        let mut grid = SoilGrid::new(soil_world(soil));
         let z = 0.02;
         let sigma = press(&mut grid, -z).normal / AREA;
         let tau_max = soil.cohesion + sigma * soil.friction_angle_deg.to_radians().tan();
@@ -151,7 +151,7 @@ fn each_cell_takes_the_soil_of_its_patch() {
         -64.0 + 1.5 * stride,
         -64.0 + 0.5 * stride,
     );
-    let mut grid = SoilGrid::new(&world);
+    let mut grid = SoilGrid::new(world);
     assert_eq!(grid.soil_at(snow_x, y), Some(SoilParams::SNOW));
     assert_eq!(grid.soil_at(0.0, 0.0), Some(SoilParams::MUD));
     assert!(!grid.has_soil_at(rock_x, y));
@@ -195,7 +195,7 @@ fn identical_inputs_give_bit_identical_forces_and_reset_restores_fresh_soil() {
             })
             .collect::<Vec<_>>()
     };
-    let mut grid = SoilGrid::new(&soil_world(SoilParams::SAND));
+    let mut grid = SoilGrid::new(soil_world(SoilParams::SAND));
     let first = run(&mut grid);
     assert!(grid.touched_cells() > 0);
     grid.reset();
@@ -206,7 +206,7 @@ fn identical_inputs_give_bit_identical_forces_and_reset_restores_fresh_soil() {
         run(&mut grid),
         "after reset the same inputs give the same bits"
     );
-    let mut other = SoilGrid::new(&soil_world(SoilParams::SAND));
+    let mut other = SoilGrid::new(soil_world(SoilParams::SAND));
     assert_eq!(first, run(&mut other));
 }
 
@@ -221,7 +221,7 @@ fn identical_inputs_give_bit_identical_forces_and_reset_restores_fresh_soil() {
 #[test]
 fn a_plate_under_a_steady_sideways_load_below_its_shear_capacity_is_held_without_creep() {
     let soil = SoilParams::MUD;
-    let mut grid = SoilGrid::new(&soil_world(soil));
+    let mut grid = SoilGrid::new(soil_world(soil));
     let z = -0.02;
     let sigma = press(&mut grid, z).normal / AREA;
     let tau_max = soil.cohesion + sigma * soil.friction_angle_deg.to_radians().tan();

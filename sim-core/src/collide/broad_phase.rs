@@ -3,8 +3,8 @@
 //! Cells are [`CELL`] m square (coarser if the obstacles spread over more than 4 km; the cell size only trades
 //! memory for candidates) over the bounding rectangle of all obstacles; each cell lists, in id order, the obstacles whose
 //! bounding circle overlaps it (compressed rows: `starts` and `items`). A query walks the cells overlapping a
-//! disc and writes candidate ids into a caller-provided slice, skipping duplicates with a per-obstacle stamp; no
-//! allocation per query.
+//! disc and writes candidate ids into a caller-provided slice, skipping duplicates with a per-obstacle stamp kept by
+//! the caller ([`QueryStamps`]: the grid itself is immutable and shared); no allocation per query.
 
 /// Cell side, m.
 pub const CELL: f64 = 4.0;
@@ -20,9 +20,23 @@ pub struct ObstacleGrid {
     /// `items[starts[c]..starts[c + 1]]` are the obstacles of cell `c = iy * nx + ix`.
     starts: Vec<u32>,
     items: Vec<u32>,
-    /// Query stamp of each obstacle (duplicate suppression).
+}
+
+/// The query stamp of each obstacle (duplicate suppression), the mutable half of a query: one per user of a grid.
+#[derive(Clone, Debug)]
+pub struct QueryStamps {
     stamp: Vec<u32>,
     query: u32,
+}
+
+impl QueryStamps {
+    /// Stamps for `n` obstacles (allocates once).
+    pub fn new(n: usize) -> QueryStamps {
+        QueryStamps {
+            stamp: vec![0; n],
+            query: 0,
+        }
+    }
 }
 
 impl ObstacleGrid {
@@ -89,22 +103,28 @@ impl ObstacleGrid {
             ny,
             starts,
             items,
-            stamp: vec![0; centres.len()],
-            query: 0,
         }
     }
 
     /// Writes into `out` the ids of the obstacles listed in the cells overlapping the square of half side
     /// `radius` around `(x, y)` (each once, in no particular order; the caller filters and sorts); returns how many
     /// were written (at most `out.len()`).
-    pub fn candidates(&mut self, x: f64, y: f64, radius: f64, out: &mut [u32]) -> usize {
+    /// `stamps` must have been made for this grid's obstacles.
+    pub fn candidates(
+        &self,
+        stamps: &mut QueryStamps,
+        x: f64,
+        y: f64,
+        radius: f64,
+        out: &mut [u32],
+    ) -> usize {
         if self.items.is_empty() {
             return 0;
         }
-        self.query = self.query.wrapping_add(1);
-        if self.query == 0 {
-            self.stamp.iter_mut().for_each(|s| *s = 0);
-            self.query = 1;
+        stamps.query = stamps.query.wrapping_add(1);
+        if stamps.query == 0 {
+            stamps.stamp.iter_mut().for_each(|s| *s = 0);
+            stamps.query = 1;
         }
         let range = |lo: f64, hi: f64, origin: f64, n: usize| -> Option<(usize, usize)> {
             let a = ((lo - origin) / self.cell).floor();
@@ -125,8 +145,8 @@ impl ObstacleGrid {
             for i in ia..=ib {
                 let c = j * self.nx + i;
                 for &k in &self.items[self.starts[c] as usize..self.starts[c + 1] as usize] {
-                    if self.stamp[k as usize] != self.query && len < out.len() {
-                        self.stamp[k as usize] = self.query;
+                    if stamps.stamp[k as usize] != stamps.query && len < out.len() {
+                        stamps.stamp[k as usize] = stamps.query;
                         out[len] = k;
                         len += 1;
                     }
@@ -146,19 +166,21 @@ mod tests {
         // Obstacle 1 straddles four cells; obstacle 2 is 40 m away.
         let centres = [(0.0, 0.0), (4.0, 4.0), (40.0, 0.0)];
         let radii = [1.0, 2.0, 1.0];
-        let mut g = ObstacleGrid::new(&centres, &radii);
+        let g = ObstacleGrid::new(&centres, &radii);
+        let mut st = QueryStamps::new(3);
         let mut out = [0u32; 8];
-        let n = g.candidates(1.0, 1.0, 2.0, &mut out);
+        let n = g.candidates(&mut st, 1.0, 1.0, 2.0, &mut out);
         let mut got = out[..n].to_vec();
         got.sort();
         assert_eq!(got, vec![0, 1]);
-        let n = g.candidates(40.0, 0.0, 0.5, &mut out);
+        let n = g.candidates(&mut st, 40.0, 0.0, 0.5, &mut out);
         assert_eq!(&out[..n], &[2]);
-        assert_eq!(g.candidates(-100.0, 0.0, 1.0, &mut out), 0);
-        assert_eq!(g.candidates(f64::NAN, 0.0, 1.0, &mut out), 0);
+        assert_eq!(g.candidates(&mut st, -100.0, 0.0, 1.0, &mut out), 0);
+        assert_eq!(g.candidates(&mut st, f64::NAN, 0.0, 1.0, &mut out), 0);
         // Obstacles 100 km apart: coarse cells, still found.
-        let mut g = ObstacleGrid::new(&[(0.0, 0.0), (1e5, 1e5)], &[1.0, 1.0]);
-        assert_eq!(g.candidates(1e5, 1e5, 1.0, &mut out), 1);
+        let g = ObstacleGrid::new(&[(0.0, 0.0), (1e5, 1e5)], &[1.0, 1.0]);
+        let mut st = QueryStamps::new(2);
+        assert_eq!(g.candidates(&mut st, 1e5, 1e5, 1.0, &mut out), 1);
         assert_eq!(out[0], 1);
     }
 }

@@ -20,9 +20,10 @@ pub mod chassis;
 
 pub use chassis::OrientedBox;
 
-use crate::world::{Obstacle, ObstacleKind};
-use broad_phase::ObstacleGrid;
+use crate::world::{Obstacle, ObstacleKind, World};
+use broad_phase::{ObstacleGrid, QueryStamps};
 use nalgebra::Vector3;
+use std::sync::Arc;
 
 /// A contact with an obstacle.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -135,37 +136,89 @@ impl NearList {
 }
 
 /// The obstacles of a world with a near list for the broad phase (its own, for the methods without a list
-/// argument; [`NearList`]).
+/// argument; [`NearList`]). The obstacles and their index are shared by clones (an MPPI sample's copy of a
+/// simulation copies only the near list and the query scratch).
 #[derive(Clone, Debug)]
 pub struct ObstacleSet {
-    obstacles: Vec<Obstacle>,
-    /// `(sin, cos)` of each obstacle's yaw.
-    yaw_sin_cos: Vec<(f64, f64)>,
-    /// Horizontal bounding radius of each obstacle.
-    bounds: Vec<f64>,
+    index: Arc<Index>,
     near: NearList,
-    grid: ObstacleGrid,
+    stamps: QueryStamps,
     /// Candidate buffer of the broad phase (one slot per obstacle, allocated once).
     scratch: Vec<u32>,
 }
 
+/// The immutable half of an [`ObstacleSet`], built once per world.
+#[derive(Debug)]
+struct Index {
+    source: Source,
+    /// `(sin, cos)` of each obstacle's yaw.
+    yaw_sin_cos: Vec<(f64, f64)>,
+    /// Horizontal bounding radius of each obstacle.
+    bounds: Vec<f64>,
+    grid: ObstacleGrid,
+}
+
+/// Where the obstacles live: in the simulation's shared world (no copy), or in the set (tests, rigs).
+#[derive(Debug)]
+enum Source {
+    World(Arc<World>),
+    Own(Vec<Obstacle>),
+}
+
+impl Index {
+    fn obstacles(&self) -> &[Obstacle] {
+        self.source.obstacles()
+    }
+}
+
+impl Source {
+    fn obstacles(&self) -> &[Obstacle] {
+        match self {
+            Source::World(w) => &w.obstacles,
+            Source::Own(o) => o,
+        }
+    }
+}
+
 impl ObstacleSet {
+    /// The obstacles of a shared world, read from it (not copied).
+    pub fn of_world(world: Arc<World>) -> ObstacleSet {
+        ObstacleSet::build(Source::World(world))
+    }
+
+    /// A set of these obstacles (copied into the set).
     pub fn new(obstacles: &[Obstacle]) -> ObstacleSet {
+        ObstacleSet::build(Source::Own(obstacles.to_vec()))
+    }
+
+    fn build(source: Source) -> ObstacleSet {
+        let (yaw_sin_cos, bounds, grid, n) = {
+            let obstacles = source.obstacles();
+            let bounds: Vec<f64> = obstacles.iter().map(bound).collect();
+            let centres: Vec<(f64, f64)> = obstacles.iter().map(|o| (o.x, o.y)).collect();
+            let grid = ObstacleGrid::new(&centres, &bounds);
+            (
+                obstacles.iter().map(|o| o.yaw.sin_cos()).collect(),
+                bounds,
+                grid,
+                obstacles.len(),
+            )
+        };
         ObstacleSet {
-            obstacles: obstacles.to_vec(),
-            yaw_sin_cos: obstacles.iter().map(|o| o.yaw.sin_cos()).collect(),
-            bounds: obstacles.iter().map(bound).collect(),
+            index: Arc::new(Index {
+                source,
+                yaw_sin_cos,
+                bounds,
+                grid,
+            }),
             near: NearList::default(),
-            grid: ObstacleGrid::new(
-                &obstacles.iter().map(|o| (o.x, o.y)).collect::<Vec<_>>(),
-                &obstacles.iter().map(bound).collect::<Vec<_>>(),
-            ),
-            scratch: vec![0; obstacles.len()],
+            stamps: QueryStamps::new(n),
+            scratch: vec![0; n],
         }
     }
 
     pub fn obstacles(&self) -> &[Obstacle] {
-        &self.obstacles
+        self.index.obstacles()
     }
 
     /// Keeps the obstacles whose bounding circle comes within `radius` of `(x, y)`: at most [`MAX_NEAR`], the lowest
@@ -179,12 +232,17 @@ impl ObstacleSet {
     /// [`ObstacleSet::refresh_near`] into a list kept by the caller (`&mut self`: the broad phase's scratch).
     pub fn refresh(&mut self, near: &mut NearList, x: f64, y: f64, radius: f64) {
         near.len = 0;
-        let n = self.grid.candidates(x, y, radius, &mut self.scratch);
+        let n = self
+            .index
+            .grid
+            .candidates(&mut self.stamps, x, y, radius, &mut self.scratch);
         let found = &mut self.scratch[..n];
         found.sort_unstable();
         for &i in found.iter() {
-            let o = &self.obstacles[i as usize];
-            if (o.x - x).hypot(o.y - y) <= radius + self.bounds[i as usize] && near.len < MAX_NEAR {
+            let o = &self.index.obstacles()[i as usize];
+            if (o.x - x).hypot(o.y - y) <= radius + self.index.bounds[i as usize]
+                && near.len < MAX_NEAR
+            {
                 near.ids[near.len] = i as usize;
                 near.len += 1;
             }
@@ -204,8 +262,8 @@ impl ObstacleSet {
     /// [`ObstacleSet::any_within`] among the obstacles of `near`.
     pub fn any_within_in(&self, near: &NearList, x: f64, y: f64, radius: f64) -> bool {
         near.ids().iter().any(|&i| {
-            let o = &self.obstacles[i];
-            (o.x - x).hypot(o.y - y) <= radius + self.bounds[i]
+            let o = &self.obstacles()[i];
+            (o.x - x).hypot(o.y - y) <= radius + self.index.bounds[i]
         })
     }
 
@@ -217,7 +275,9 @@ impl ObstacleSet {
             if n == out.len() {
                 break;
             }
-            if let Some(mut c) = chassis::box_obstacle(&self.obstacles[i], self.yaw_sin_cos[i], b) {
+            if let Some(mut c) =
+                chassis::box_obstacle(&self.obstacles()[i], self.index.yaw_sin_cos[i], b)
+            {
                 c.obstacle = i;
                 out[n] = c;
                 n += 1;
@@ -241,7 +301,7 @@ impl ObstacleSet {
         let mut best: Option<ObstacleContact> = None;
         for &i in near.ids() {
             if let Some((depth, normal)) =
-                sphere_obstacle_with(&self.obstacles[i], self.yaw_sin_cos[i], c, r)
+                sphere_obstacle_with(&self.obstacles()[i], self.index.yaw_sin_cos[i], c, r)
             {
                 if best.is_none_or(|b| depth > b.depth) {
                     best = Some(ObstacleContact {

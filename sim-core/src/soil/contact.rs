@@ -116,7 +116,7 @@ impl SoilGrid {
                 }
                 let h = (w.radius * w.radius - u * u).sqrt();
                 let p = Vector3::new(x, y, w.centre.z - h);
-                let (ground, normal) = self.ground.at(&self.heights, j * self.nx + i, x, y);
+                let (ground, normal) = self.ground.at(&self.world.heightmap, j * self.nx + i, x, y);
                 // The rim point over the fixed node falls at `v_z - u v_f / h` (the rim's advance included).
                 let approach = normal.z * (u * vf / h - vz);
                 let hit = Hit {
@@ -148,7 +148,7 @@ impl SoilGrid {
             // The wheel's sinkage is its rim's depth below the undeformed surface under the centre, normal to that
             // surface (Wong's z0), not the deepest node's: nodes 0.1 m apart miss the rim's lowest point by up to
             // u^2 / 2r, 3 mm on a HMMWV wheel, a quarter of its static sinkage on sand.
-            let h0 = self.heights.height_bilinear(w.centre.x, w.centre.y);
+            let h0 = self.world.heightmap.height_bilinear(w.centre.x, w.centre.y);
             out.sinkage = (w.radius - (w.centre.z - h0) * out.normal_dir.z).max(0.0);
         }
         out
@@ -186,14 +186,14 @@ impl SoilGrid {
                     continue;
                 }
                 let v = plate.velocity + plate.angular_velocity.cross(&d);
-                let (_, normal) = self.ground.at(&self.heights, j * self.nx + i, x, y);
+                let (_, normal) = self.ground.at(&self.world.heightmap, j * self.nx + i, x, y);
                 let p = plate.centre + d;
                 let hit = Hit {
                     p,
                     v,
                     normal,
                     // Under the face point, which rounds a little away from the node (r6's value, kept bit for bit).
-                    ground: self.heights.height_bilinear(p.x, p.y),
+                    ground: self.world.heightmap.height_bilinear(p.x, p.y),
                     heading: plate.forward,
                     // The face over a fixed node moves down at `-v . up / up_z`.
                     approach: normal.z * (-v.dot(&plate.up) / plate.up.z),

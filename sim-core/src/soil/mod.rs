@@ -71,6 +71,7 @@
 use crate::world::{SoilParams, Surface, World, PATCHES};
 use nalgebra::Vector3;
 use node::Node;
+use std::sync::Arc;
 
 mod contact;
 mod ground;
@@ -178,8 +179,9 @@ pub struct SoilGrid {
     /// Tile id (index into `tile_index`) of every pool entry, in pool order (capacity [`TILE_POOL`]).
     pool_tiles: Vec<u32>,
     patch_soil: [Option<SoilParams>; PATCHES * PATCHES],
-    heights: crate::world::Heightmap,
-    /// The undeformed ground at the nodes under bodies (a cache of `heights`).
+    /// The world whose soil this is (shared with the simulation: its heightmap is the undeformed ground).
+    world: Arc<World>,
+    /// The undeformed ground at the nodes under bodies (a cache of the world's heightmap).
     ground: ground::GroundCache,
     /// Chrono's ray test height above the surface (0.1 m at full scale): how far above it a wheel's rays still hit.
     test_height: f64,
@@ -207,7 +209,7 @@ impl Clone for SoilGrid {
             pool,
             pool_tiles,
             patch_soil: self.patch_soil,
-            heights: self.heights.clone(),
+            world: Arc::clone(&self.world),
             ground: self.ground.clone(),
             test_height: self.test_height,
             creep_speed: self.creep_speed,
@@ -219,14 +221,17 @@ impl Clone for SoilGrid {
 
 impl SoilGrid {
     /// Builds the soil of a world at the benchmark's node spacing, 0.1 m times the world's scale (allocates
-    /// everything up front).
-    pub fn new(world: &World) -> SoilGrid {
-        SoilGrid::with_spacing(world, 0.1 * world.scale)
+    /// everything up front; a shared world is read, not copied).
+    pub fn new(world: impl Into<Arc<World>>) -> SoilGrid {
+        let world = world.into();
+        let delta = 0.1 * world.scale;
+        SoilGrid::with_spacing(world, delta)
     }
 
     /// Builds the soil of a world with nodes `delta` apart (for resolution studies; allocates everything up front).
-    pub fn with_spacing(world: &World, delta: f64) -> SoilGrid {
+    pub fn with_spacing(world: impl Into<Arc<World>>, delta: f64) -> SoilGrid {
         assert!(delta > 0.0, "node spacing must be positive");
+        let world: Arc<World> = world.into();
         let h = &world.heightmap;
         let (half_x, half_y) = (h.half_x(), h.half_y());
         let nx = (2.0 * half_x / delta).ceil() as usize + 1;
@@ -251,10 +256,10 @@ impl SoilGrid {
             pool: Vec::with_capacity(if any_soil { TILE_POOL } else { 0 }),
             pool_tiles: Vec::with_capacity(if any_soil { TILE_POOL } else { 0 }),
             patch_soil,
-            heights: h.clone(),
             ground: ground::GroundCache::new(any_soil),
             test_height: 0.1 * world.scale,
             creep_speed: 0.05 * world.scale.sqrt(),
+            world,
             step: 0,
             exhausted: false,
         }
@@ -267,12 +272,12 @@ impl SoilGrid {
 
     /// Unit normal of the undeformed surface (bilinear heightmap, central differences over one cell).
     pub fn surface_normal(&self, x: f64, y: f64) -> Vector3<f64> {
-        self.heights.surface_normal(x, y)
+        self.world.heightmap.surface_normal(x, y)
     }
 
     /// Soil parameters at a point, `None` on rigid ground.
     pub fn soil_at(&self, x: f64, y: f64) -> Option<SoilParams> {
-        let (fx, fy) = self.heights.grid_coords(x, y);
+        let (fx, fy) = self.world.heightmap.grid_coords(x, y);
         let stride = crate::world::PATCH_STRIDE as f64;
         let pj = ((fx / stride).floor().max(0.0) as usize).min(PATCHES - 1);
         let pi = ((fy / stride).floor().max(0.0) as usize).min(PATCHES - 1);
@@ -412,7 +417,7 @@ impl SoilGrid {
     /// Current (deformed) surface height: the bilinear heightmap minus the plastic sinkage interpolated bilinearly
     /// between the four surrounding nodes.
     pub fn surface_height(&self, x: f64, y: f64) -> f64 {
-        let h0 = self.heights.height_bilinear(x, y);
+        let h0 = self.world.heightmap.height_bilinear(x, y);
         if self.tile_index.is_empty() {
             return h0;
         }

@@ -103,7 +103,7 @@ impl WheelRig {
             Semantic::Mud,
             Surface::Deformable { soil: self.soil },
         );
-        SoilGrid::with_spacing(&world, self.spacing)
+        SoilGrid::with_spacing(world, self.spacing)
     }
 
     /// Runs the rig on fresh soil, [`WheelRig::passes`] times over the same track.

@@ -24,7 +24,7 @@ fn wheel(z: f64, vx: f64, spin: f64) -> WheelGeometry {
 
 /// Sinks a wheel quasi-statically until the soil carries `load`; returns the sinkage.
 fn static_sinkage(soil: SoilParams, load: f64) -> f64 {
-    let mut grid = SoilGrid::new(&soil_world(soil));
+    let mut grid = SoilGrid::new(soil_world(soil));
     let mut z = 0.5;
     let mut sink = 0.0;
     for _ in 0..4000 {
@@ -72,7 +72,7 @@ fn static_sinkage_of_a_loaded_wheel_matches_bekker_within_10_percent() {
 
 #[test]
 fn ruts_persist_and_a_second_pass_sinks_less() {
-    let mut grid = SoilGrid::new(&soil_world(SoilParams::MUD));
+    let mut grid = SoilGrid::new(soil_world(SoilParams::MUD));
     let load_at = |grid: &mut SoilGrid, z: f64| {
         grid.begin_step();
         grid.wheel_contact(&wheel(z, 0.0, 0.0), 1e-3).normal
@@ -103,7 +103,7 @@ fn ruts_persist_and_a_second_pass_sinks_less() {
 
 #[test]
 fn a_towed_wheel_feels_rolling_resistance_and_a_spinning_wheel_traction() {
-    let mut grid = SoilGrid::new(&soil_world(SoilParams::MUD));
+    let mut grid = SoilGrid::new(soil_world(SoilParams::MUD));
     let mut towed = SoilContact::default();
     for _ in 0..20 {
         grid.begin_step();
@@ -116,7 +116,7 @@ fn a_towed_wheel_feels_rolling_resistance_and_a_spinning_wheel_traction() {
         "rolling resistance opposes motion: {:?}",
         towed.force
     );
-    let mut grid = SoilGrid::new(&soil_world(SoilParams::MUD));
+    let mut grid = SoilGrid::new(soil_world(SoilParams::MUD));
     let mut spinning = SoilContact::default();
     for _ in 0..200 {
         grid.begin_step();
@@ -136,7 +136,7 @@ fn rigid_patches_have_no_soil_and_the_pool_is_reused_after_reset() {
         semantic: Semantic::Rock,
         surface: Surface::Rigid { friction: 0.6 },
     };
-    let mut grid = SoilGrid::new(&w);
+    let mut grid = SoilGrid::new(w);
     assert!(!grid.has_soil_at(-60.0, -60.0));
     assert!(grid.has_soil_at(0.0, 0.0));
     grid.begin_step();

@@ -197,7 +197,7 @@ impl Simulation {
             steps: 0,
             wheels: vec![WheelState::default(); wheels.len()],
             near: NearList::default(),
-            soil: SoilGrid::new(&world),
+            soil: SoilGrid::new(Arc::clone(&world)),
             settle_time: 0.0,
             origin: Origin {
                 vehicle: spec.name.clone(),
@@ -234,7 +234,7 @@ impl Simulation {
         };
         let mut sim = Simulation {
             params,
-            obstacles: ObstacleSet::new(&world.obstacles),
+            obstacles: ObstacleSet::of_world(Arc::clone(&world)),
             world,
             gravity: Vector3::from(options.gravity),
             state,

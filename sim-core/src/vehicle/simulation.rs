@@ -146,12 +146,13 @@ pub enum StateCopyError {
 /// The world is an `Arc<World>` rather than a `&World`: a borrow would put a lifetime on `Simulation` and so on
 /// [`crate::EpisodeRun`], which the Python SDK's environments and the gRPC service keep across calls (they need
 /// `'static`); a shared world lets every simulation and clone of one world (MPPI-6's shadow and rollout models,
-/// an environment's episodes) hold it without copying it ([`Simulation::new_shared`]).
+/// an environment's episodes) hold it without copying it ([`Simulation::new_shared`]). The soil grid (in the state)
+/// reads its undeformed ground and the obstacle set its obstacles from the same `Arc`.
 #[derive(Clone, Debug)]
 pub struct Simulation {
     pub(super) params: VehicleParams,
     pub(super) world: Arc<World>,
-    /// The world's obstacles and their broad phase (its near list is in the state).
+    /// The world's obstacles and their broad phase, shared by clones (its near list is in the state).
     pub(super) obstacles: ObstacleSet,
     /// Gravity, world frame, m/s^2 (default `(0, 0, -G)`; tilted for tilt-table scenarios).
     pub(super) gravity: Vector3<f64>,
