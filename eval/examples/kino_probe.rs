@@ -1,6 +1,6 @@
-//! Runs MPPI-6 over a learned kinodynamic model (`mppi6`, `tal`: either weights layout) on tasks of a **training**
-//! task set for a choice of the uncertainty weight: how the hybrids' planner parameters are looked at without
-//! touching the benchmark's tasks.
+//! Runs MPPI-6 over a learned kinodynamic model (`mppi6`, `tal`: either weights layout; or a traversability
+//! estimator's file, `tnt`, over the compiled-in `tal` model) on tasks of a **training** task set for a choice of
+//! the uncertainty weight: how the hybrids' planner parameters are looked at without touching the benchmark's tasks.
 //!
 //! `cargo run --release -p eval --example kino_probe -- WEIGHTS TASK_DIR [UNCERTAINTY] [EVERY_NTH_WORLD]` runs task
 //! `w % 10` of every `EVERY_NTH_WORLD`-th world (default 4) with the full-scale HMMWV, in parallel, and prints the
@@ -8,6 +8,7 @@
 
 use anyhow::Context;
 use learned::kino::{KinoMppi, KinoMppiConfig};
+use learned::LearnedNet;
 use rayon::prelude::*;
 use sim_core::episode::EpisodeConfig;
 use std::path::Path;
@@ -19,7 +20,11 @@ fn main() -> anyhow::Result<()> {
         anyhow::bail!("usage: kino_probe WEIGHTS TASK_DIR [UNCERTAINTY] [EVERY_NTH_WORLD]");
     };
     let arg = |i: usize, d: f64| args.get(i).and_then(|s| s.parse().ok()).unwrap_or(d);
-    let model = learned::kino::load(Path::new(weights))?;
+    let (model, estimator) = match learned::builtin::load(Path::new(weights))? {
+        LearnedNet::Kino(m) => (m, None),
+        LearnedNet::Traversability(m, t) => (m, Some(*t)),
+        LearnedNet::Policy(_) => anyhow::bail!("{weights} is a policy, not a kinodynamic model"),
+    };
     let cfg = KinoMppiConfig {
         uncertainty: arg(2, KinoMppiConfig::default().uncertainty),
         ..KinoMppiConfig::default()
@@ -39,6 +44,9 @@ fn main() -> anyhow::Result<()> {
             let world = set.world(w, 1.0).expect("world");
             let task = set.tasks(w, 1.0).expect("tasks")[(w % 10) as usize].clone();
             let mut p = KinoMppi::new("probe", model.clone(), cfg);
+            if let Some(t) = &estimator {
+                p = p.with_traversability(t.clone());
+            }
             let r =
                 sim_core::run_episode(&world, &task, &vehicle, &mut p, &EpisodeConfig::default());
             (r.outcome.as_str().to_string(), p.decisions, p.predictions)

@@ -140,7 +140,11 @@ def test_training_resumes_and_writes_weights_the_rust_reader_runs_and_a_report(k
     assert r.returncode == 0, r.stderr
     rep = json.loads((tmp_path / "rep" / "accuracy.json").read_text())
     models = {(x["model"], x["horizon_s"]) for x in rep["rows"] if x["group"] == "all"}
-    assert {("learned", 1.0), ("bicycle", 1.0)} <= models
+    assert {("learned", 1.0), ("bicycle", 1.0), ("simulator", 1.0)} <= models
+    # Our simulator restarted from the recorded observation follows the recording far better than the bicycle.
+    at1 = {x["model"]: x for x in rep["rows"] if x["group"] == "all" and x["horizon_s"] == 1.0}
+    assert at1["simulator"]["position_m"] < 0.5 * at1["bicycle"]["position_m"], at1
+    assert "simulator_reduction_vs_bicycle" in rep
     for x in rep["rows"]:
         assert x["n"] > 0 and all(np.isfinite(x[k]) and x[k] >= 0 for k in ("position_m", "yaw_deg"))
     r = run_kino("train", "--data", tmp_path / "nothing", "--out", tmp_path / "k2")
@@ -233,3 +237,85 @@ def test_tal_trains_by_one_command_and_its_weights_run_in_rust_and_in_the_report
     assert r.returncode == 0, r.stderr
     rep = json.loads((tmp_path / "rep" / "accuracy.json").read_text())
     assert any(x["model"] == "learned" and x["horizon_s"] == 5.0 for x in rep["rows"])
+
+
+def test_traversability_labels_follow_the_frames_and_poses_land_in_the_maps_grid():
+    from vertibench.kino import trav as tv
+
+    fps, n = 20.0, 120  # 3 s driving at 2 m/s, then 3 s standing at full throttle
+    x = np.concatenate([np.arange(60) * 0.1, np.full(61, 5.9)])
+    poses = np.zeros((n + 1, 6))
+    poses[:, 0] = x
+    poses[:, 3] = np.where(np.arange(n + 1) == 30, np.radians(15.0), 0.0)  # one frame rolled 15 degrees
+    act = np.tile([0.0, 1.0, 0.0], (n, 1))
+    e = kd.Episode(1, "low", poses, np.zeros(n + 1), act, None, "stuck", np.full(n, 0.25))
+    lab, valid = tv.frame_labels(e, fps, 1.0)
+    assert lab.shape == (n, 5) and valid.all(), "a stuck end labels the frames whose window runs past it"
+    roll, stuck = lab[:, 0], lab[:, 3]
+    assert np.allclose(roll[:31], 0.5) and np.all(roll[31:] == 0), "frame 30 is in the windows of frames 0-30"
+    assert np.allclose(lab[:, 2], 0.25) and np.all(lab[:, 4] == 0)
+    assert stuck[0] == 0 and stuck[60] == 1 and stuck[119] == 1
+    e.outcome = "off_map"
+    assert not tv.frame_labels(e, fps, 1.0)[1][-1], "an off-map end leaves the last frames unlabelled"
+    e.outcome = "rollover"
+    lab, _ = tv.frame_labels(e, fps, 1.0)
+    assert lab[-1, 4] == 1 and lab[-40, 4] == 1 and lab[-41, 4] == 0, "rollover within the 2 s window only"
+    anchor = np.array([10.0, 20.0, 0.0, 0.0, 0.0, np.pi / 2])
+    poses = np.array([[9.5, 25.5, 0, 0, 0, np.pi / 2],    # 5.5 m ahead, 0.5 m left, same heading
+                      [7.5, 20.5, 0, 0, 0, np.pi],        # 0.5 m ahead, 2.5 m left, turned left
+                      [10.0, 16.0, 0, 0, 0, np.pi / 2]])  # 4 m behind: outside
+    idx, inside = tv.grid_index(anchor, poses, 1.0)
+    assert list(inside) == [True, True, False]
+    assert idx[0] == 0 * 256 + 7 * 16 + 7 and idx[1] == 1 * 256 + 12 * 16 + 5
+
+
+def test_tnt_trains_resumes_and_writes_weights_with_a_card(kino_data, tmp_path):
+    from vertibench.kino import trav as tv
+
+    out = tmp_path / "tnt"
+    data = [kino_data / "random", kino_data / "expert"]
+    r = run_kino("train", "--model", "tnt", "--data", *data, "--out", out, "--epochs", 1, "--batch", 64)
+    assert r.returncode == 0, r.stderr
+    r = run_kino("train", "--model", "tnt", "--data", *data, "--out", out, "--epochs", 2, "--batch", 64)
+    assert r.returncode == 0, r.stderr
+    assert "resumed at epoch 1" in r.stdout
+    for f in ("tnt.safetensors", "card.md", "card.json", "curve.csv", "checkpoint.pt"):
+        assert (out / f).exists(), f
+    card = json.loads((out / "card.json").read_text())
+    assert card["epochs"] == 2 and card["labelled_cells"] > 0 and card["heldout_anchors"] > 0
+    assert all(0 <= card["heldout"][f"mae_{c}"] <= 1 for c in tv.CHANNELS)
+    from safetensors import safe_open
+
+    with safe_open(str(out / "tnt.safetensors"), framework="np") as f:
+        assert f.metadata()["format"] == tv.LAYOUT and f.metadata()["channels"] == ",".join(tv.CHANNELS)
+        assert f.get_tensor("out.weight").shape == (tv.HEADINGS * len(tv.CHANNELS), 16, 1, 1)
+
+
+def test_the_rust_traversability_estimator_equals_torchs_and_looks_poses_up_as_the_trainer(tmp_path):
+    from safetensors.torch import save_file
+
+    from vertibench.kino import trav as tv
+
+    torch.manual_seed(5)
+    net = tv.model(16).eval()
+    path = tmp_path / "t.safetensors"
+    tv.save(net, path, {"name": "t"})
+    maps = np.random.default_rng(1).uniform(-2, 2, (8, 32, 32)).astype(np.float32)
+    got = _core.TravNet(str(path)).estimate(maps)
+    with torch.no_grad():
+        want = net(torch.from_numpy(maps)).numpy()
+    assert got.shape == want.shape == (8, tv.HEADINGS, len(tv.CHANNELS), 16, 16)
+    assert np.max(np.abs(got - want)) < 1e-5
+    tensors = {k: v.detach().contiguous() for k, v in net.state_dict().items()}
+    save_file(tensors, str(tmp_path / "bad.safetensors"), metadata={"format": tv.LAYOUT, "channels": "a,b"})
+    with pytest.raises(ValueError, match="channels"):
+        _core.TravNet(str(tmp_path / "bad.safetensors"))
+    rng = np.random.default_rng(2)
+    for scale in (1.0, 0.1):
+        anchor = np.array([3.0, -7.0, 1.0, 0.1, -0.1, 2.5])
+        poses = np.tile(anchor, (500, 1))
+        poses[:, :2] += rng.uniform(-20, 20, (500, 2)) * scale
+        poses[:, 5] = rng.uniform(-np.pi, np.pi, 500)
+        idx, inside = tv.grid_index(anchor, poses, scale)
+        assert inside.sum() > 50
+        assert np.array_equal(np.where(inside, idx, -1), _core.tnt_grid_index(anchor, poses, scale))

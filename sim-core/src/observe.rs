@@ -136,6 +136,22 @@ pub fn state_vector(s: &VehicleState) -> [f64; 15] {
     ]
 }
 
+/// The state a [`state_vector`] was made from (its inverse): how a recorded `observation.state` becomes a
+/// [`VehicleState`] again.
+pub fn state_from_vector(v: &[f64; 15]) -> VehicleState {
+    VehicleState {
+        time: v[14],
+        position: [v[0], v[1], v[2]],
+        roll: v[3],
+        pitch: v[4],
+        yaw: v[5],
+        velocity: [v[6], v[7], v[8]],
+        angular_velocity: [v[9], v[10], v[11]],
+        speed: v[12],
+        steering: v[13],
+    }
+}
+
 /// The goal `(x, y)` in the vehicle's heading frame ([`GOAL_FIELDS`]): m ahead, m to the left (rotated by the yaw
 /// only) and the horizontal distance.
 pub fn goal_vector(s: &VehicleState, goal: [f64; 2]) -> [f64; 3] {

@@ -81,7 +81,7 @@ enum Cmd {
         opts: SubmitOpts,
     },
     /// Submit one of the built-in planners (pid, eh, mppi, mppi-release, mppi6-oracle; rl, mcl, acl, mppi6, wmvct,
-    /// tal where the service's build has their weights).
+    /// tal, tnt where the service's build has their weights).
     Builtin {
         planner: String,
         #[command(flatten)]

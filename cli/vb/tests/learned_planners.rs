@@ -116,7 +116,7 @@ fn wrong_weights_and_unavailable_learned_planners_are_refused_with_what_to_do() 
             std::fs::remove_dir_all(&out).unwrap();
         } else {
             let e = fails(name, None);
-            let how = if ["mppi6", "wmvct", "tal"].contains(&name) {
+            let how = if ["mppi6", "wmvct", "tal", "tnt"].contains(&name) {
                 "vertibench.kino train"
             } else {
                 "vertibench.train"

@@ -1,9 +1,10 @@
 //! The built-in learned planners: the end-to-end policies `rl`, `mcl`, `acl`, and the hybrids `mppi6` and `wmvct`
-//! (MPPI-6 over a learned kinodynamic model, whole or decomposed) and `tal` (over the terrain-attentive model), with
-//! the weights committed in `planners/learned/weights/`, compiled in, or any weights file a user trained (its
-//! `format` says which kind of planner it makes).
+//! (MPPI-6 over a learned kinodynamic model, whole or decomposed), `tal` (over the terrain-attentive model) and
+//! `tnt` (over the terrain-attentive model with the traversability estimator's cost), with the weights committed
+//! in `planners/learned/weights/`, compiled in, or any weights file a user trained (its `format` says which kind
+//! of planner it makes; a traversability estimator's file runs over the compiled-in `tal` model).
 
-use crate::kino::{Dynamics, KinoMppi, KinoMppiConfig, Rollout};
+use crate::kino::{tnt, Dynamics, KinoMppi, KinoMppiConfig, Rollout, TravNet};
 use crate::net::{PolicyNet, WeightsError};
 use crate::planner::LearnedPlanner;
 use sim_core::planner::Planner;
@@ -12,7 +13,7 @@ use std::path::Path;
 include!(concat!(env!("OUT_DIR"), "/builtin.rs"));
 
 /// Names of the built-in learned planners.
-pub const NAMES: [&str; 6] = ["rl", "mcl", "acl", "mppi6", "wmvct", "tal"];
+pub const NAMES: [&str; 7] = ["rl", "mcl", "acl", "mppi6", "wmvct", "tal", "tnt"];
 
 /// What a built-in learned planner runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -24,14 +25,16 @@ enum Kind {
 }
 
 /// The built-in learned planners: their weights file and what it holds (`wmvct` rolls out `mppi6`'s model,
-/// decomposed). Any other name given a model file rolls it out whole.
-const PLANNERS: [(&str, &str, Kind); 6] = [
+/// decomposed; `tnt`'s file is the estimator, rolled out over `tal`'s model). Any other name given a model file rolls
+/// it out whole.
+const PLANNERS: [(&str, &str, Kind); 7] = [
     ("rl", "rl", Kind::Policy),
     ("mcl", "mcl", Kind::Policy),
     ("acl", "acl", Kind::Policy),
     ("mppi6", "mppi6", Kind::Model("kino", Rollout::Learned)),
     ("wmvct", "mppi6", Kind::Model("kino", Rollout::Decomposed)),
     ("tal", "tal", Kind::Model("tal", Rollout::Learned)),
+    ("tnt", "tnt", Kind::Model("tnt", Rollout::Learned)),
 ];
 
 /// A built-in planner's weights file and kind.
@@ -108,29 +111,49 @@ pub fn available() -> Vec<&'static str> {
         .collect()
 }
 
-/// What a learned planner runs: an end-to-end policy, or a kinodynamic model that MPPI-6 rolls out.
+/// What a learned planner runs: an end-to-end policy, a kinodynamic model that MPPI-6 rolls out, or such a model
+/// with a traversability estimator whose grid adds to the rollouts' cost.
 #[derive(Clone, Debug)]
 pub enum LearnedNet {
     Policy(PolicyNet),
     Kino(Dynamics),
+    Traversability(Dynamics, Box<TravNet>),
 }
 
 impl LearnedNet {
-    /// A weights file's bytes: a `vertibench-kino-v1` or `vertibench-tal-v1` file is a kinodynamic model, any other
-    /// must be a policy.
+    /// A weights file's bytes: a `vertibench-kino-v1` or `vertibench-tal-v1` file is a kinodynamic model, a
+    /// `vertibench-tnt-v1` file a traversability estimator (over the compiled-in `tal` model), any other must be a
+    /// policy.
     pub fn from_bytes(bytes: &[u8]) -> Result<LearnedNet, WeightsError> {
         if Dynamics::is_model_format(bytes) {
             Dynamics::from_bytes(bytes).map(LearnedNet::Kino)
+        } else if crate::nn::format(bytes).as_deref() == Some(tnt::TNT_LAYOUT) {
+            let trav = TravNet::from_bytes(bytes)?;
+            let tal = BUILTIN
+                .iter()
+                .find(|(n, _)| *n == "tal")
+                .and_then(|(_, b)| *b)
+                .ok_or_else(|| {
+                    WeightsError::Format(
+                        "a traversability estimator runs over the built-in `tal` model, which this build lacks"
+                            .into(),
+                    )
+                })?;
+            Ok(LearnedNet::Traversability(
+                Dynamics::from_bytes(tal)?,
+                Box::new(trav),
+            ))
         } else {
             PolicyNet::from_bytes(bytes).map(LearnedNet::Policy)
         }
     }
 
-    /// SHA-256 of the weights file (hex).
-    pub fn sha256(&self) -> &str {
+    /// SHA-256 of the weights file (hex; for an estimator, its file's and then the model's, joined by `+`).
+    pub fn sha256(&self) -> String {
         match self {
-            LearnedNet::Policy(n) => n.sha256(),
-            LearnedNet::Kino(n) => n.sha256(),
+            LearnedNet::Policy(n) => n.sha256().to_string(),
+            LearnedNet::Kino(n) => n.sha256().to_string(),
+            LearnedNet::Traversability(d, t) => format!("{}+{}", t.sha256(), d.sha256()),
         }
     }
 
@@ -146,6 +169,10 @@ impl LearnedNet {
                 };
                 Box::new(KinoMppi::new(name, n.clone(), cfg))
             }
+            LearnedNet::Traversability(d, t) => Box::new(
+                KinoMppi::new(name, d.clone(), KinoMppiConfig::default())
+                    .with_traversability((**t).clone()),
+            ),
         }
     }
 }

@@ -144,6 +144,61 @@ pub(crate) fn conv_relu(
     }
 }
 
+/// A convolution's shape: filters, kernel side, stride, zero padding on every side and dilation.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ConvShape {
+    pub(crate) filters: usize,
+    pub(crate) k: usize,
+    pub(crate) stride: usize,
+    pub(crate) pad: usize,
+    pub(crate) dilation: usize,
+}
+
+impl ConvShape {
+    /// Output side for an input of `side` (PyTorch's formula).
+    pub(crate) const fn out_side(&self, side: usize) -> usize {
+        (side + 2 * self.pad - self.dilation * (self.k - 1) - 1) / self.stride + 1
+    }
+}
+
+/// A zero-padded, strided, dilated convolution of `input` (`in_ch x side x side`) into `out`
+/// (`filters x out_side x out_side`), with a ReLU where asked.
+pub(crate) fn conv_padded(
+    l: &Layer,
+    c: ConvShape,
+    in_ch: usize,
+    side: usize,
+    input: &[f32],
+    out: &mut [f32],
+    relu: bool,
+) {
+    let (k, o) = (c.k, c.out_side(side));
+    for f in 0..c.filters {
+        let wf = &l.weight[f * in_ch * k * k..(f + 1) * in_ch * k * k];
+        for y in 0..o {
+            for x in 0..o {
+                let mut acc = l.bias[f];
+                for ch in 0..in_ch {
+                    for ky in 0..k {
+                        let iy = (y * c.stride + ky * c.dilation) as isize - c.pad as isize;
+                        if iy < 0 || iy >= side as isize {
+                            continue;
+                        }
+                        let row = &input[(ch * side + iy as usize) * side..][..side];
+                        for kx in 0..k {
+                            let ix = (x * c.stride + kx * c.dilation) as isize - c.pad as isize;
+                            if ix >= 0 && ix < side as isize {
+                                acc += wf[(ch * k + ky) * k + kx] * row[ix as usize];
+                            }
+                        }
+                    }
+                }
+                out[(f * o + y) * o + x] = if relu { acc.max(0.0) } else { acc };
+            }
+        }
+    }
+}
+
 /// `out = W input + b`, then tanh where asked.
 pub(crate) fn dense(l: &Layer, input: &[f32], out: &mut [f32], tanh: bool) {
     let n = input.len();

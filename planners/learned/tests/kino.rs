@@ -2,14 +2,18 @@
 //! layout checked (a policy file, the other layout or a damaged one is refused naming what differs), the
 //! terrain-attentive model's gate makes its prediction depend on the map and on where the pose is over it, and MPPI-6
 //! rolling out a hand-built model of either layout (forward at the nominal speed, turning with the steering command)
-//! drives real episodes to goals ahead and beside, the same at every run.
+//! drives real episodes to goals ahead and beside, the same at every run. The traversability estimator
+//! (`vertibench-tnt-v1`) reads the map at the anchor and is looked up at poses in that map's frame: a hand-built one
+//! that flags raised ground finds a block where it stands, whichever way the anchor faces, and `tnt`'s MPPI with it
+//! still reaches goals.
 
 use learned::kino::features::{FEATURES, LAYOUT, TARGETS};
 use learned::kino::net::{CODE, CROP_META, HEAD_INPUTS};
 use learned::kino::tal::{
     map_features, offset_features, EMBED, GATE_HIDDEN, MAP_META, MAP_SIZE, OFFSETS, TAL_LAYOUT,
 };
-use learned::kino::{Dynamics, KinoMppi, KinoMppiConfig, KinoNet, Rollout, TalNet};
+use learned::kino::tnt::{CHANNELS, CHANNEL_WEIGHTS, GRID_META, HEADINGS, TNT_LAYOUT};
+use learned::kino::{Dynamics, KinoMppi, KinoMppiConfig, KinoNet, Rollout, TalNet, TravNet};
 use learned::weights::{layout_metadata, untrained};
 use safetensors::tensor::{Dtype, TensorView};
 use sim_core::episode::{EpisodeConfig, Outcome};
@@ -132,6 +136,11 @@ fn serialize(mut tensors: Tensors, code_weight: f32, meta: HashMap<String, Strin
             tensors.push((format!("heads.{m}.{n}"), s, v));
         }
     }
+    to_bytes(tensors, meta)
+}
+
+/// A safetensors file of f32 `tensors` with `meta`.
+fn to_bytes(tensors: Tensors, meta: HashMap<String, String>) -> Vec<u8> {
     let bytes: Vec<(String, Vec<usize>, Vec<u8>)> = tensors
         .into_iter()
         .map(|(n, s, v)| (n, s, v.iter().flat_map(|x| x.to_le_bytes()).collect()))
@@ -265,6 +274,10 @@ fn mppi6_and_wmvct_with_a_hand_built_model_reach_goals_ahead_and_beside_determin
 /// MPPI-6 (16 samples, 6 steps) rolling out `net` drives the HMMWV on flat rigid ground to goals ahead and to
 /// either side, and the same episode again gives the same metrics.
 fn reaches_goals(net: &Dynamics, rollout: Rollout) {
+    reaches_goals_with(net, rollout, None);
+}
+
+fn reaches_goals_with(net: &Dynamics, rollout: Rollout, estimator: Option<&TravNet>) {
     let w = &flat(1.0);
     let spec = &vehicle_by_name("hmmwv").unwrap();
     let cfg = &EpisodeConfig {
@@ -285,7 +298,14 @@ fn reaches_goals(net: &Dynamics, rollout: Rollout) {
             goal,
             path: vec![[0.0, 0.0], goal],
         };
-        let mut p = KinoMppi::new("mppi6", net.clone(), small);
+        let make = || {
+            let p = KinoMppi::new("mppi6", net.clone(), small);
+            match estimator {
+                Some(t) => p.with_traversability(t.clone()),
+                None => p,
+            }
+        };
+        let mut p = make();
         let r = sim_core::run_episode(w, &task, spec, &mut p, cfg);
         assert_eq!(
             r.outcome,
@@ -293,7 +313,7 @@ fn reaches_goals(net: &Dynamics, rollout: Rollout) {
             "{small:?} goal {goal:?}: {r:?}"
         );
         assert!(p.decisions > 5 && p.predictions >= p.decisions * 16);
-        let mut again = KinoMppi::new("mppi6", net.clone(), small);
+        let mut again = make();
         let r2 = sim_core::run_episode(w, &task, spec, &mut again, cfg);
         assert_eq!(r.metrics, r2.metrics, "deterministic");
     }
@@ -306,4 +326,89 @@ fn flat(cell: f64) -> World {
         Semantic::Dirt,
         Surface::Rigid { friction: 0.8 },
     )
+}
+
+/// An estimator that flags raised ground: the map's height passed through the centre taps of every convolution,
+/// `stuck` (ahead heading) = sigmoid(20 x height - 5), every other output sigmoid(-10).
+fn block_finder() -> Vec<u8> {
+    let tap = |out: usize, inp: usize, k: usize| {
+        let mut w = vec![0f32; out * inp * k * k];
+        w[k * k / 2] = 1.0; // filter 0, input channel 0, centre
+        w
+    };
+    let outputs = HEADINGS * CHANNELS.len();
+    let mut out_w = vec![0f32; outputs * 2];
+    out_w[3 * 2] = 20.0; // heading 0, channel `stuck` (3), from channel 0
+    let mut out_b = vec![-10f32; outputs];
+    out_b[3] = -5.0;
+    let tensors: Tensors = vec![
+        ("conv1.weight".into(), vec![8, 1, 3, 3], tap(8, 1, 3)),
+        ("conv1.bias".into(), vec![8], vec![0.0; 8]),
+        ("conv2.weight".into(), vec![2, 8, 3, 3], tap(2, 8, 3)),
+        ("conv2.bias".into(), vec![2], vec![0.0; 2]),
+        ("conv3.weight".into(), vec![2, 2, 3, 3], tap(2, 2, 3)),
+        ("conv3.bias".into(), vec![2], vec![0.0; 2]),
+        ("out.weight".into(), vec![outputs, 2, 1, 1], out_w),
+        ("out.bias".into(), vec![outputs], out_b),
+    ];
+    let meta = [
+        ("format", TNT_LAYOUT.to_string()),
+        ("channels", CHANNELS.join(",")),
+        ("headings", HEADINGS.to_string()),
+        ("grid", GRID_META.to_string()),
+        ("map", MAP_META.to_string()),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v))
+    .collect();
+    to_bytes(tensors, meta)
+}
+
+#[test]
+fn the_estimator_finds_a_block_where_it_stands_in_the_anchors_frame_whichever_way_it_faces() {
+    let mut net = TravNet::from_bytes(&block_finder()).unwrap();
+    let low = 1.0 / (1.0 + 5f64.exp()); // sigmoid(-5)
+    for yaw in [0.0, std::f64::consts::FRAC_PI_2, -2.5] {
+        // A block 1 m high, 2 m square, 7 m ahead and 3 m to the left of an anchor at the origin facing `yaw`.
+        let (s, c) = f64::sin_cos(yaw);
+        let at = |fwd: f64, left: f64| (c * fwd - s * left, s * fwd + c * left);
+        let (bx, by) = at(7.0, 3.0);
+        let world = World::uniform(
+            Heightmap::from_fn(0.25, |x, y| {
+                f64::from(u8::from((x - bx).abs() < 1.0 && (y - by).abs() < 1.0))
+            }),
+            Semantic::Dirt,
+            Surface::Rigid { friction: 0.8 },
+        );
+        net.set_anchor(&world, &[0.0, 0.0, 0.0, 0.0, 0.0, yaw], 1.0);
+        let pose = |fwd: f64, left: f64| {
+            let (x, y) = at(fwd, left);
+            [x, y, 0.0, 0.0, 0.0, yaw]
+        };
+        let on = net.at(&pose(7.0, 3.0)).unwrap();
+        assert!(on[3] > 0.99, "yaw {yaw}: stuck {} on the block", on[3]);
+        for (f, l) in [(7.0, -3.0), (3.0, 3.0), (11.0, 3.0), (7.0, 7.0)] {
+            let off = net.at(&pose(f, l)).unwrap();
+            assert!(
+                (f64::from(off[3]) - low).abs() < 1e-6,
+                "yaw {yaw}: {f} ahead, {l} left: {off:?}"
+            );
+        }
+        assert_eq!(net.at(&pose(-4.0, 0.0)), None, "behind the grid");
+        let cost = net.cost(&pose(7.0, 3.0));
+        let want: f64 = on
+            .iter()
+            .zip(CHANNEL_WEIGHTS)
+            .map(|(&v, w)| f64::from(v) * w)
+            .sum();
+        assert!((cost - want).abs() < 1e-12 && cost > 0.19, "{cost}");
+        assert_eq!(net.cost(&pose(-4.0, 0.0)), 0.0);
+    }
+}
+
+#[test]
+fn tnt_with_a_hand_built_model_and_estimator_reaches_goals_ahead_and_beside_deterministically() {
+    let net = TalNet::from_bytes(&bicycle_like(tal_metadata(2))).unwrap();
+    let estimator = TravNet::from_bytes(&block_finder()).unwrap();
+    reaches_goals_with(&Dynamics::from(net), Rollout::Learned, Some(&estimator));
 }

@@ -10,6 +10,7 @@ mod py_eval;
 mod py_kino;
 mod py_policy;
 mod py_tal;
+mod py_tnt;
 mod py_vec;
 mod slot;
 mod source;
@@ -53,6 +54,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<py_kino::KinoData>()?;
     m.add_class::<py_kino::KinoNet>()?;
     m.add_class::<py_tal::TalNet>()?;
+    m.add_class::<py_tnt::TravNet>()?;
+    m.add_function(wrap_pyfunction!(py_tnt::tnt_grid_index, m)?)?;
     m.add_function(wrap_pyfunction!(py_policy::policy_features, m)?)?;
     m.add("POLICY_LAYOUT", learned::features::LAYOUT)?;
     m.add("POLICY_FEATURES", learned::features::FEATURES.to_vec())?;
@@ -74,6 +77,11 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         m.add("TAL_ANCHOR_STEPS", tal::ANCHOR_STEPS)?;
         m.add("TAL_EMBED", tal::EMBED)?;
         m.add("TAL_GATE_HIDDEN", tal::GATE_HIDDEN)?;
+        use learned::kino::tnt;
+        m.add("TNT_LAYOUT", tnt::TNT_LAYOUT)?;
+        m.add("TNT_CHANNELS", tnt::CHANNELS.to_vec())?;
+        m.add("TNT_HEADINGS", tnt::HEADINGS)?;
+        m.add("TNT_GRID", tnt::GRID)?;
     }
     m.add_function(wrap_pyfunction!(py_eval::evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(bench::raw_throughput, m)?)?;

@@ -56,6 +56,7 @@ pub struct KinoData {
     worlds: WorldCache,
     scales: Scales,
     vehicle: sim_core::planner::VehicleInfo,
+    spec: sim_core::vehicle::VehicleSpec,
 }
 
 #[pymethods]
@@ -64,9 +65,8 @@ impl KinoData {
     /// speed scales the features).
     #[new]
     fn new(py: Python<'_>, task_dir: PathBuf, vehicle: &str, scale: f64) -> PyResult<Self> {
-        let info = sim_core::vehicle::vehicle_by_name(vehicle)
-            .map_err(|e| bad(e.to_string()))?
-            .info();
+        let spec = sim_core::vehicle::vehicle_by_name(vehicle).map_err(|e| bad(e.to_string()))?;
+        let info = spec.info();
         Ok(KinoData {
             worlds: WorldCache::new(py, task_dir, scale)?,
             scales: Scales {
@@ -74,6 +74,7 @@ impl KinoData {
                 nominal_speed: info.nominal_speed,
             },
             vehicle: info,
+            spec,
         })
     }
 
@@ -176,6 +177,87 @@ impl KinoData {
                 .map_err(err)?
                 .into_pyarray(py),
         ))
+    }
+
+    /// Our simulator as a model (the open-loop accuracy report): from each observed state (f64 [n, 15], the
+    /// datasets' `observation.state`) on world `world_id`, the vehicle placed there as
+    /// `sim_core::Simulation::place_observed` does (the chassis state observed, wheels rolling without slip, the
+    /// suspension settled, the soil undeformed) is driven with that start's recorded actions (f64 [n, frames, 3]:
+    /// steering, throttle, brake, each held for one control period of `1 / control_rate_hz` s); returns the poses
+    /// after the last action (f64 [n, 6]: x y z roll pitch yaw).
+    fn simulate<'py>(
+        &mut self,
+        py: Python<'py>,
+        world_id: u32,
+        states: PyReadonlyArray2<'py, f64>,
+        actions: PyReadonlyArray3<'py, f64>,
+        control_rate_hz: f64,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        use sim_core::planner::Action;
+        let n = states.as_array().nrows();
+        let states: Vec<[f64; 15]> = rows("states", &states.as_array(), n)?;
+        let actions = actions.as_array();
+        if actions.shape()[0] != n || actions.shape()[2] != 3 {
+            return Err(bad(format!(
+                "actions has shape {:?}; expected [{n}, frames, 3]",
+                actions.shape()
+            )));
+        }
+        if !(control_rate_hz.is_finite() && control_rate_hz > 0.0) {
+            return Err(bad(format!(
+                "control rate {control_rate_hz} Hz is not positive"
+            )));
+        }
+        let plan: Vec<Vec<Action>> = actions
+            .outer_iter()
+            .map(|a| {
+                a.rows()
+                    .into_iter()
+                    .map(|r| Action {
+                        steering: r[0],
+                        throttle: r[1],
+                        brake: r[2],
+                    })
+                    .collect()
+            })
+            .collect();
+        if let Some(e) = plan.iter().flatten().find_map(|a| a.validate().err()) {
+            return Err(bad(format!("a recorded action is invalid: {e}")));
+        }
+        let world = std::sync::Arc::new(self.worlds.get(py, world_id)?.clone());
+        let spec = &self.spec;
+        let out = py.detach(|| -> Result<Vec<f64>, String> {
+            let mut out = Vec::with_capacity(n * 6);
+            let Some(first) = states.first() else {
+                return Ok(out);
+            };
+            let mut sim =
+                sim_core::Simulation::new_shared(world, spec, first[0], first[1], first[5]);
+            let every = sim_core::episode_run::control_every(control_rate_hz, sim.dt());
+            for (s, acts) in states.iter().zip(&plan) {
+                let observed = sim_core::observe::state_from_vector(s);
+                sim.place_observed(&observed).map_err(|e| e.to_string())?;
+                for a in acts {
+                    for _ in 0..every {
+                        sim.step(a);
+                    }
+                }
+                let v = sim.state();
+                out.extend([
+                    v.position[0],
+                    v.position[1],
+                    v.position[2],
+                    v.roll,
+                    v.pitch,
+                    v.yaw,
+                ]);
+            }
+            Ok(out)
+        });
+        let out = out.map_err(bad)?;
+        Array2::from_shape_vec((n, 6), out)
+            .map_err(|e| bad(e.to_string()))
+            .map(|a| a.into_pyarray(py))
     }
 
     /// The scaled targets `f32 [n, 7]` of steps from pose `now` to pose `after` (f64 [n, 6]) with the applied

@@ -4,6 +4,7 @@
 
 use super::simulation::{Simulation, StateCopyError};
 use crate::collide::NearList;
+use crate::planner::VehicleState;
 use crate::soil::SoilGrid;
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -107,6 +108,33 @@ impl Simulation {
     /// The dynamic state (see [`DynamicsState`]).
     pub fn dynamics(&self) -> &DynamicsState {
         &self.state
+    }
+
+    /// Puts the vehicle in an observed state ([`VehicleState`]: what a planner observes and the datasets record):
+    /// [`Simulation::place`] at its `(x, y)` and yaw, then the observation's chassis position, attitude, linear and
+    /// angular velocities, steering and time, each wheel spinning as it would roll without slip at the chassis'
+    /// forward speed. What an observation does not hold keeps `place`'s values: the suspension as it settled there,
+    /// no tyre bristle deflection, the first gear, and undeformed soil (no rut). This is the start a model-based
+    /// planner that sees only the observation would roll out from; the open-loop accuracy report
+    /// (`vertibench.kino.report`) rolls the simulator out from it. Non-finite observations are refused.
+    pub fn place_observed(&mut self, s: &VehicleState) -> Result<(), StateCopyError> {
+        let finite = s
+            .position
+            .iter()
+            .chain(&s.velocity)
+            .chain(&s.angular_velocity)
+            .chain(&[s.roll, s.pitch, s.yaw, s.steering, s.time])
+            .all(|v| v.is_finite());
+        if !finite {
+            return Err(StateCopyError::NotFinite);
+        }
+        self.place(s.position[0], s.position[1], s.yaw);
+        self.set_chassis_state(&VehicleState {
+            steering: s.steering.clamp(-1.0, 1.0),
+            ..*s
+        });
+        self.set_velocity(Vector3::from(s.velocity));
+        Ok(())
     }
 
     /// Makes this simulation's dynamic state a copy of `src` (taken from a simulation with

@@ -130,13 +130,15 @@ impl Default for SimOptions {
     }
 }
 
-/// Why [`Simulation::set_dynamics`] refused a state.
+/// Why [`Simulation::set_dynamics`] or [`Simulation::place_observed`] refused a state.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum StateCopyError {
     #[error("cannot copy the state of a {src} into a {dst}: different vehicles")]
     Vehicle { src: String, dst: String },
     #[error("cannot copy the state of a simulation of a different world (heightmap, soil grid or obstacles)")]
     World,
+    #[error("an observed state with a value that is not finite")]
+    NotFinite,
 }
 
 /// A vehicle driving in a world: the vehicle's parameters ([`VehicleParams`], fixed at build), the world it drives

@@ -9,11 +9,12 @@ pub struct EvalArgs {
     /// Built-in planner: pid, eh, mppi (bicycle model), mppi-release (the original release's MPPI as published),
     /// mppi6-oracle (MPPI-6 over our own simulator), or a learned one: rl, mcl, acl (PPO policies on training
     /// worlds), mppi6 (MPPI-6 over a learned kinodynamic model), wmvct (the same, x, y and yaw from a bicycle), tal
-    /// (MPPI-6 over the terrain-attentive model); their weights are compiled in once committed.
+    /// (MPPI-6 over the terrain-attentive model), tnt (tal with the traversability estimator's cost); their weights
+    /// are compiled in once committed.
     #[arg(long, default_value = "pid")]
     planner: String,
     /// A learned planner's weights file (`policy.safetensors` of `python -m vertibench.train`, or a kinodynamic model
-    /// of `python -m vertibench.kino train`), run under the name `--planner`.
+    /// or a traversability estimator of `python -m vertibench.kino train`), run under the name `--planner`.
     #[arg(long)]
     weights: Option<PathBuf>,
     /// `all`, or a comma-separated union of world ids (17), task ids (w017-t3) and named splits: low, medium,

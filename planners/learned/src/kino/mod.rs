@@ -1,15 +1,18 @@
 //! Learned kinodynamic models (`KINO.md`): what they see ([`features`]), the crop model ([`net::KinoNet`],
 //! `vertibench-kino-v1`) and the terrain-attentive model ([`tal::TalNet`], `vertibench-tal-v1`), for the hybrid
-//! planners that roll them out ([`mppi::KinoMppi`]).
+//! planners that roll them out ([`mppi::KinoMppi`]), and the traversability estimator whose grid `tnt` adds to their
+//! cost ([`tnt::TravNet`], `vertibench-tnt-v1`).
 
 pub mod features;
 pub mod mppi;
 pub mod net;
 pub mod tal;
+pub mod tnt;
 
 pub use mppi::{KinoMppi, KinoMppiConfig, Rollout};
 pub use net::KinoNet;
 pub use tal::TalNet;
+pub use tnt::TravNet;
 
 use crate::net::WeightsError;
 use features::{Pose, FEATURES};

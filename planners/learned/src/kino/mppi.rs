@@ -13,7 +13,10 @@
 //! Costs per step: `step_cost` (progress on the cost-to-go, local goal, roll and pitch) plus `uncertainty` times the
 //! members' summed standard deviation of the six scaled pose changes; entering an obstacle cell (inflated by half
 //! the vehicle's width) ends the rollout with 100, a predicted rollover (|roll| > 30 deg) or leaving the map with
-//! 200; reaching the goal ends it as in the oracle.
+//! 200; reaching the goal ends it as in the oracle. With a traversability estimator (`tnt`,
+//! [`KinoMppi::with_traversability`]), each step also costs `traversability` times the estimator's weighted channels
+//! at the predicted pose ([`TravNet::cost`]: its grid is estimated once per decision from the map at the decision's
+//! pose, and the pose is looked up in that map's frame), the release's factor of 3 on its estimator's weighted sum.
 //! The model never saw reversing (its datasets drive forwards), so speed factors stay in [0, 1]. With
 //! [`Rollout::Decomposed`] (`wmvct`) x, y and yaw come from a kinematic bicycle instead, as WM-VCT decomposes the
 //! motion (the release's WMVCT does the same with TAL's network); the cost is the same.
@@ -25,7 +28,7 @@ use super::features::{
     apply_delta, ground, previous_delta, vector_features, Pose, Scales, STEP_FRAMES, STEP_S,
     TARGETS,
 };
-use super::Dynamics;
+use super::{Dynamics, TravNet};
 use baselines::hybrid::{
     interp, softmin_plan, speed_control, step_cost, CostToGo, KNOTS, ROLLOVER_DEG,
 };
@@ -62,6 +65,8 @@ pub struct KinoMppiConfig {
     pub sigma_speed: f64,
     /// Weight of the ensemble's disagreement per step.
     pub uncertainty: f64,
+    /// Weight of the traversability estimator's cost per step (only with an estimator).
+    pub traversability: f64,
     pub rollout: Rollout,
 }
 
@@ -73,6 +78,7 @@ impl Default for KinoMppiConfig {
             sigma_steer: 0.45,
             sigma_speed: 0.35,
             uncertainty: 1.0,
+            traversability: 3.0,
             rollout: Rollout::Learned,
         }
     }
@@ -117,6 +123,7 @@ pub struct KinoMppi {
     name: String,
     cfg: KinoMppiConfig,
     model: Dynamics,
+    trav: Option<TravNet>,
     ep: Option<Episode>,
     plan: [[f64; 2]; KNOTS],
     samples: Vec<[[f64; 2]; KNOTS]>,
@@ -140,6 +147,7 @@ impl KinoMppi {
             name: name.to_string(),
             cfg,
             model,
+            trav: None,
             ep: None,
             plan: [[0.0, 1.0]; KNOTS],
             samples: vec![[[0.0; 2]; KNOTS]; k],
@@ -151,6 +159,12 @@ impl KinoMppi {
             decisions: 0,
             predictions: 0,
         }
+    }
+
+    /// The planner that also charges each rollout step the estimator's traversability cost (`tnt`).
+    pub fn with_traversability(mut self, estimator: TravNet) -> KinoMppi {
+        self.trav = Some(estimator);
+        self
     }
 
     fn knot_spacing(&self) -> f64 {
@@ -220,6 +234,9 @@ impl KinoMppi {
         let factors = ep.scales.target_factors();
         let members = self.model.members();
         self.model.begin(&ep.world, &now, ep.scales.scale);
+        if let Some(t) = self.trav.as_mut() {
+            t.set_anchor(&ep.world, &now, ep.scales.scale);
+        }
         let t_n = TARGETS.len();
         for t in 0..n {
             for k in 0..self.rolls.len() {
@@ -299,8 +316,13 @@ impl KinoMppi {
                 }
                 let d = (x - local[0]).hypot(y - local[1]) / d0;
                 let progress = (ep.togo.at(x, y) - togo0) / reach;
+                let trav = self
+                    .trav
+                    .as_ref()
+                    .map_or(0.0, |t| self.cfg.traversability * t.cost(&next));
                 r.cost += (step_cost(progress, d, roll, next[4].to_degrees())
-                    + self.cfg.uncertainty * spread)
+                    + self.cfg.uncertainty * spread
+                    + trav)
                     / n as f64;
                 if blocked_at(&ep.blocked, ep.grid, x, y) {
                     r.cost += 100.0;

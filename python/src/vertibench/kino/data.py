@@ -19,24 +19,38 @@ HELD_OUT = 9
 
 @dataclass
 class Episode:
-    """One episode's frames: poses ``[n, 6]`` (x y z roll pitch yaw), applied steering ``[n]``, actions ``[n, 3]``;
-    the frame after its last action is appended, so it has ``n`` poses and ``n - 1`` actions."""
+    """One episode's frames: poses ``[n, 6]`` (x y z roll pitch yaw), applied steering ``[n]``, actions ``[n, 3]``
+    and the whole observed states ``[n, 15]`` (``observation.state``; ``None`` when not read); the frame after its
+    last action is appended, so it has ``n`` poses and ``n - 1`` actions. ``outcome`` is how it ended; ``slip``
+    (``[n - 1]``, read with ``wheels=True``) the mean |longitudinal slip| of the wheels in contact at each frame."""
 
     world_id: int
     level: str
     poses: np.ndarray
     steering: np.ndarray
     actions: np.ndarray
+    states: np.ndarray | None = None
+    outcome: str = ""
+    slip: np.ndarray | None = None
 
 
-def episodes(path: str | Path, task_set: str | Path | None = None) -> tuple[dict, list[Episode]]:
-    """A dataset's spec and its episodes (read once, file by file)."""
+def _slip(wheels: np.ndarray) -> np.ndarray:
+    """Mean |slip| of the wheels in contact (``observation.wheels`` fields: sinkage, slip, normal load, contact)."""
+    contact = wheels[:, :, 3] > 0.5
+    n = np.maximum(contact.sum(1), 1)
+    return np.where(contact, np.abs(wheels[:, :, 1]), 0.0).sum(1) / n
+
+
+def episodes(path: str | Path, task_set: str | Path | None = None,
+             wheels: bool = False) -> tuple[dict, list[Episode]]:
+    """A dataset's spec and its episodes (read once, file by file; with ``wheels`` also each frame's slip)."""
     pq = vb_datasets._pyarrow()
     ds = vb_datasets.open(path, task_set)
     meta = ds.episodes.set_index("episode_index")
     out: list[Episode] = []
     for f in ds._data_files():
-        a = ds._arrays(pq.read_table(f, columns=["observation.state", "action", "episode_index"]), crops=False)
+        cols = ["observation.state", "action", "episode_index"] + (["observation.wheels"] if wheels else [])
+        a = ds._arrays(pq.read_table(f, columns=cols), crops=False)
         ep = a["episode_index"]
         bounds = np.flatnonzero(np.diff(ep)) + 1
         for rows in np.split(np.arange(len(ep)), bounds):
@@ -47,7 +61,9 @@ def episodes(path: str | Path, task_set: str | Path | None = None) -> tuple[dict
             state = np.concatenate([a["observation.state"][rows], np.asarray(row["final_state"])[None, :]])
             out.append(Episode(int(row["world_id"]), str(row["level"]),
                                np.ascontiguousarray(state[:, :6]), np.ascontiguousarray(state[:, 13]),
-                               np.asarray(a["action"][rows], np.float64)))
+                               np.asarray(a["action"][rows], np.float64), np.ascontiguousarray(state),
+                               str(row["outcome"]),
+                               _slip(np.asarray(a["observation.wheels"][rows], np.float64)) if wheels else None))
     return ds.spec, out
 
 

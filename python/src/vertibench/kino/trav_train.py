@@ -1,0 +1,176 @@
+"""Training TNT's traversability estimator (``python -m vertibench.kino train --model tnt``): binary cross-entropy of
+the predicted grid against the labelled cells of each anchor (:mod:`.trav`), Adam, a fixed seed, one epoch at a
+time with a checkpoint after each (a run resumes from its ``--out``), a learning curve (held-out cross-entropy and
+mean absolute error per channel) and, at the end, ``tnt.safetensors`` with its card. The card also gives each
+channel's error when predicting the training labels' mean everywhere: what the map adds."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .. import _core
+from . import data as kd
+from . import trav as tv
+from .train import TrainSpec, write_curve
+
+
+def load_samples(spec: TrainSpec) -> tuple[tv.TravSamples, dict]:
+    """The anchors of every dataset (cached in ``out/trav-samples.npz``) and what the card says about the data."""
+    out = Path(spec.out)
+    cache, about_path = out / "trav-samples.npz", out / "data.json"
+    key = {"data": [str(Path(d).resolve()) for d in spec.data], "model": "tnt"}
+    if cache.exists() and about_path.exists():
+        about = json.loads(about_path.read_text())
+        if all(about.get(k) == v for k, v in key.items()):
+            z = np.load(cache)
+            return tv.TravSamples(*(z[k] for k in ("map", "world", "start", "cell", "label"))), about
+    from .. import datasets as vbd
+
+    parts, about, maker, first = [], {**key, "sets": []}, None, None
+    for d in spec.data:
+        ds_spec, eps = kd.episodes(d, spec.task_set, wheels=True)
+        if ds_spec.get("analysis_only"):
+            raise ValueError(f"{d} was made from the benchmark's own tasks (--allow-benchmark-tasks): generate a "
+                             f"dataset on a training task set (vb tasks generate --seed N)")
+        k = (ds_spec["vehicle"], float(ds_spec["scale"]), ds_spec["task_set_version"], ds_spec["sim_version"])
+        if first is not None and k != first:
+            raise ValueError(f"{d}: vehicle, scale, task set or simulator {k} differ from the first dataset's {first}")
+        if maker is None:
+            task_dir = spec.task_set or vbd._find_task_set(ds_spec)
+            if task_dir is None:
+                raise ValueError(f"{d}: its task set (version {ds_spec['task_set_version']}) was not found: pass "
+                                 f"--task-set DIR")
+            maker = _core.KinoData(str(task_dir), ds_spec["vehicle"], float(ds_spec["scale"]))
+        first = k
+        s = tv.samples(eps, maker, float(ds_spec["control_rate_hz"]), float(ds_spec["scale"]))
+        parts.append(s)
+        about["sets"].append({"path": str(d), "kind": ds_spec["kind"], "episodes": len(eps), "samples": len(s),
+                              "entries": int(len(s.cell)), "seed": ds_spec["seed"],
+                              "speed_profile": ds_spec.get("speed_profile", "constant")})
+    if first is None:
+        raise ValueError("no datasets given")
+    about.update(vehicle=first[0], scale=first[1], task_set_version=first[2], sim_version=first[3])
+    offsets = np.cumsum([0] + [len(p.cell) for p in parts[:-1]])
+    allv = tv.TravSamples(np.concatenate([p.map for p in parts]), np.concatenate([p.world for p in parts]),
+                          np.concatenate([[0]] + [p.start[1:] + o for p, o in zip(parts, offsets)]),
+                          np.concatenate([p.cell for p in parts]), np.concatenate([p.label for p in parts]))
+    out.mkdir(parents=True, exist_ok=True)
+    np.savez(cache, map=allv.map, world=allv.world, start=allv.start, cell=allv.cell, label=allv.label)
+    about_path.write_text(json.dumps(about, indent=1))
+    return allv, about
+
+
+def evaluate(model, s: tv.TravSamples, rows: np.ndarray, batch: int = 1024) -> dict:
+    """Held-out cross-entropy and mean absolute error per channel over the labelled entries of ``rows``."""
+    import torch
+
+    bce, mae, n = 0.0, np.zeros(len(tv.CHANNELS)), 0
+    with torch.no_grad():
+        for a in range(0, len(rows), batch):
+            r = rows[a:a + batch]
+            owner, cell, lab = s.entries(r)
+            p = tv.gather(model(torch.from_numpy(s.map[r])), owner, cell)
+            y = torch.from_numpy(lab)
+            bce += float(torch.nn.functional.binary_cross_entropy(p, y, reduction="sum"))
+            mae += (p - y).abs().sum(0).numpy()
+            n += len(lab)
+    n = max(n, 1)
+    return {"bce": bce / (n * len(tv.CHANNELS)), **{f"mae_{c}": float(v / n) for c, v in zip(tv.CHANNELS, mae)}}
+
+
+def train(spec: TrainSpec, log=print) -> Path:
+    import torch
+
+    torch.set_num_threads(spec.threads)
+    out = Path(spec.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.monotonic()
+    s, about = load_samples(spec)
+    data_s = time.monotonic() - t0
+    held = (s.world % 10) == kd.HELD_OUT
+    tr, ho = np.flatnonzero(~held), np.flatnonzero(held)
+    if len(tr) == 0 or len(ho) == 0:
+        raise ValueError(f"{len(tr)} training and {len(ho)} held-out anchors: the data need worlds of both kinds "
+                         f"(held out: world id 9 mod 10)")
+    log(f"vertibench.kino tnt: {len(tr)} training, {len(ho)} held-out anchors, {len(s.cell)} labelled cells "
+        f"({data_s:.0f} s to make)")
+    torch.manual_seed(spec.seed)
+    model = tv.model(spec.hidden)
+    opt = torch.optim.Adam(model.parameters(), lr=spec.lr)
+    rng = np.random.default_rng(spec.seed)
+    ckpt, curve_path = out / "checkpoint.pt", out / "curve.csv"
+    epoch, curve, train_s = 0, [], 0.0
+    if ckpt.exists():
+        c = torch.load(ckpt, weights_only=False)
+        model.load_state_dict(c["model"])
+        opt.load_state_dict(c["opt"])
+        epoch, curve, train_s = c["epoch"], c["curve"], c["train_s"]
+        rng.bit_generator.state = c["rng"]
+        log(f"vertibench.kino tnt: resumed at epoch {epoch}")
+    maps = torch.from_numpy(s.map)
+    while epoch < spec.epochs:
+        e0 = time.monotonic()
+        model.train()
+        order = rng.permutation(tr)
+        total, count = 0.0, 0
+        for a in range(0, len(order), spec.batch):
+            r = order[a:a + spec.batch]
+            owner, cell, lab = s.entries(r)
+            if len(lab) == 0:
+                continue
+            p = tv.gather(model(maps[torch.from_numpy(r)]), owner, cell)
+            loss = torch.nn.functional.binary_cross_entropy(p, torch.from_numpy(lab))
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            total, count = total + float(loss.detach()) * len(lab), count + len(lab)
+        epoch += 1
+        model.eval()
+        h = evaluate(model, s, ho)
+        train_s += time.monotonic() - e0
+        row = {"epoch": epoch, "wall_s": round(train_s, 1), "train_bce": total / max(count, 1),
+               **{f"heldout_{k}": v for k, v in h.items()}}
+        curve.append(row)
+        log(f"vertibench.kino tnt: epoch {epoch}/{spec.epochs} loss {row['train_bce']:.4f} held-out "
+            + " ".join(f"{k} {v:.3f}" for k, v in h.items()))
+        torch.save({"model": model.state_dict(), "opt": opt.state_dict(), "epoch": epoch, "curve": curve,
+                    "train_s": train_s, "rng": rng.bit_generator.state}, ckpt)
+        write_curve(curve, curve_path)
+    return finish(spec, model, s, tr, ho, about, curve, train_s, data_s)
+
+
+def finish(spec: TrainSpec, model, s: tv.TravSamples, tr: np.ndarray, ho: np.ndarray, about: dict,
+           curve: list[dict], train_s: float, data_s: float) -> Path:
+    out = Path(spec.out)
+    h = evaluate(model, s, ho)
+    _, _, lab_tr = s.entries(tr)
+    _, _, lab_ho = s.entries(ho)
+    base = {c: float(np.abs(lab_ho[:, j] - lab_tr[:, j].mean()).mean()) for j, c in enumerate(tv.CHANNELS)}
+    card = {"name": spec.name, "model": "tnt", "layout": tv.LAYOUT, "command": spec.command, "seed": spec.seed,
+            "epochs": spec.epochs, "width": spec.hidden, "batch": spec.batch, "lr": spec.lr, "anchors": len(s),
+            "heldout_anchors": int(len(ho)), "labelled_cells": int(len(s.cell)), "train_s": round(train_s, 1),
+            "data_s": round(data_s, 1), "heldout": h, "heldout_mae_of_the_mean": base, "data": about["sets"],
+            "vehicle": about["vehicle"], "scale": about["scale"], "task_set_version": about["task_set_version"],
+            "sim_version": about["sim_version"], "parameters": sum(p.numel() for p in model.parameters())}
+    meta = {"name": spec.name, "seed": spec.seed, "epochs": spec.epochs, "vehicle": about["vehicle"],
+            "scale": about["scale"], "task_set_version": about["task_set_version"],
+            "sim_version": about["sim_version"], "command": spec.command, "heldout": json.dumps(h)}
+    weights = out / "tnt.safetensors"
+    tv.save(model, weights, meta)
+    (out / "card.json").write_text(json.dumps(card, indent=1))
+    lines = [f"# {spec.name}: traversability estimator ({tv.LAYOUT})", "", f"- command: `{spec.command}`",
+             "- data: " + "; ".join(f"{d['kind']} {d['episodes']} episodes, {d['samples']} anchors (seed {d['seed']})"
+                                    for d in about["sets"]),
+             f"- task set version {about['task_set_version']} (training worlds only; worlds 9 mod 10 held out), "
+             f"simulator {about['sim_version']}, vehicle {about['vehicle']} at scale {about['scale']}",
+             f"- seed {spec.seed}, {spec.epochs} epochs, width {spec.hidden}, {card['parameters']} parameters; "
+             f"{card['train_s']} s training, {card['data_s']} s making samples", "",
+             "## Held-out error per labelled cell", "", "| channel | MAE | MAE of the training mean |", "|---|---|---|"]
+    lines += [f"| {c} | {h[f'mae_{c}']:.4f} | {base[c]:.4f} |" for c in tv.CHANNELS]
+    lines += ["", f"Held-out binary cross-entropy: {h['bce']:.4f}."]
+    (out / "card.md").write_text("\n".join(lines) + "\n")
+    return weights
