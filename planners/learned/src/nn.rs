@@ -114,7 +114,8 @@ pub(crate) fn layer(
     })
 }
 
-/// A valid (no padding) convolution of `input` (`in_ch x side x side`) with a ReLU, into `out`.
+/// A valid (no padding) convolution of `input` (`in_ch x side x side`) with a ReLU, into `out`: the hot path of the
+/// policies and the crop model (no bounds test per tap), kept apart from [`conv_padded`].
 pub(crate) fn conv_relu(
     l: &Layer,
     (filters, k, stride): (usize, usize, usize),

@@ -37,6 +37,32 @@ class TrainSpec:
     extra: dict = field(default_factory=dict)
 
 
+def read_datasets(spec: TrainSpec, wheels: bool = False):
+    """Each dataset of ``spec.data`` as ``(path, spec, episodes, maker, key)``, ``maker`` the inputs' maker on their
+    task set and ``key`` (vehicle, scale, task-set version, simulator version); a dataset made from the benchmark's
+    tasks, or one whose key differs from the first's, is refused."""
+    maker, first = None, None
+    for d in spec.data:
+        ds_spec, eps = kd.episodes(d, spec.task_set, wheels=wheels)
+        if ds_spec.get("analysis_only"):
+            raise ValueError(f"{d} was made from the benchmark's own tasks (--allow-benchmark-tasks): a model "
+                             f"trained on it would have seen the tasks it is evaluated on; generate a dataset "
+                             f"on a training task set (vb tasks generate --seed N)")
+        k = (ds_spec["vehicle"], float(ds_spec["scale"]), ds_spec["task_set_version"], ds_spec["sim_version"])
+        if first is not None and k != first:
+            raise ValueError(f"{d}: vehicle, scale, task set or simulator {k} differ from the first dataset's {first}")
+        if maker is None:
+            from .. import datasets as vbd
+
+            task_dir = spec.task_set or vbd._find_task_set(ds_spec)
+            if task_dir is None:
+                raise ValueError(f"{d}: its task set (version {ds_spec['task_set_version']}) was not found: pass "
+                                 f"--task-set DIR")
+            maker = _core.KinoData(str(task_dir), ds_spec["vehicle"], float(ds_spec["scale"]))
+        first = k
+        yield d, ds_spec, eps, maker, k
+
+
 def load_samples(spec: TrainSpec) -> tuple[kd.Samples, dict]:
     """The samples of every dataset (cached in ``out/samples.npz``) and what the card says about the data."""
     out = Path(spec.out)
@@ -50,25 +76,7 @@ def load_samples(spec: TrainSpec) -> tuple[kd.Samples, dict]:
                         "model": spec.model, "seed": spec.seed, "sets": []}
     # Which earlier step a terrain-attentive sample's map is anchored at: drawn from the training seed.
     rng = np.random.default_rng(spec.seed)
-    maker, key = None, None
-    for d in spec.data:
-        ds_spec, eps = kd.episodes(d, spec.task_set)
-        if ds_spec.get("analysis_only"):
-            raise ValueError(f"{d} was made from the benchmark's own tasks (--allow-benchmark-tasks): a model "
-                             f"trained on it would have seen the tasks it is evaluated on; generate a dataset "
-                             f"on a training task set (vb tasks generate --seed N)")
-        k = (ds_spec["vehicle"], float(ds_spec["scale"]), ds_spec["task_set_version"], ds_spec["sim_version"])
-        if key is not None and k != key:
-            raise ValueError(f"{d}: vehicle, scale, task set or simulator {k} differ from the first dataset's {key}")
-        if maker is None:
-            from .. import datasets as vbd
-
-            task_dir = spec.task_set or vbd._find_task_set(ds_spec)
-            if task_dir is None:
-                raise ValueError(f"{d}: its task set (version {ds_spec['task_set_version']}) was not found: pass "
-                                 f"--task-set DIR")
-            maker = _core.KinoData(str(task_dir), ds_spec["vehicle"], float(ds_spec["scale"]))
-        key = k
+    for d, ds_spec, eps, maker, key in read_datasets(spec):
         s = kd.samples(eps, maker, spec.stride, spec.model, rng)
         # Episodes are numbered across datasets: this one's follow the last one's.
         s.episode = s.episode + (int(parts[-1].episode.max()) + 1 if parts else 0)

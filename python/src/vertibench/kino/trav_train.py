@@ -12,10 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import _core
 from . import data as kd
 from . import trav as tv
-from .train import TrainSpec, write_curve
+from .report import _kind
+from .train import TrainSpec, read_datasets, write_curve
 
 
 def load_samples(spec: TrainSpec) -> tuple[tv.TravSamples, dict]:
@@ -28,24 +28,8 @@ def load_samples(spec: TrainSpec) -> tuple[tv.TravSamples, dict]:
         if all(about.get(k) == v for k, v in key.items()):
             z = np.load(cache)
             return tv.TravSamples(*(z[k] for k in ("map", "world", "start", "cell", "label"))), about
-    from .. import datasets as vbd
-
-    parts, about, maker, first = [], {**key, "sets": []}, None, None
-    for d in spec.data:
-        ds_spec, eps = kd.episodes(d, spec.task_set, wheels=True)
-        if ds_spec.get("analysis_only"):
-            raise ValueError(f"{d} was made from the benchmark's own tasks (--allow-benchmark-tasks): generate a "
-                             f"dataset on a training task set (vb tasks generate --seed N)")
-        k = (ds_spec["vehicle"], float(ds_spec["scale"]), ds_spec["task_set_version"], ds_spec["sim_version"])
-        if first is not None and k != first:
-            raise ValueError(f"{d}: vehicle, scale, task set or simulator {k} differ from the first dataset's {first}")
-        if maker is None:
-            task_dir = spec.task_set or vbd._find_task_set(ds_spec)
-            if task_dir is None:
-                raise ValueError(f"{d}: its task set (version {ds_spec['task_set_version']}) was not found: pass "
-                                 f"--task-set DIR")
-            maker = _core.KinoData(str(task_dir), ds_spec["vehicle"], float(ds_spec["scale"]))
-        first = k
+    parts, about, first = [], {**key, "sets": []}, None
+    for d, ds_spec, eps, maker, first in read_datasets(spec, wheels=True):
         s = tv.samples(eps, maker, float(ds_spec["control_rate_hz"]), float(ds_spec["scale"]))
         parts.append(s)
         about["sets"].append({"path": str(d), "kind": ds_spec["kind"], "episodes": len(eps), "samples": len(s),
@@ -163,7 +147,7 @@ def finish(spec: TrainSpec, model, s: tv.TravSamples, tr: np.ndarray, ho: np.nda
     tv.save(model, weights, meta)
     (out / "card.json").write_text(json.dumps(card, indent=1))
     lines = [f"# {spec.name}: traversability estimator ({tv.LAYOUT})", "", f"- command: `{spec.command}`",
-             "- data: " + "; ".join(f"{d['kind']} {d['episodes']} episodes, {d['samples']} anchors (seed {d['seed']})"
+             "- data: " + "; ".join(f"{_kind(d)} {d['episodes']} episodes, {d['samples']} anchors (seed {d['seed']})"
                                     for d in about["sets"]),
              f"- task set version {about['task_set_version']} (training worlds only; worlds 9 mod 10 held out), "
              f"simulator {about['sim_version']}, vehicle {about['vehicle']} at scale {about['scale']}",
