@@ -165,12 +165,6 @@ enum Source {
     Own(Vec<Obstacle>),
 }
 
-impl Index {
-    fn obstacles(&self) -> &[Obstacle] {
-        self.source.obstacles()
-    }
-}
-
 impl Source {
     fn obstacles(&self) -> &[Obstacle] {
         match self {
@@ -218,7 +212,7 @@ impl ObstacleSet {
     }
 
     pub fn obstacles(&self) -> &[Obstacle] {
-        self.index.obstacles()
+        self.index.source.obstacles()
     }
 
     /// Keeps the obstacles whose bounding circle comes within `radius` of `(x, y)`: at most [`MAX_NEAR`], the lowest
@@ -238,8 +232,9 @@ impl ObstacleSet {
             .candidates(&mut self.stamps, x, y, radius, &mut self.scratch);
         let found = &mut self.scratch[..n];
         found.sort_unstable();
+        let obstacles = self.index.source.obstacles();
         for &i in found.iter() {
-            let o = &self.index.obstacles()[i as usize];
+            let o = &obstacles[i as usize];
             if (o.x - x).hypot(o.y - y) <= radius + self.index.bounds[i as usize]
                 && near.len < MAX_NEAR
             {
@@ -261,8 +256,9 @@ impl ObstacleSet {
 
     /// [`ObstacleSet::any_within`] among the obstacles of `near`.
     pub fn any_within_in(&self, near: &NearList, x: f64, y: f64, radius: f64) -> bool {
+        let obstacles = self.obstacles();
         near.ids().iter().any(|&i| {
-            let o = &self.obstacles()[i];
+            let o = &obstacles[i];
             (o.x - x).hypot(o.y - y) <= radius + self.index.bounds[i]
         })
     }
@@ -270,13 +266,12 @@ impl ObstacleSet {
     /// Contacts of an oriented box (the chassis) with the near obstacles, one per touching obstacle in id order,
     /// written into `out`; returns how many (at most `out.len()`, further contacts are dropped).
     pub fn box_contacts(&self, b: &OrientedBox, out: &mut [ObstacleContact]) -> usize {
-        let mut n = 0;
+        let (mut n, obstacles) = (0, self.obstacles());
         for &i in self.near.ids() {
             if n == out.len() {
                 break;
             }
-            if let Some(mut c) =
-                chassis::box_obstacle(&self.obstacles()[i], self.index.yaw_sin_cos[i], b)
+            if let Some(mut c) = chassis::box_obstacle(&obstacles[i], self.index.yaw_sin_cos[i], b)
             {
                 c.obstacle = i;
                 out[n] = c;
@@ -298,10 +293,10 @@ impl ObstacleSet {
         c: &Vector3<f64>,
         r: f64,
     ) -> Option<ObstacleContact> {
-        let mut best: Option<ObstacleContact> = None;
+        let (mut best, obstacles) = (None::<ObstacleContact>, self.obstacles());
         for &i in near.ids() {
             if let Some((depth, normal)) =
-                sphere_obstacle_with(&self.obstacles()[i], self.index.yaw_sin_cos[i], c, r)
+                sphere_obstacle_with(&obstacles[i], self.index.yaw_sin_cos[i], c, r)
             {
                 if best.is_none_or(|b| depth > b.depth) {
                     best = Some(ObstacleContact {

@@ -136,14 +136,7 @@ def train(spec: TrainSpec, log=print) -> Path:
     # Bootstrap: member m weighs training sample i by a Poisson(1) count (drawn once).
     boot = rng.poisson(1.0, size=(len(tr), spec.members)).astype(np.float32)
     ckpt, curve_path = out / "checkpoint.pt", out / "curve.csv"
-    epoch, curve, train_s = 0, [], 0.0
-    if ckpt.exists():
-        c = torch.load(ckpt, weights_only=False)
-        model.load_state_dict(c["model"])
-        opt.load_state_dict(c["opt"])
-        epoch, curve, train_s = c["epoch"], c["curve"], c["train_s"]
-        rng.bit_generator.state = c["rng"]
-        log(f"vertibench.kino: resumed at epoch {epoch}")
+    epoch, curve, train_s = resume(ckpt, model, opt, rng, log, "vertibench.kino")
     inputs, tgt = [torch.from_numpy(a) for a in s.inputs()], torch.from_numpy(s.target)
     bw = torch.from_numpy(boot)
     while epoch < spec.epochs:
@@ -171,10 +164,31 @@ def train(spec: TrainSpec, log=print) -> Path:
         curve.append(row)
         log(f"vertibench.kino: epoch {epoch}/{spec.epochs} loss {row['train_loss']:.4f} held-out RMSE "
             + " ".join(f"{n} {v:.3f}" for n, v in zip(_core.KINO_TARGETS, h)))
-        torch.save({"model": model.state_dict(), "opt": opt.state_dict(), "epoch": epoch, "curve": curve,
-                    "train_s": train_s, "rng": rng.bit_generator.state}, ckpt)
+        save_checkpoint(ckpt, model, opt, rng, epoch, curve, train_s)
         write_curve(curve, curve_path)
     return finish(spec, model, s, ho, about, curve, train_s, data_s)
+
+
+def resume(ckpt: Path, model, opt, rng: np.random.Generator, log, who: str) -> tuple[int, list[dict], float]:
+    """Restores a run from its checkpoint, if it has one: (epoch, curve, training seconds), else a fresh start."""
+    import torch
+
+    if not ckpt.exists():
+        return 0, [], 0.0
+    c = torch.load(ckpt, weights_only=False)
+    model.load_state_dict(c["model"])
+    opt.load_state_dict(c["opt"])
+    rng.bit_generator.state = c["rng"]
+    log(f"{who}: resumed at epoch {c['epoch']}")
+    return c["epoch"], c["curve"], c["train_s"]
+
+
+def save_checkpoint(ckpt: Path, model, opt, rng: np.random.Generator, epoch: int, curve: list[dict],
+                    train_s: float) -> None:
+    import torch
+
+    torch.save({"model": model.state_dict(), "opt": opt.state_dict(), "epoch": epoch, "curve": curve,
+                "train_s": train_s, "rng": rng.bit_generator.state}, ckpt)
 
 
 def write_curve(curve: list[dict], path: Path) -> None:

@@ -58,7 +58,7 @@ def frame_labels(e: kd.Episode, fps: float, scale: float) -> tuple[np.ndarray, n
     throttle = (t[np.minimum(ends, n)] - t[np.arange(n)]) / span
     moved = np.hypot(*(e.poses[ends, :2] - e.poses[:n, :2]).T)
     stuck = (moved < STUCK_M * scale) & (throttle > THROTTLE_ON)
-    rolled = np.full(n, e.outcome == "rollover") & (ends >= len(e.poses) - 1)
+    rolled = (e.outcome == "rollover") & (ends >= len(e.poses) - 1)
     labels = np.stack([att[:, 0], att[:, 1], mean_slip, stuck, rolled], axis=1).astype(np.float32)
     valid = complete | (e.outcome in ("rollover", "stuck"))
     return labels, valid

@@ -15,7 +15,7 @@ import numpy as np
 from . import data as kd
 from . import trav as tv
 from .report import _kind
-from .train import TrainSpec, read_datasets, write_curve
+from .train import TrainSpec, read_datasets, resume, save_checkpoint, write_curve
 
 
 def load_samples(spec: TrainSpec) -> tuple[tv.TravSamples, dict]:
@@ -87,14 +87,7 @@ def train(spec: TrainSpec, log=print) -> Path:
     opt = torch.optim.Adam(model.parameters(), lr=spec.lr)
     rng = np.random.default_rng(spec.seed)
     ckpt, curve_path = out / "checkpoint.pt", out / "curve.csv"
-    epoch, curve, train_s = 0, [], 0.0
-    if ckpt.exists():
-        c = torch.load(ckpt, weights_only=False)
-        model.load_state_dict(c["model"])
-        opt.load_state_dict(c["opt"])
-        epoch, curve, train_s = c["epoch"], c["curve"], c["train_s"]
-        rng.bit_generator.state = c["rng"]
-        log(f"vertibench.kino tnt: resumed at epoch {epoch}")
+    epoch, curve, train_s = resume(ckpt, model, opt, rng, log, "vertibench.kino tnt")
     maps = torch.from_numpy(s.map)
     while epoch < spec.epochs:
         e0 = time.monotonic()
@@ -121,8 +114,7 @@ def train(spec: TrainSpec, log=print) -> Path:
         curve.append(row)
         log(f"vertibench.kino tnt: epoch {epoch}/{spec.epochs} loss {row['train_bce']:.4f} held-out "
             + " ".join(f"{k} {v:.3f}" for k, v in h.items()))
-        torch.save({"model": model.state_dict(), "opt": opt.state_dict(), "epoch": epoch, "curve": curve,
-                    "train_s": train_s, "rng": rng.bit_generator.state}, ckpt)
+        save_checkpoint(ckpt, model, opt, rng, epoch, curve, train_s)
         write_curve(curve, curve_path)
     return finish(spec, model, s, tr, ho, about, curve, train_s, data_s)
 
