@@ -40,7 +40,11 @@ pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
 /// every quoted benchmark result, are bit-identical to r3). Revision 5: a sinking body's motion is compaction, not
 /// shear slip (static sinkage is Bekker's). Revision 6: a rolling rim's damping pressure covers the part of each cell
 /// inside its contact, a node's shear accrues from when the rim reached it, and the soil's vertical stiffness takes
-/// each node on the branch the rim moves it along (converged in the step at speed).
-pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r7");
+/// each node on the branch the rim moves it along (converged in the step at speed). Revision 7 (issue 29): Chrono's
+/// SCM force law (pressure along the undeformed terrain's normal, shear in its plane with a growing shear
+/// displacement, the spin driven by the soil's moment) and Chrono's 100 N m clutches for "locked" differentials.
+/// Revision 8: the damping pressure at a rim's advancing edge carries its Mohr-Coulomb shear, as Chrono's damping is
+/// part of every node's shear strength (a spinning wheel had half its traction on mud).
+pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r8");
 pub use vehicle::{Action, Simulation, VehicleSpec};
 pub mod world;

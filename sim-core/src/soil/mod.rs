@@ -25,7 +25,8 @@
 //!    a slipping wheel's leading arc is damped at `R omega u`); on a wheel over the part of the node's cell (along
 //!    the track) inside the rim's contact with the surface it found there and on the side where the rim moves into
 //!    the soil, evaluated at that part's midpoint, so the damped area grows continuously as the rim's edge advances
-//!    over a cell (the cell just ahead of the edge gets its share too, with no sinkage or shear);
+//!    over a cell (the cell just ahead of the edge gets its share too, with the shear its damping pressure carries
+//!    but no sinkage or memory: in Chrono the damping is part of every node's `sigma` and so of its shear strength);
 //!    [`node::RimPoint::damping`];
 //! 4. shear displacement `j += |v_t| t`, `v_t = v - N (v . N)` the slip in the terrain's plane, `t` the step (in the
 //!    step a contact begins, the part of it since the body's surface passed the surface it found there); `j` only

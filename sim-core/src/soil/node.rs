@@ -106,6 +106,8 @@ pub(super) struct Damping {
     pub(super) spin_lift: f64,
     /// Where it acts: the rim point at the damped part's midpoint, relative to the wheel's centre (world).
     pub(super) arm: Vector3<f64>,
+    /// Length of the damped part along the track, m.
+    pub(super) length: f64,
 }
 
 impl RimPoint {
@@ -176,6 +178,7 @@ impl RimPoint {
             spin_jacobian: r_damping * covered * lever * lever,
             spin_lift: -r_damping * covered * lever,
             arm,
+            length: hi - lo,
         })
     }
 }
@@ -344,27 +347,14 @@ impl SoilGrid {
         } else {
             (k0, k0)
         };
-        // The rolling direction in the terrain's plane.
-        let roll = (hit.heading - n * hit.heading.dot(&n)).normalize();
-        let rn = rho.norm();
-        let c2 = if rn > 1e-12 {
-            (rho.dot(&roll) / rn).powi(2)
-        } else {
-            1.0
-        };
-        let stiffness = cell * t_slip * (k_par * c2 + k_perp * (1.0 - c2));
-        out.traction_stiffness += stiffness;
-        // The spin moves the slip along `roll` by `lever` per rad/s (`-h` under a wheel's centre).
-        let lever = hit.axle.cross(&arm).dot(&roll);
-        out.spin_force -= stiffness * lever;
-        out.spin_stiffness += stiffness * lever * lever;
+        shear_jacobians(hit, &arm, &rho, (k_par, k_perp), cell * t_slip, out);
     }
 
     /// A node the rim does not press yet (`pen <= 0`, the rim above its surface) whose cell the rim's advancing
-    /// edge already reaches into: the damping pressure over the covered part of the cell ([`RimPoint::damping`]),
-    /// and nothing else (no sinkage, no shear, no memory). At speed the damping pressure lifts a wheel out of soft
-    /// soil, and whole cells switching on one per `delta` of travel made the wheels hop at a rate set by the grid
-    /// and the step.
+    /// edge already reaches into: the damping pressure over the covered part of the cell ([`RimPoint::damping`])
+    /// and the shear it carries, and nothing else (no sinkage, no memory). At speed the damping pressure lifts a
+    /// wheel out of soft soil, and whole cells switching on one per `delta` of travel made the wheels hop at a rate
+    /// set by the grid and the step.
     fn edge_damping(&self, hit: &Hit, pen: f64, out: &mut SoilContact) {
         let Some(rim) = hit.rim else {
             return;
@@ -372,11 +362,41 @@ impl SoilGrid {
         let Some(soil) = self.soil_at(hit.p.x, hit.p.y) else {
             return;
         };
-        let Some(d) = rim.damping(pen, self.delta, &hit.normal, &hit.axle, soil.damping) else {
+        let n = hit.normal;
+        let Some(d) = rim.damping(pen, self.delta, &n, &hit.axle, soil.damping) else {
             return;
         };
         let cell = hit.weight * self.delta * self.delta;
-        let f = hit.normal * (d.pressure * cell);
+        // In Chrono the damping is part of the node's `sigma` and so of its shear strength (`tau_max = c + sigma
+        // tan phi`, `SCMTerrain.cpp` after `sigma += -Vn R`), so the damped edge shears too: opposite the rim's
+        // slip there, no cohesion (no soil is pressed yet), mobilised by the slip since the rim reached it (`j =
+        // |v_t| t_c`; not stored). Without it (r7) a wheel spinning on soil rode on frictionless damping pressure
+        // at its leading edge (half its load on mud at full spin) and lost half its traction: the HMMWV stalled on
+        // mud at 21 degrees where Chrono's law climbs 27.
+        let v = rim.centre_velocity + rim.angular_velocity.cross(&d.arm);
+        let slip = v - n * v.dot(&n);
+        let sn = slip.norm();
+        let tau_max = d.pressure * soil.friction_angle_deg.to_radians().tan();
+        let mut f = n * (d.pressure * cell);
+        if sn > 1e-12 {
+            let k = soil.janosi_k;
+            // The time the damped part has been under the rim: its length over the rim's advance (a wheel that
+            // spins in place keeps its edge over the same soil, fully mobilised).
+            let advance = rim.centre_velocity.dot(&rim.forward).abs();
+            let t_c = if advance * EDGE_CONTACT_TIME_CAP > d.length {
+                d.length / advance
+            } else {
+                EDGE_CONTACT_TIME_CAP
+            };
+            let decay = (-sn * t_c / k).exp();
+            let rho = slip * ((1.0 - decay) / sn);
+            f -= rho * (tau_max * cell);
+            // Slopes along the slip (Janosi's) and across it (the direction's turn), per unit slip velocity.
+            let k_par = tau_max * decay * t_c / k;
+            let k_perp = tau_max * (1.0 - decay) / sn;
+            shear_jacobians(hit, &d.arm, &rho, (k_par, k_perp), cell, out);
+        }
+        out.shear_capacity += tau_max * cell;
         out.force += f;
         out.torque += d.arm.cross(&f);
         out.normal += d.pressure * cell;
@@ -384,4 +404,36 @@ impl SoilGrid {
         out.spin_stiffness += cell * d.spin_jacobian;
         out.spin_lift += cell * d.spin_lift;
     }
+}
+
+/// Longest time a damped edge counts as under the rim, s (a wheel spinning in place: fully mobilised long before).
+const EDGE_CONTACT_TIME_CAP: f64 = 10.0;
+
+/// Adds a node's (or damped edge cell's) shear Jacobians along the rolling direction to `out`: `k_par` the slope of
+/// `|tau|` against slip velocity along the mobilised shear `rho`, `k_perp` across it, both per unit area and already
+/// in force per (m/s) when `scale` (the cell's area times the slip time) multiplies them; `arm` from the wheel's
+/// centre.
+fn shear_jacobians(
+    hit: &Hit,
+    arm: &Vector3<f64>,
+    rho: &Vector3<f64>,
+    (k_par, k_perp): (f64, f64),
+    scale: f64,
+    out: &mut SoilContact,
+) {
+    let n = hit.normal;
+    // The rolling direction in the terrain's plane.
+    let roll = (hit.heading - n * hit.heading.dot(&n)).normalize();
+    let rn = rho.norm();
+    let c2 = if rn > 1e-12 {
+        (rho.dot(&roll) / rn).powi(2)
+    } else {
+        1.0
+    };
+    let stiffness = scale * (k_par * c2 + k_perp * (1.0 - c2));
+    out.traction_stiffness += stiffness;
+    // The spin moves the slip along `roll` by `lever` per rad/s (`-h` under a wheel's centre).
+    let lever = hit.axle.cross(arm).dot(&roll);
+    out.spin_force -= stiffness * lever;
+    out.spin_stiffness += stiffness * lever * lever;
 }
