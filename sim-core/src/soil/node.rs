@@ -106,18 +106,22 @@ pub(super) struct Damping {
     pub(super) spin_lift: f64,
     /// Where it acts: the rim point at the damped part's midpoint, relative to the wheel's centre (world).
     pub(super) arm: Vector3<f64>,
+    /// The rim's material velocity there (world; spin included).
+    pub(super) velocity: Vector3<f64>,
     /// Length of the damped part along the track, m.
     pub(super) length: f64,
 }
 
 impl RimPoint {
-    /// The rim's point at offset `u` along the track (relative to the wheel's centre) and its material velocity's
-    /// component along the terrain normal `n` (spin included, as Chrono's `v . N`).
-    fn material(&self, u: f64, n: &Vector3<f64>) -> (Vector3<f64>, f64) {
+    /// The rim's point at offset `u` along the track (relative to the wheel's centre) and its material velocity
+    /// (spin included; Chrono's `v . N` is its component along the terrain normal).
+    fn material(&self, u: f64) -> (Vector3<f64>, Vector3<f64>) {
         let r = self.radius;
         let arm = self.forward * u - Vector3::z() * (r * r - u * u).max(0.0).sqrt() + self.lateral;
-        let v = self.centre_velocity + self.angular_velocity.cross(&arm);
-        (arm, v.dot(n))
+        (
+            arm,
+            self.centre_velocity + self.angular_velocity.cross(&arm),
+        )
     }
 
     /// Chrono's damping pressure `-R (v . N)` of the rim moving into the soil (`v` its material velocity, spin
@@ -150,7 +154,7 @@ impl RimPoint {
         if hi <= lo {
             return None;
         }
-        let (vn_lo, vn_hi) = (self.material(lo, n).1, self.material(hi, n).1);
+        let (vn_lo, vn_hi) = (self.material(lo).1.dot(n), self.material(hi).1.dot(n));
         if vn_lo >= 0.0 && vn_hi >= 0.0 {
             return None;
         }
@@ -167,7 +171,8 @@ impl RimPoint {
             return None;
         }
         let covered = (hi - lo) / delta;
-        let (arm, vn) = self.material(0.5 * (lo + hi), n);
+        let (arm, velocity) = self.material(0.5 * (lo + hi));
+        let vn = velocity.dot(n);
         if vn >= 0.0 {
             return None;
         }
@@ -178,6 +183,7 @@ impl RimPoint {
             spin_jacobian: r_damping * covered * lever * lever,
             spin_lift: -r_damping * covered * lever,
             arm,
+            velocity,
             length: hi - lo,
         })
     }
@@ -373,8 +379,7 @@ impl SoilGrid {
         // |v_t| t_c`; not stored). Without it (r7) a wheel spinning on soil rode on frictionless damping pressure
         // at its leading edge (half its load on mud at full spin) and lost half its traction: the HMMWV stalled on
         // mud at 21 degrees where Chrono's law climbs 27.
-        let v = rim.centre_velocity + rim.angular_velocity.cross(&d.arm);
-        let slip = v - n * v.dot(&n);
+        let slip = d.velocity - n * d.velocity.dot(&n);
         let sn = slip.norm();
         let tau_max = d.pressure * soil.friction_angle_deg.to_radians().tan();
         let mut f = n * (d.pressure * cell);
@@ -383,11 +388,7 @@ impl SoilGrid {
             // The time the damped part has been under the rim: its length over the rim's advance (a wheel that
             // spins in place keeps its edge over the same soil, fully mobilised).
             let advance = rim.centre_velocity.dot(&rim.forward).abs();
-            let t_c = if advance * EDGE_CONTACT_TIME_CAP > d.length {
-                d.length / advance
-            } else {
-                EDGE_CONTACT_TIME_CAP
-            };
+            let t_c = (d.length / advance).min(EDGE_CONTACT_TIME_CAP);
             let decay = (-sn * t_c / k).exp();
             let rho = slip * ((1.0 - decay) / sn);
             f -= rho * (tau_max * cell);
