@@ -123,15 +123,17 @@ def run_kino(*args):
 def test_training_resumes_and_writes_weights_the_rust_reader_runs_and_a_report(kino_data, tmp_path):
     out = tmp_path / "kino"
     data = [kino_data / "random", kino_data / "expert"]
-    r = run_kino("train", "--data", *data, "--out", out, "--epochs", 1, "--members", 2, "--hidden", 16)
+    args = ("--members", 2, "--hidden", 16, "--lr-decay", "cosine")
+    r = run_kino("train", "--data", *data, "--out", out, "--epochs", 1, *args)
     assert r.returncode == 0, r.stderr
-    r = run_kino("train", "--data", *data, "--out", out, "--epochs", 2, "--members", 2, "--hidden", 16)
+    r = run_kino("train", "--data", *data, "--out", out, "--epochs", 2, *args)
     assert r.returncode == 0, r.stderr
     assert "resumed at epoch 1" in r.stdout
     for f in ("kino.safetensors", "card.md", "card.json", "curve.csv", "curve.png", "checkpoint.pt"):
         assert (out / f).exists(), f
     card = json.loads((out / "card.json").read_text())
     assert card["epochs"] == 2 and {d["kind"] for d in card["data"]} == {"random", "expert"}
+    assert card["lr_decay"] == "cosine" and "cosine decay" in (out / "card.md").read_text()
     assert card["heldout_samples"] > 0 and card["samples"] > card["heldout_samples"]
     assert len((out / "curve.csv").read_text().splitlines()) == 3
     net = _core.KinoNet(str(out / "kino.safetensors"))
@@ -149,6 +151,19 @@ def test_training_resumes_and_writes_weights_the_rust_reader_runs_and_a_report(k
         assert x["n"] > 0 and all(np.isfinite(x[k]) and x[k] >= 0 for k in ("position_m", "yaw_deg"))
     r = run_kino("train", "--data", tmp_path / "nothing", "--out", tmp_path / "k2")
     assert r.returncode == 2 and "error" in r.stderr
+
+
+def test_the_learning_rate_is_held_or_decays_along_half_a_cosine_to_zero():
+    from vertibench.kino.train import TrainSpec, learning_rate
+
+    held = TrainSpec(data=[], out="", lr=2e-3)
+    assert [learning_rate(held, p) for p in (0.0, 0.5, 1.0)] == [2e-3] * 3
+    cos = TrainSpec(data=[], out="", lr=2e-3, lr_decay="cosine")
+    assert learning_rate(cos, 0.0) == 2e-3
+    assert abs(learning_rate(cos, 0.5) - 1e-3) < 1e-12 and abs(learning_rate(cos, 0.25) - 1e-3 * (1 + 0.5**0.5)) < 1e-12
+    assert learning_rate(cos, 1.0) < 1e-18 and learning_rate(cos, 1.5) < 1e-18
+    with pytest.raises(ValueError, match="lr_decay='step'"):
+        learning_rate(TrainSpec(data=[], out="", lr_decay="step"), 0.5)
 
 
 def test_samples_follow_the_episode_frames():

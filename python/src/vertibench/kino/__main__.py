@@ -25,6 +25,8 @@ def main(argv: list[str] | None = None) -> int:
     t.add_argument("--hidden", type=int, help="heads' width (kino, tal: 64) or convolutions' (tnt: 16)")
     t.add_argument("--batch", type=int, default=512)
     t.add_argument("--lr", type=float, default=1e-3)
+    t.add_argument("--lr-decay", choices=("none", "cosine"), default="none",
+                   help="the learning rate held (none) or decayed to zero along half a cosine over --epochs")
     t.add_argument("--stride", type=int, default=1, help="use every N-th model step of each episode")
     t.add_argument("--threads", type=int, default=2)
     t.add_argument("--name", help="the card's name (default: the model kind)")
@@ -46,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
                 p.error("--epochs, --batch, --stride and --hidden must be at least 1 and --lr positive")
             cmd = "python -m vertibench.kino " + " ".join(shlex.quote(x) for x in argv)
             spec = TrainSpec(data=a.data, out=a.out, model=a.model, task_set=a.task_set, epochs=a.epochs, seed=a.seed,
-                             members=a.members, hidden=hidden, batch=a.batch, lr=a.lr, stride=a.stride,
+                             members=a.members, hidden=hidden, batch=a.batch, lr=a.lr, lr_decay=a.lr_decay, stride=a.stride,
                              threads=a.threads, name=a.name or a.model, command=cmd)
             if a.model == "tnt":
                 from .trav_train import train as train_tnt

@@ -36,7 +36,8 @@ def write_card(card: dict, path: Path) -> None:
                                      f"{d['seed']})" for d in card["data"]),
              f"- task set version {card['task_set_version']} (training worlds only; worlds 9 mod 10 held out), "
              f"simulator {card['sim_version']}, vehicle {card['vehicle']} at scale {card['scale']}",
-             f"- seed {card['seed']}, {card['epochs']} epochs, {card['members']} members x {card['hidden']} "
+             f"- seed {card['seed']}, {card['epochs']} epochs (learning rate {card['lr']:g}, "
+             f"{card.get('lr_decay', 'none')} decay), {card['members']} members x {card['hidden']} "
              f"hidden, {card['parameters']} parameters; {card['train_s']} s training, {card['data_s']} s "
              f"making samples",
              "", "## Held-out one-step error (RMSE of the ensemble mean, physical units)", "",

@@ -7,6 +7,7 @@ card."""
 from __future__ import annotations
 
 import json
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,6 +31,7 @@ class TrainSpec:
     hidden: int = 64
     batch: int = 512
     lr: float = 1e-3
+    lr_decay: str = "none"
     stride: int = 1
     threads: int = 2
     name: str = "kino"
@@ -145,6 +147,8 @@ def train(spec: TrainSpec, log=print) -> Path:
         order = rng.permutation(len(tr))
         total = 0.0
         for a in range(0, len(order), spec.batch):
+            for g in opt.param_groups:
+                g["lr"] = learning_rate(spec, (epoch + a / len(order)) / spec.epochs)
             r = order[a:a + spec.batch]
             rows = torch.from_numpy(tr[r])
             pred = model(*(x[rows] for x in inputs))  # [b, m, 7]
@@ -167,6 +171,20 @@ def train(spec: TrainSpec, log=print) -> Path:
         save_checkpoint(ckpt, model, opt, rng, epoch, curve, train_s)
         write_curve(curve, curve_path)
     return finish(spec, model, s, ho, about, curve, train_s, data_s)
+
+
+LR_DECAYS = ("none", "cosine")
+
+
+def learning_rate(spec: TrainSpec, progress: float) -> float:
+    """The learning rate at ``progress`` (0 at the first batch, 1 at the end of ``spec.epochs``): ``spec.lr`` held
+    (``none``), or decayed to zero along half a cosine (``cosine``), so the last epoch's weights are not a point of
+    a noisy walk. A function of the progress alone: a resumed run continues the schedule exactly."""
+    if spec.lr_decay == "none":
+        return spec.lr
+    if spec.lr_decay == "cosine":
+        return spec.lr * 0.5 * (1.0 + math.cos(math.pi * min(max(progress, 0.0), 1.0)))
+    raise ValueError(f"lr_decay={spec.lr_decay!r}: expected one of {LR_DECAYS}")
 
 
 def resume(ckpt: Path, model, opt, rng: np.random.Generator, log, who: str) -> tuple[int, list[dict], float]:
@@ -209,7 +227,7 @@ def finish(spec: TrainSpec, model, s: kd.Samples, ho: np.ndarray, about: dict, c
     card = {
         "name": spec.name, "model": spec.model, "layout": model.layout, "command": spec.command, "seed": spec.seed, "epochs": spec.epochs,
         "members": spec.members, "hidden": spec.hidden, "batch": spec.batch, "lr": spec.lr,
-        "samples": len(s), "heldout_samples": int(len(ho)), "train_s": round(train_s, 1),
+        "lr_decay": spec.lr_decay, "samples": len(s), "heldout_samples": int(len(ho)), "train_s": round(train_s, 1),
         "data_s": round(data_s, 1), "heldout_rmse_scaled": {n: float(v) for n, v in zip(_core.KINO_TARGETS, h)},
         "heldout_rmse_one_step": physical, "data": about["sets"], "vehicle": about["vehicle"],
         "scale": about["scale"], "task_set_version": about["task_set_version"],

@@ -15,7 +15,7 @@ import numpy as np
 from . import data as kd
 from . import trav as tv
 from .report import _kind
-from .train import TrainSpec, read_datasets, resume, save_checkpoint, write_curve
+from .train import TrainSpec, learning_rate, read_datasets, resume, save_checkpoint, write_curve
 
 
 def load_samples(spec: TrainSpec) -> tuple[tv.TravSamples, dict]:
@@ -95,6 +95,8 @@ def train(spec: TrainSpec, log=print) -> Path:
         order = rng.permutation(tr)
         total, count = 0.0, 0
         for a in range(0, len(order), spec.batch):
+            for g in opt.param_groups:
+                g["lr"] = learning_rate(spec, (epoch + a / len(order)) / spec.epochs)
             r = order[a:a + spec.batch]
             owner, cell, lab = s.entries(r)
             if len(lab) == 0:
@@ -127,7 +129,7 @@ def finish(spec: TrainSpec, model, s: tv.TravSamples, tr: np.ndarray, ho: np.nda
     _, _, lab_ho = s.entries(ho)
     base = {c: float(np.abs(lab_ho[:, j] - lab_tr[:, j].mean()).mean()) for j, c in enumerate(tv.CHANNELS)}
     card = {"name": spec.name, "model": "tnt", "layout": tv.LAYOUT, "command": spec.command, "seed": spec.seed,
-            "epochs": spec.epochs, "width": spec.hidden, "batch": spec.batch, "lr": spec.lr, "anchors": len(s),
+            "epochs": spec.epochs, "width": spec.hidden, "batch": spec.batch, "lr": spec.lr, "lr_decay": spec.lr_decay, "anchors": len(s),
             "heldout_anchors": int(len(ho)), "labelled_cells": int(len(s.cell)), "train_s": round(train_s, 1),
             "data_s": round(data_s, 1), "heldout": h, "heldout_mae_of_the_mean": base, "data": about["sets"],
             "vehicle": about["vehicle"], "scale": about["scale"], "task_set_version": about["task_set_version"],
@@ -143,7 +145,8 @@ def finish(spec: TrainSpec, model, s: tv.TravSamples, tr: np.ndarray, ho: np.nda
                                     for d in about["sets"]),
              f"- task set version {about['task_set_version']} (training worlds only; worlds 9 mod 10 held out), "
              f"simulator {about['sim_version']}, vehicle {about['vehicle']} at scale {about['scale']}",
-             f"- seed {spec.seed}, {spec.epochs} epochs, width {spec.hidden}, {card['parameters']} parameters; "
+             f"- seed {spec.seed}, {spec.epochs} epochs (learning rate {spec.lr:g}, {spec.lr_decay} decay), "
+             f"width {spec.hidden}, {card['parameters']} parameters; "
              f"{card['train_s']} s training, {card['data_s']} s making samples", "",
              "## Held-out error per labelled cell", "", "| channel | MAE | MAE of the training mean |", "|---|---|---|"]
     lines += [f"| {c} | {h[f'mae_{c}']:.4f} | {base[c]:.4f} |" for c in tv.CHANNELS]
