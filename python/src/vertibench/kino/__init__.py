@@ -14,3 +14,6 @@ run in Rust (:class:`vertibench._core.KinoNet`, ``learned::kino::KinoNet``) exac
 tal`` trains the terrain-attentive model (``vertibench-tal-v1``), ``--model tnt`` the traversability estimator
 (``vertibench-tnt-v1``, :mod:`.trav`) whose grid the ``tnt`` planner adds to ``tal``'s rollout cost.
 """
+
+#: The trainers' learning-rate schedules (``--lr-decay``; :func:`.train.learning_rate`).
+LR_DECAYS = ("none", "cosine")

@@ -7,6 +7,8 @@ import shlex
 import sys
 from pathlib import Path
 
+from . import LR_DECAYS
+
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
@@ -25,7 +27,7 @@ def main(argv: list[str] | None = None) -> int:
     t.add_argument("--hidden", type=int, help="heads' width (kino, tal: 64) or convolutions' (tnt: 16)")
     t.add_argument("--batch", type=int, default=512)
     t.add_argument("--lr", type=float, default=1e-3)
-    t.add_argument("--lr-decay", choices=("none", "cosine"), default="none",
+    t.add_argument("--lr-decay", choices=LR_DECAYS, default="none",
                    help="the learning rate held (none) or decayed to zero along half a cosine over --epochs")
     t.add_argument("--stride", type=int, default=1, help="use every N-th model step of each episode")
     t.add_argument("--threads", type=int, default=2)

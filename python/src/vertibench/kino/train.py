@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import _core
+from . import LR_DECAYS
 from . import data as kd
 from . import model as km
 
@@ -147,8 +148,7 @@ def train(spec: TrainSpec, log=print) -> Path:
         order = rng.permutation(len(tr))
         total = 0.0
         for a in range(0, len(order), spec.batch):
-            for g in opt.param_groups:
-                g["lr"] = learning_rate(spec, (epoch + a / len(order)) / spec.epochs)
+            set_learning_rate(opt, spec, (epoch + a / len(order)) / spec.epochs)
             r = order[a:a + spec.batch]
             rows = torch.from_numpy(tr[r])
             pred = model(*(x[rows] for x in inputs))  # [b, m, 7]
@@ -173,9 +173,6 @@ def train(spec: TrainSpec, log=print) -> Path:
     return finish(spec, model, s, ho, about, curve, train_s, data_s)
 
 
-LR_DECAYS = ("none", "cosine")
-
-
 def learning_rate(spec: TrainSpec, progress: float) -> float:
     """The learning rate at ``progress`` (0 at the first batch, 1 at the end of ``spec.epochs``): ``spec.lr`` held
     (``none``), or decayed to zero along half a cosine (``cosine``), so the last epoch's weights are not a point of
@@ -185,6 +182,12 @@ def learning_rate(spec: TrainSpec, progress: float) -> float:
     if spec.lr_decay == "cosine":
         return spec.lr * 0.5 * (1.0 + math.cos(math.pi * min(max(progress, 0.0), 1.0)))
     raise ValueError(f"lr_decay={spec.lr_decay!r}: expected one of {LR_DECAYS}")
+
+
+def set_learning_rate(opt, spec: TrainSpec, progress: float) -> None:
+    """Sets every parameter group of ``opt`` to :func:`learning_rate` at ``progress``."""
+    for g in opt.param_groups:
+        g["lr"] = learning_rate(spec, progress)
 
 
 def resume(ckpt: Path, model, opt, rng: np.random.Generator, log, who: str) -> tuple[int, list[dict], float]:

@@ -15,7 +15,7 @@ import numpy as np
 from . import data as kd
 from . import trav as tv
 from .report import _kind
-from .train import TrainSpec, learning_rate, read_datasets, resume, save_checkpoint, write_curve
+from .train import TrainSpec, read_datasets, resume, save_checkpoint, set_learning_rate, write_curve
 
 
 def load_samples(spec: TrainSpec) -> tuple[tv.TravSamples, dict]:
@@ -95,8 +95,7 @@ def train(spec: TrainSpec, log=print) -> Path:
         order = rng.permutation(tr)
         total, count = 0.0, 0
         for a in range(0, len(order), spec.batch):
-            for g in opt.param_groups:
-                g["lr"] = learning_rate(spec, (epoch + a / len(order)) / spec.epochs)
+            set_learning_rate(opt, spec, (epoch + a / len(order)) / spec.epochs)
             r = order[a:a + spec.batch]
             owner, cell, lab = s.entries(r)
             if len(lab) == 0:
