@@ -134,6 +134,7 @@ def test_training_resumes_and_writes_weights_the_rust_reader_runs_and_a_report(k
     card = json.loads((out / "card.json").read_text())
     assert card["epochs"] == 2 and {d["kind"] for d in card["data"]} == {"random", "expert"}
     assert card["lr_decay"] == "cosine" and "cosine decay" in (out / "card.md").read_text()
+    assert card["device"] == "cpu" and "training on cpu" in (out / "card.md").read_text()
     assert card["heldout_samples"] > 0 and card["samples"] > card["heldout_samples"]
     assert len((out / "curve.csv").read_text().splitlines()) == 3
     net = _core.KinoNet(str(out / "kino.safetensors"))
@@ -151,6 +152,18 @@ def test_training_resumes_and_writes_weights_the_rust_reader_runs_and_a_report(k
         assert x["n"] > 0 and all(np.isfinite(x[k]) and x[k] >= 0 for k in ("position_m", "yaw_deg"))
     r = run_kino("train", "--data", tmp_path / "nothing", "--out", tmp_path / "k2")
     assert r.returncode == 2 and "error" in r.stderr
+
+
+def test_a_device_pytorch_does_not_have_is_refused_before_any_data_is_read(tmp_path):
+    for model in ("kino", "tnt"):
+        r = run_kino("train", "--model", model, "--data", tmp_path / "nothing", "--out", tmp_path / model,
+                     "--device", "tpu")
+        assert r.returncode == 2 and "--device 'tpu'" in r.stderr, r.stderr
+        if not torch.cuda.is_available():
+            r = run_kino("train", "--model", model, "--data", tmp_path / "nothing", "--out", tmp_path / model,
+                         "--device", "cuda")
+            assert r.returncode == 2 and "no CUDA device" in r.stderr and "--device cpu" in r.stderr, r.stderr
+        assert not (tmp_path / model).exists()
 
 
 def test_the_learning_rate_is_held_or_decays_along_half_a_cosine_to_zero():

@@ -31,6 +31,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="the learning rate held (none) or decayed to zero along half a cosine over --epochs")
     t.add_argument("--stride", type=int, default=1, help="use every N-th model step of each episode")
     t.add_argument("--threads", type=int, default=2)
+    t.add_argument("--device", default="cpu",
+                   help="PyTorch device to train on: cpu (default), cuda or cuda:N (only the speed changes; the card "
+                        "says which)")
     t.add_argument("--name", help="the card's name (default: the model kind)")
     r = sub.add_parser("report", help="open-loop accuracy on held-out episodes against the bicycle model")
     r.add_argument("--weights", required=True)
@@ -51,7 +54,7 @@ def main(argv: list[str] | None = None) -> int:
             cmd = "python -m vertibench.kino " + " ".join(shlex.quote(x) for x in argv)
             spec = TrainSpec(data=a.data, out=a.out, model=a.model, task_set=a.task_set, epochs=a.epochs, seed=a.seed,
                              members=a.members, hidden=hidden, batch=a.batch, lr=a.lr, lr_decay=a.lr_decay, stride=a.stride,
-                             threads=a.threads, name=a.name or a.model, command=cmd)
+                             threads=a.threads, device=a.device, name=a.name or a.model, command=cmd)
             if a.model == "tnt":
                 from .trav_train import train as train_tnt
 

@@ -38,8 +38,8 @@ def write_card(card: dict, path: Path) -> None:
              f"simulator {card['sim_version']}, vehicle {card['vehicle']} at scale {card['scale']}",
              f"- seed {card['seed']}, {card['epochs']} epochs (learning rate {card['lr']:g}, "
              f"{card.get('lr_decay', 'none')} decay), {card['members']} members x {card['hidden']} "
-             f"hidden, {card['parameters']} parameters; {card['train_s']} s training, {card['data_s']} s "
-             f"making samples",
+             f"hidden, {card['parameters']} parameters; {card['train_s']} s training on "
+             f"{card.get('device', 'cpu')}, {card['data_s']} s making samples",
              "", "## Held-out one-step error (RMSE of the ensemble mean, physical units)", "",
              "| target | RMSE |", "|---|---|"]
     for k, v in card["heldout_rmse_one_step"].items():

@@ -35,6 +35,7 @@ class TrainSpec:
     lr_decay: str = "none"
     stride: int = 1
     threads: int = 2
+    device: str = "cpu"
     name: str = "kino"
     command: str = ""
     extra: dict = field(default_factory=dict)
@@ -104,22 +105,42 @@ def split(s: kd.Samples) -> tuple[np.ndarray, np.ndarray]:
 
 
 def rmse(model, s: kd.Samples, rows: np.ndarray, batch: int = 8192) -> np.ndarray:
-    """Held-out RMSE per scaled target of the ensemble mean."""
+    """Held-out RMSE per scaled target of the ensemble mean (computed on the model's device)."""
     import torch
 
+    dev = next(model.parameters()).device
     se = np.zeros(km.TARGETS)
     with torch.no_grad():
         for a in range(0, len(rows), batch):
             r = rows[a:a + batch]
-            p = model(*(torch.from_numpy(x) for x in s.inputs(r))).mean(1).numpy()
+            p = model(*(torch.from_numpy(x).to(dev) for x in s.inputs(r))).mean(1).cpu().numpy()
             se += ((p - s.target[r]) ** 2).sum(0)
     return np.sqrt(se / max(len(rows), 1))
+
+
+def torch_device(spec: TrainSpec):
+    """The ``torch.device`` of ``spec.device`` (``cpu``, ``cuda`` or ``cuda:N``), refused with a clear message when
+    PyTorch has no such device here. A GPU changes only the speed: the weights differ from a CPU run's in the last
+    bits (its kernels sum in another order), and the card says which device trained them."""
+    import torch
+
+    try:
+        dev = torch.device(spec.device)
+    except RuntimeError as e:
+        raise ValueError(f"--device {spec.device!r}: {e}") from None
+    if dev.type == "cuda" and not torch.cuda.is_available():
+        raise ValueError(f"--device {spec.device}: PyTorch sees no CUDA device here (torch {torch.__version__}); "
+                         f"train with --device cpu")
+    if dev.type not in ("cpu", "cuda"):
+        raise ValueError(f"--device {spec.device!r}: expected cpu, cuda or cuda:N")
+    return dev
 
 
 def train(spec: TrainSpec, log=print) -> Path:
     import torch
 
     torch.set_num_threads(spec.threads)
+    dev = torch_device(spec)
     out = Path(spec.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.monotonic()
@@ -133,15 +154,15 @@ def train(spec: TrainSpec, log=print) -> Path:
     torch.manual_seed(spec.seed)
     if spec.model not in km.MODELS:
         raise ValueError(f"--model {spec.model!r}: expected one of {sorted(km.MODELS)}")
-    model = km.MODELS[spec.model](spec.members, spec.hidden)
+    model = km.MODELS[spec.model](spec.members, spec.hidden).to(dev)
     opt = torch.optim.Adam(model.parameters(), lr=spec.lr)
     rng = np.random.default_rng(spec.seed)
     # Bootstrap: member m weighs training sample i by a Poisson(1) count (drawn once).
     boot = rng.poisson(1.0, size=(len(tr), spec.members)).astype(np.float32)
     ckpt, curve_path = out / "checkpoint.pt", out / "curve.csv"
     epoch, curve, train_s = resume(ckpt, model, opt, rng, log, "vertibench.kino")
-    inputs, tgt = [torch.from_numpy(a) for a in s.inputs()], torch.from_numpy(s.target)
-    bw = torch.from_numpy(boot)
+    inputs, tgt = [torch.from_numpy(a).to(dev) for a in s.inputs()], torch.from_numpy(s.target).to(dev)
+    bw = torch.from_numpy(boot).to(dev)
     while epoch < spec.epochs:
         e0 = time.monotonic()
         model.train()
@@ -150,10 +171,10 @@ def train(spec: TrainSpec, log=print) -> Path:
         for a in range(0, len(order), spec.batch):
             set_learning_rate(opt, spec, (epoch + a / len(order)) / spec.epochs)
             r = order[a:a + spec.batch]
-            rows = torch.from_numpy(tr[r])
+            rows = torch.from_numpy(tr[r]).to(dev)
             pred = model(*(x[rows] for x in inputs))  # [b, m, 7]
             err = ((pred - tgt[rows].unsqueeze(1)) ** 2).mean(2)  # [b, m]
-            w = bw[torch.from_numpy(r)]
+            w = bw[torch.from_numpy(r).to(dev)]
             loss = (err * w).sum() / w.sum().clamp(min=1.0)
             opt.zero_grad()
             loss.backward()
@@ -170,7 +191,7 @@ def train(spec: TrainSpec, log=print) -> Path:
             + " ".join(f"{n} {v:.3f}" for n, v in zip(_core.KINO_TARGETS, h)))
         save_checkpoint(ckpt, model, opt, rng, epoch, curve, train_s)
         write_curve(curve, curve_path)
-    return finish(spec, model, s, ho, about, curve, train_s, data_s)
+    return finish(spec, model.cpu(), s, ho, about, curve, train_s, data_s)
 
 
 def learning_rate(spec: TrainSpec, progress: float) -> float:
@@ -196,7 +217,7 @@ def resume(ckpt: Path, model, opt, rng: np.random.Generator, log, who: str) -> t
 
     if not ckpt.exists():
         return 0, [], 0.0
-    c = torch.load(ckpt, weights_only=False)
+    c = torch.load(ckpt, weights_only=False, map_location=next(model.parameters()).device)
     model.load_state_dict(c["model"])
     opt.load_state_dict(c["opt"])
     rng.bit_generator.state = c["rng"]
@@ -229,7 +250,7 @@ def finish(spec: TrainSpec, model, s: kd.Samples, ho: np.ndarray, about: dict, c
     physical = {n: float(v * f) for n, v, f in zip(_core.KINO_TARGETS, h, factors)}
     card = {
         "name": spec.name, "model": spec.model, "layout": model.layout, "command": spec.command, "seed": spec.seed, "epochs": spec.epochs,
-        "members": spec.members, "hidden": spec.hidden, "batch": spec.batch, "lr": spec.lr,
+        "members": spec.members, "hidden": spec.hidden, "batch": spec.batch, "lr": spec.lr, "device": spec.device,
         "lr_decay": spec.lr_decay, "samples": len(s), "heldout_samples": int(len(ho)), "train_s": round(train_s, 1),
         "data_s": round(data_s, 1), "heldout_rmse_scaled": {n: float(v) for n, v in zip(_core.KINO_TARGETS, h)},
         "heldout_rmse_one_step": physical, "data": about["sets"], "vehicle": about["vehicle"],

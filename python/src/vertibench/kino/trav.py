@@ -162,7 +162,7 @@ def gather(pred, owner: np.ndarray, cell: np.ndarray):
     import torch
 
     flat = pred.permute(0, 1, 3, 4, 2).reshape(pred.shape[0], HEADINGS * GRID * GRID, len(CHANNELS))
-    return flat[torch.from_numpy(owner), torch.from_numpy(cell)]
+    return flat[torch.from_numpy(owner).to(flat.device), torch.from_numpy(cell).to(flat.device)]
 
 
 def save(net, path, extra: dict[str, str]) -> None:

@@ -15,7 +15,7 @@ import numpy as np
 from . import data as kd
 from . import trav as tv
 from .report import _kind
-from .train import TrainSpec, read_datasets, resume, save_checkpoint, set_learning_rate, write_curve
+from .train import TrainSpec, read_datasets, resume, save_checkpoint, set_learning_rate, torch_device, write_curve
 
 
 def load_samples(spec: TrainSpec) -> tuple[tv.TravSamples, dict]:
@@ -49,18 +49,20 @@ def load_samples(spec: TrainSpec) -> tuple[tv.TravSamples, dict]:
 
 
 def evaluate(model, s: tv.TravSamples, rows: np.ndarray, batch: int = 1024) -> dict:
-    """Held-out cross-entropy and mean absolute error per channel over the labelled entries of ``rows``."""
+    """Held-out cross-entropy and mean absolute error per channel over the labelled entries of ``rows`` (computed on
+    the model's device)."""
     import torch
 
+    dev = next(model.parameters()).device
     bce, mae, n = 0.0, np.zeros(len(tv.CHANNELS)), 0
     with torch.no_grad():
         for a in range(0, len(rows), batch):
             r = rows[a:a + batch]
             owner, cell, lab = s.entries(r)
-            p = tv.gather(model(torch.from_numpy(s.map[r])), owner, cell)
-            y = torch.from_numpy(lab)
+            p = tv.gather(model(torch.from_numpy(s.map[r]).to(dev)), owner, cell)
+            y = torch.from_numpy(lab).to(dev)
             bce += float(torch.nn.functional.binary_cross_entropy(p, y, reduction="sum"))
-            mae += (p - y).abs().sum(0).numpy()
+            mae += (p - y).abs().sum(0).cpu().numpy()
             n += len(lab)
     n = max(n, 1)
     return {"bce": bce / (n * len(tv.CHANNELS)), **{f"mae_{c}": float(v / n) for c, v in zip(tv.CHANNELS, mae)}}
@@ -70,6 +72,7 @@ def train(spec: TrainSpec, log=print) -> Path:
     import torch
 
     torch.set_num_threads(spec.threads)
+    dev = torch_device(spec)
     out = Path(spec.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.monotonic()
@@ -83,12 +86,12 @@ def train(spec: TrainSpec, log=print) -> Path:
     log(f"vertibench.kino tnt: {len(tr)} training, {len(ho)} held-out anchors, {len(s.cell)} labelled cells "
         f"({data_s:.0f} s to make)")
     torch.manual_seed(spec.seed)
-    model = tv.model(spec.hidden)
+    model = tv.model(spec.hidden).to(dev)
     opt = torch.optim.Adam(model.parameters(), lr=spec.lr)
     rng = np.random.default_rng(spec.seed)
     ckpt, curve_path = out / "checkpoint.pt", out / "curve.csv"
     epoch, curve, train_s = resume(ckpt, model, opt, rng, log, "vertibench.kino tnt")
-    maps = torch.from_numpy(s.map)
+    maps = torch.from_numpy(s.map).to(dev)
     while epoch < spec.epochs:
         e0 = time.monotonic()
         model.train()
@@ -100,8 +103,8 @@ def train(spec: TrainSpec, log=print) -> Path:
             owner, cell, lab = s.entries(r)
             if len(lab) == 0:
                 continue
-            p = tv.gather(model(maps[torch.from_numpy(r)]), owner, cell)
-            loss = torch.nn.functional.binary_cross_entropy(p, torch.from_numpy(lab))
+            p = tv.gather(model(maps[torch.from_numpy(r).to(dev)]), owner, cell)
+            loss = torch.nn.functional.binary_cross_entropy(p, torch.from_numpy(lab).to(dev))
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -117,7 +120,7 @@ def train(spec: TrainSpec, log=print) -> Path:
             + " ".join(f"{k} {v:.3f}" for k, v in h.items()))
         save_checkpoint(ckpt, model, opt, rng, epoch, curve, train_s)
         write_curve(curve, curve_path)
-    return finish(spec, model, s, tr, ho, about, curve, train_s, data_s)
+    return finish(spec, model.cpu(), s, tr, ho, about, curve, train_s, data_s)
 
 
 def finish(spec: TrainSpec, model, s: tv.TravSamples, tr: np.ndarray, ho: np.ndarray, about: dict,
@@ -128,7 +131,8 @@ def finish(spec: TrainSpec, model, s: tv.TravSamples, tr: np.ndarray, ho: np.nda
     _, _, lab_ho = s.entries(ho)
     base = {c: float(np.abs(lab_ho[:, j] - lab_tr[:, j].mean()).mean()) for j, c in enumerate(tv.CHANNELS)}
     card = {"name": spec.name, "model": "tnt", "layout": tv.LAYOUT, "command": spec.command, "seed": spec.seed,
-            "epochs": spec.epochs, "width": spec.hidden, "batch": spec.batch, "lr": spec.lr, "lr_decay": spec.lr_decay, "anchors": len(s),
+            "epochs": spec.epochs, "width": spec.hidden, "batch": spec.batch, "lr": spec.lr, "lr_decay": spec.lr_decay,
+            "device": spec.device, "anchors": len(s),
             "heldout_anchors": int(len(ho)), "labelled_cells": int(len(s.cell)), "train_s": round(train_s, 1),
             "data_s": round(data_s, 1), "heldout": h, "heldout_mae_of_the_mean": base, "data": about["sets"],
             "vehicle": about["vehicle"], "scale": about["scale"], "task_set_version": about["task_set_version"],
@@ -146,7 +150,7 @@ def finish(spec: TrainSpec, model, s: tv.TravSamples, tr: np.ndarray, ho: np.nda
              f"simulator {about['sim_version']}, vehicle {about['vehicle']} at scale {about['scale']}",
              f"- seed {spec.seed}, {spec.epochs} epochs (learning rate {spec.lr:g}, {spec.lr_decay} decay), "
              f"width {spec.hidden}, {card['parameters']} parameters; "
-             f"{card['train_s']} s training, {card['data_s']} s making samples", "",
+             f"{card['train_s']} s training on {spec.device}, {card['data_s']} s making samples", "",
              "## Held-out error per labelled cell", "", "| channel | MAE | MAE of the training mean |", "|---|---|---|"]
     lines += [f"| {c} | {h[f'mae_{c}']:.4f} | {base[c]:.4f} |" for c in tv.CHANNELS]
     lines += ["", f"Held-out binary cross-entropy: {h['bce']:.4f}."]
