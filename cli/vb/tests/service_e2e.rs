@@ -23,6 +23,10 @@ fn exec_request(name: &str, tasks: &[&str], args: &[&str], deadline: f64) -> pb:
     }
 }
 
+/// The step deadline of the planners that are not meant to time out: generous, so that a loaded 2-core machine
+/// (a debug build, several workers and planner processes at once) cannot turn a good step into a timeout.
+const STEP_S: f64 = 5.0;
+
 fn done(s: &pb::SubmissionStatus) -> bool {
     matches!(
         s.state(),
@@ -251,7 +255,7 @@ async fn misbehaving_planners_fail_their_own_episodes_and_nothing_else() -> anyh
     let good_tasks = ["w003-t0", "w003-t1", "w004-t2", "w005-t5"];
     // The well-behaved planner alone first, as the reference.
     let alone =
-        vb_submit::submit(&mut c, exec_request("good alone", &good_tasks, &[], 1.0)).await?;
+        vb_submit::submit(&mut c, exec_request("good alone", &good_tasks, &[], STEP_S)).await?;
     wait_for(
         port,
         &token,
@@ -262,14 +266,14 @@ async fn misbehaving_planners_fail_their_own_episodes_and_nothing_else() -> anyh
     .await;
     // Then again, side by side with four broken planners.
     let few = ["w006-t0", "w006-t1"];
-    let good = vb_submit::submit(&mut c, exec_request("good", &good_tasks, &[], 1.0)).await?;
+    let good = vb_submit::submit(&mut c, exec_request("good", &good_tasks, &[], STEP_S)).await?;
     let crash = vb_submit::submit(
         &mut c,
         exec_request(
             "crash",
             &few,
             &["--fault", "crash", "--fault-after", "3"],
-            1.0,
+            STEP_S,
         ),
     )
     .await?;
@@ -285,12 +289,17 @@ async fn misbehaving_planners_fail_their_own_episodes_and_nothing_else() -> anyh
     .await?;
     let nan = vb_submit::submit(
         &mut c,
-        exec_request("nan", &few, &["--fault", "nan", "--fault-after", "2"], 1.0),
+        exec_request(
+            "nan",
+            &few,
+            &["--fault", "nan", "--fault-after", "2"],
+            STEP_S,
+        ),
     )
     .await?;
     let range = vb_submit::submit(
         &mut c,
-        exec_request("range", &few, &["--fault", "range"], 1.0),
+        exec_request("range", &few, &["--fault", "range"], STEP_S),
     )
     .await?;
     for s in [&good, &crash, &hang, &nan, &range] {
