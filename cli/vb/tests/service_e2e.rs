@@ -23,8 +23,8 @@ fn exec_request(name: &str, tasks: &[&str], args: &[&str], deadline: f64) -> pb:
     }
 }
 
-/// The step deadline of the planners that are not meant to time out: generous, so that a loaded 2-core machine
-/// (a debug build, several workers and planner processes at once) cannot turn a good step into a timeout.
+/// The step deadline of the planners that are not meant to time out: generous, so that a loaded 2-core machine (a
+/// debug build, several workers and planner processes at once) cannot end a good episode as a planner failure.
 const STEP_S: f64 = 5.0;
 
 fn done(s: &pb::SubmissionStatus) -> bool {
@@ -355,7 +355,10 @@ async fn misbehaving_planners_fail_their_own_episodes_and_nothing_else() -> anyh
         // Debug writes each f64 so that it reads back to the same bits (-0.0 included).
         assert_eq!(
             (&x.task_id, x.outcome, format!("{:?}", x.metrics)),
-            (&y.task_id, y.outcome, format!("{:?}", y.metrics))
+            (&y.task_id, y.outcome, format!("{:?}", y.metrics)),
+            "details: alone `{}`, beside the broken planners `{}`",
+            x.detail,
+            y.detail
         );
         assert!(y.metrics.is_some());
         assert_ne!(y.outcome(), pb::Outcome::PlannerFailure);

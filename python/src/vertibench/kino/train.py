@@ -108,7 +108,7 @@ def rmse(model, s: kd.Samples, rows: np.ndarray, batch: int = 8192) -> np.ndarra
     """Held-out RMSE per scaled target of the ensemble mean (computed on the model's device)."""
     import torch
 
-    dev = next(model.parameters()).device
+    dev = device_of(model)
     se = np.zeros(km.TARGETS)
     with torch.no_grad():
         for a in range(0, len(rows), batch):
@@ -116,6 +116,11 @@ def rmse(model, s: kd.Samples, rows: np.ndarray, batch: int = 8192) -> np.ndarra
             p = model(*(torch.from_numpy(x).to(dev) for x in s.inputs(r))).mean(1).cpu().numpy()
             se += ((p - s.target[r]) ** 2).sum(0)
     return np.sqrt(se / max(len(rows), 1))
+
+
+def device_of(model):
+    """The device a model's parameters live on."""
+    return next(model.parameters()).device
 
 
 def torch_device(spec: TrainSpec):
@@ -161,30 +166,31 @@ def train(spec: TrainSpec, log=print) -> Path:
     boot = rng.poisson(1.0, size=(len(tr), spec.members)).astype(np.float32)
     ckpt, curve_path = out / "checkpoint.pt", out / "curve.csv"
     epoch, curve, train_s = resume(ckpt, model, opt, rng, log, "vertibench.kino")
+    # Everything a batch reads is on the device once: a batch copies nothing to it and waits for nothing from it.
     inputs, tgt = [torch.from_numpy(a).to(dev) for a in s.inputs()], torch.from_numpy(s.target).to(dev)
-    bw = torch.from_numpy(boot).to(dev)
+    bw, tr_d = torch.from_numpy(boot).to(dev), torch.from_numpy(tr).to(dev)
     while epoch < spec.epochs:
         e0 = time.monotonic()
         model.train()
-        order = rng.permutation(len(tr))
-        total = 0.0
+        order = torch.from_numpy(rng.permutation(len(tr))).to(dev)
+        total = torch.zeros((), dtype=torch.float64, device=dev)
         for a in range(0, len(order), spec.batch):
             set_learning_rate(opt, spec, (epoch + a / len(order)) / spec.epochs)
             r = order[a:a + spec.batch]
-            rows = torch.from_numpy(tr[r]).to(dev)
+            rows = tr_d[r]
             pred = model(*(x[rows] for x in inputs))  # [b, m, 7]
             err = ((pred - tgt[rows].unsqueeze(1)) ** 2).mean(2)  # [b, m]
-            w = bw[torch.from_numpy(r).to(dev)]
+            w = bw[r]
             loss = (err * w).sum() / w.sum().clamp(min=1.0)
             opt.zero_grad()
             loss.backward()
             opt.step()
-            total += float(loss.detach()) * len(r)
+            total += loss.detach().double() * len(r)
         epoch += 1
         model.eval()
         h = rmse(model, s, ho)
         train_s += time.monotonic() - e0
-        row = {"epoch": epoch, "wall_s": round(train_s, 1), "train_loss": total / len(order),
+        row = {"epoch": epoch, "wall_s": round(train_s, 1), "train_loss": float(total) / len(order),
                **{f"heldout_rmse_{n}": float(v) for n, v in zip(_core.KINO_TARGETS, h)}}
         curve.append(row)
         log(f"vertibench.kino: epoch {epoch}/{spec.epochs} loss {row['train_loss']:.4f} held-out RMSE "
@@ -217,7 +223,7 @@ def resume(ckpt: Path, model, opt, rng: np.random.Generator, log, who: str) -> t
 
     if not ckpt.exists():
         return 0, [], 0.0
-    c = torch.load(ckpt, weights_only=False, map_location=next(model.parameters()).device)
+    c = torch.load(ckpt, weights_only=False, map_location=device_of(model))
     model.load_state_dict(c["model"])
     opt.load_state_dict(c["opt"])
     rng.bit_generator.state = c["rng"]

@@ -15,7 +15,8 @@ import numpy as np
 from . import data as kd
 from . import trav as tv
 from .report import _kind
-from .train import TrainSpec, read_datasets, resume, save_checkpoint, set_learning_rate, torch_device, write_curve
+from .train import (TrainSpec, device_of, read_datasets, resume, save_checkpoint, set_learning_rate, torch_device,
+                    write_curve)
 
 
 def load_samples(spec: TrainSpec) -> tuple[tv.TravSamples, dict]:
@@ -53,7 +54,7 @@ def evaluate(model, s: tv.TravSamples, rows: np.ndarray, batch: int = 1024) -> d
     the model's device)."""
     import torch
 
-    dev = next(model.parameters()).device
+    dev = device_of(model)
     bce, mae, n = 0.0, np.zeros(len(tv.CHANNELS)), 0
     with torch.no_grad():
         for a in range(0, len(rows), batch):
@@ -96,7 +97,7 @@ def train(spec: TrainSpec, log=print) -> Path:
         e0 = time.monotonic()
         model.train()
         order = rng.permutation(tr)
-        total, count = 0.0, 0
+        total, count = torch.zeros((), dtype=torch.float64, device=dev), 0
         for a in range(0, len(order), spec.batch):
             set_learning_rate(opt, spec, (epoch + a / len(order)) / spec.epochs)
             r = order[a:a + spec.batch]
@@ -108,12 +109,12 @@ def train(spec: TrainSpec, log=print) -> Path:
             opt.zero_grad()
             loss.backward()
             opt.step()
-            total, count = total + float(loss.detach()) * len(lab), count + len(lab)
+            total, count = total + loss.detach().double() * len(lab), count + len(lab)
         epoch += 1
         model.eval()
         h = evaluate(model, s, ho)
         train_s += time.monotonic() - e0
-        row = {"epoch": epoch, "wall_s": round(train_s, 1), "train_bce": total / max(count, 1),
+        row = {"epoch": epoch, "wall_s": round(train_s, 1), "train_bce": float(total) / max(count, 1),
                **{f"heldout_{k}": v for k, v in h.items()}}
         curve.append(row)
         log(f"vertibench.kino tnt: epoch {epoch}/{spec.epochs} loss {row['train_bce']:.4f} held-out "
