@@ -89,7 +89,9 @@ def write_all(tr: "Trainer", meta: dict[str, Any]) -> dict[str, Any]:
         "curriculum": meta["curriculum"],
         "command": spec.command,
         "seed": spec.seed,
-        "task_set": str(tr.task_set),
+        # The default set by the call that makes it, not by this machine's cache path.
+        "task_set": str(tr.task_set) if spec.task_set is not None else "vertibench.tasks.training()",
+        "task_set_seed": tr.info.seed,
         "task_set_version": tr.info.version,
         "train_tasks": len(tr.split.train),
         "held_out_tasks": len(tr.split.held_out),
@@ -122,13 +124,18 @@ def write_all(tr: "Trainer", meta: dict[str, Any]) -> dict[str, Any]:
     return card
 
 
+def _seed(seed: int | None) -> str:
+    return "" if seed is None else f" (seed {seed})"
+
+
 def card_markdown(c: dict[str, Any]) -> str:
     """The card as Markdown."""
     lines = [
         f"# {c['name']}: end-to-end learned baseline ({c['curriculum']} curriculum)",
         "",
         f"- command: `{c['command']}`",
-        f"- task set: `{c['task_set']}` (version `{c['task_set_version']}`): {c['train_tasks']} training tasks, "
+        f"- task set: `{c['task_set']}`{_seed(c.get('task_set_seed'))} (version `{c['task_set_version']}`): "
+        f"{c['train_tasks']} training tasks, "
         f"{c['held_out_tasks']} held out (worlds 9 mod 10)",
         f"- seed {c['seed']}; {c['steps']:,} steps ({c['updates']} updates, {c['episodes']:,} episodes) of a "
         f"{c['budget']:,}-step budget",
