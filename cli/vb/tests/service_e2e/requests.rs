@@ -110,21 +110,18 @@ async fn bad_requests_get_clear_errors_and_cancel_keeps_what_ran() -> anyhow::Re
         &["--addr", &paddr],
     );
     wait_port(pport, Duration::from_secs(30));
-    let endpoint = |url: String, tasks: &[&str]| pb::SubmitRequest {
-        name: url.clone(),
-        planner: Some(pb::PlannerRef {
-            kind: Some(pb::planner_ref::Kind::Endpoint(url)),
-        }),
-        task_ids: tasks.iter().map(|s| s.to_string()).collect(),
-        ..Default::default()
-    };
+    let up_url = format!("http://{paddr}");
     let up = vb_submit::submit(
         &mut c,
-        endpoint(format!("http://{paddr}"), &["w008-t0", "w008-t1"]),
+        endpoint_submission(&up_url, &up_url, &["w008-t0", "w008-t1"]),
     )
     .await?;
-    let down =
-        vb_submit::submit(&mut c, endpoint("http://127.0.0.1:9".into(), &["w008-t2"])).await?;
+    let down_url = "http://127.0.0.1:9";
+    let down = vb_submit::submit(
+        &mut c,
+        endpoint_submission(down_url, down_url, &["w008-t2"]),
+    )
+    .await?;
     for s in [&up, &down] {
         wait_for(
             port,
