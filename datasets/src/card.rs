@@ -159,9 +159,16 @@ fn readme(input: &CardInput, paths: bool) -> String {
         "# vertibench {kind} dataset ({variant})\n\n{}",
         describe(spec.kind)
     );
-    if spec.speed_profile == SpeedProfile::StopAndGo {
-        s += "\nStop-and-go speed profile: the commanded speed stops periodically, alternately braked and coasting \
-              (policy parameters `stop_go`, `stop_duration`, `stop_offset`).\n";
+    match spec.speed_profile {
+        SpeedProfile::Constant => {}
+        SpeedProfile::StopAndGo => {
+            s += "\nStop-and-go speed profile: the commanded speed stops periodically, alternately braked and coasting \
+                  (policy parameters `stop_go`, `stop_duration`, `stop_offset`).\n";
+        }
+        SpeedProfile::Fast => {
+            s += "\nFast speed profile: the commanded speed is drawn per episode from 2 to 8 m/s at full scale \
+                  (policy parameter `speed`), so the data holds rollovers.\n";
+        }
     }
     if spec.analysis_only {
         s += "\n**For analysis only.** Made from the benchmark's own tasks (`--allow-benchmark-tasks`): never train a \

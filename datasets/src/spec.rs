@@ -24,6 +24,9 @@ pub enum SpeedProfile {
     /// The commanded speed with periodic stops, alternately braked and coasting, so the data holds a vehicle
     /// standing, held or rolling back on slopes, and starting again (`generate::random::Stops`).
     StopAndGo,
+    /// The paper's steering with a faster commanded speed, drawn per episode (`generate::random::FAST_SPEED`), so the
+    /// data holds what the paper's 2 m/s rarely reaches: rollovers, hard landings and wheels leaving the ground.
+    Fast,
 }
 
 impl SpeedProfile {

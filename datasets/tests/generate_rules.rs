@@ -51,6 +51,11 @@ fn the_benchmark_set_is_refused_unless_allowed_and_then_marked() -> Result<()> {
     let json = serde_json::to_string(&s)?;
     assert!(json.contains(r#""speed_profile":"stop_and_go""#), "{json}");
     assert_eq!(serde_json::from_str::<datasets::DatasetSpec>(&json)?, s);
+    cfg.speed_profile = SpeedProfile::Fast;
+    let s = spec(&cfg)?;
+    let json = serde_json::to_string(&s)?;
+    assert!(json.contains(r#""speed_profile":"fast""#), "{json}");
+    assert_eq!(serde_json::from_str::<datasets::DatasetSpec>(&json)?, s);
     Ok(())
 }
 
@@ -73,10 +78,9 @@ fn bad_options_are_refused_with_their_name() -> Result<()> {
     bad(&|c| c.crop_size = 0, "crop_size");
     bad(&|c| c.scale = Some(2.0), "scale");
     bad(&|c| c.vehicle = "tank".into(), "tank");
-    bad(
-        &|c| c.speed_profile = SpeedProfile::StopAndGo,
-        "speed_profile",
-    );
+    for profile in [SpeedProfile::StopAndGo, SpeedProfile::Fast] {
+        bad(&|c| c.speed_profile = profile, "speed_profile");
+    }
     let cfg = config(DatasetKind::Failures, 1.0);
     let (mut a, mut b) = (Vec::new(), Vec::new());
     let e = run(&cfg, &Resume::default(), &mut a, Some(&mut b), &|_| {}).expect_err("refused");

@@ -1,6 +1,6 @@
-//! Random exploration's stop-and-go profile: what the stops do on a grade (braked: held; coasting: rolling back at
-//! the grade's acceleration) and that the profile's draws come after the paper's (`generate_rules.rs`: only random
-//! runs take it).
+//! Random exploration's speed profiles: what the stop-and-go profile's stops do on a grade (braked: held; coasting:
+//! rolling back at the grade's acceleration), and that the stop-and-go and fast profiles' draws come after the
+//! paper's (`generate_rules.rs`: only random runs take them).
 
 use anyhow::Result;
 use datasets::generate::random::{draw, drive_sinusoid, Phase, RandomStart, Sinusoid, Stops};
@@ -138,6 +138,48 @@ fn stops_are_drawn_after_the_papers_draws_so_those_stay_the_same() -> Result<()>
         assert_eq!(st.phase(0.0), Phase::Go);
         let p = s.params();
         assert_eq!((p["stop_go"], p["stop_duration"]), (st.go, st.stop));
+    }
+    Ok(())
+}
+
+#[test]
+fn fast_speeds_are_drawn_after_the_papers_draws_and_span_the_range() -> Result<()> {
+    let info = vehicle_by_name("hmmwv")?.info();
+    for scale in [1.0, 1.0 / 6.0] {
+        let mut world = World::uniform(
+            Heightmap::from_fn(scale, |_, _| 0.0),
+            Semantic::Dirt,
+            Surface::Rigid { friction: 0.8 },
+        );
+        world.scale = scale;
+        let mut speeds = Vec::new();
+        for seed in 0..200 {
+            let rng = |s| ChaCha8Rng::seed_from_u64(s);
+            let c =
+                draw(&world, &info, SpeedProfile::Constant, &mut rng(seed)).expect("free start");
+            let f = draw(&world, &info, SpeedProfile::Fast, &mut rng(seed)).expect("free start");
+            assert_eq!((c.start, c.goal, f.stops), (f.start, f.goal, None));
+            let (cs, fs) = (c.sinusoid, f.sinusoid);
+            assert_eq!(
+                (cs.amplitude, cs.period, cs.phase),
+                (fs.amplitude, fs.period, fs.phase)
+            );
+            // Froude similitude: speeds scale with sqrt(scale), as the paper's 2 m/s does.
+            assert_eq!(cs.speed, 2.0 * scale.sqrt());
+            let v = fs.speed / scale.sqrt();
+            assert!((2.0..8.0).contains(&v), "{v} m/s at full scale");
+            assert_eq!(f.params()["speed"], fs.speed);
+            speeds.push(v);
+        }
+        // Uniform over [2, 8): every third of the range is drawn about a third of the time.
+        for k in 0..3 {
+            let lo = 2.0 + 2.0 * f64::from(k);
+            let n = speeds
+                .iter()
+                .filter(|v| (lo..lo + 2.0).contains(*v))
+                .count();
+            assert!((45..=90).contains(&n), "{n} of 200 in [{lo}, {})", lo + 2.0);
+        }
     }
     Ok(())
 }

@@ -4,7 +4,8 @@
 //! - `random`: the paper's random exploration. Episode `i` drives world `i mod n` (so every kind of ground is
 //!   covered) from a start drawn uniformly over the world's free area, in a uniformly drawn heading, with sinusoidal
 //!   steering and a commanded 2 m/s through the baselines' speed loop ([`random`]); with
-//!   [`SpeedProfile::StopAndGo`] that command stops periodically, braked or coasting. Every episode is kept, whatever
+//!   [`SpeedProfile::StopAndGo`] that command stops periodically, braked or coasting, and with [`SpeedProfile::Fast`]
+//!   it is drawn per episode from 2 to 8 m/s. Every episode is kept, whatever
 //!   its end (rollover, stuck, off map, time limit, or success if it happens to reach its goal).
 //! - `expert`: successful episodes of a built-in planner (default `pid`): first the task set's tasks, then start/goal
 //!   pairs drawn on the same worlds the way the task generator draws them ([`expert`]).

@@ -12,15 +12,16 @@
 //! - the sinusoid ([`Sinusoid::draw`]): amplitude A ~ U([`AMPLITUDE`]), period T ~ U([`PERIOD_S`]) s and phase
 //!   phi ~ U(0, 2 pi); steering `A sin(2 pi t / T + phi)` at the observation's time `t`.
 //!
-//! - with [`SpeedProfile::StopAndGo`] only, last, the stops ([`Stops::draw`]).
+//! - with [`SpeedProfile::StopAndGo`] only, last, the stops ([`Stops::draw`]);
+//! - with [`SpeedProfile::Fast`] only, last, the commanded speed, uniform in [`FAST_SPEED`] m/s.
 //!
-//! The speed command is [`SPEED`] m/s through the baselines' speed loop ([`baselines::SpeedControl`]). With stops,
-//! every `go + stop` seconds the driver stops for `stop` seconds: full brake in even-numbered stops, throttle and
-//! brake released in odd ones (so the vehicle is held, or rolls back, on whatever slope it stands), then starts
-//! again from the speed loop's initial state. The paper's constant speed never stands the vehicle still with the
-//! throttle off, so a model trained on it alone cannot know what braking or a stop does on a slope. On scaled
-//! worlds speeds and times follow Froude similitude: the speed, the period and the stop times are multiplied by
-//! `sqrt(scale)`.
+//! The speed command is [`SPEED`] m/s (with the fast profile, its own draw) through the baselines' speed loop
+//! ([`baselines::SpeedControl`]). With stops, every `go + stop` seconds the driver stops for `stop` seconds: full
+//! brake in even-numbered stops, throttle and brake released in odd ones (so the vehicle is held, or rolls back, on
+//! whatever slope it stands), then starts again from the speed loop's initial state. The paper's constant speed
+//! never stands the vehicle still with the throttle off, so a model trained on it alone cannot know what braking or
+//! a stop does on a slope. On scaled worlds speeds and times follow Froude similitude: the speed, the period and the
+//! stop times are multiplied by `sqrt(scale)`.
 //! The episode ends on rollover, stuck, off map, success or the run's time limit; every episode is kept.
 
 use super::recorder::{drive, Recorded};
@@ -56,6 +57,11 @@ pub const OBSTACLE_CLEARANCE: f64 = 1.0;
 pub const GO_S: [f64; 2] = [5.0, 12.0];
 /// Range of a stop's duration at full scale, s.
 pub const STOP_S: [f64; 2] = [1.5, 4.0];
+/// Range of the fast profile's commanded speed at full scale, m/s: from the paper's 2 m/s to about the speed at
+/// which the HMMWV's sharpest turn on level ground reaches the tyres' grip (`v^2 / R_min = mu g`: R_min = wheelbase /
+/// tan(max steer) = 3.38 m / tan(21 deg) = 8.8 m, mu 0.8, so 8.3 m/s), so on slopes and bumps the sinusoid's hard
+/// turns tip the vehicle over. The nominal speed of the benchmark's planners is 4 m/s.
+pub const FAST_SPEED: [f64; 2] = [2.0, 8.0];
 /// Brake in a braked stop (the speed loop's full brake).
 pub const STOP_BRAKE: f64 = 0.5;
 /// Tries for a start or a goal.
@@ -253,7 +259,7 @@ pub struct RandomStart {
     pub start: [f64; 3],
     pub goal: [f64; 2],
     pub sinusoid: Sinusoid,
-    /// With [`SpeedProfile::StopAndGo`].
+    /// With [`SpeedProfile::StopAndGo`] (the fast profile's speed is the sinusoid's).
     pub stops: Option<Stops>,
 }
 
@@ -271,8 +277,8 @@ impl RandomStart {
     }
 }
 
-/// Draws a random episode on `world` (start, heading, goal, sinusoid, and with `profile`'s stops those, in that
-/// order); `None` when no free start was found.
+/// Draws a random episode on `world` (start, heading, goal, sinusoid, and with `profile`'s stops or fast speed those,
+/// in that order); `None` when no free start was found.
 pub fn draw(
     world: &World,
     vehicle: &VehicleInfo,
@@ -282,10 +288,14 @@ pub fn draw(
     let p = draw_start(world, vehicle, rng)?;
     let yaw = rng.gen_range(-PI..PI);
     let goal = draw_goal(world, p, rng);
-    let sinusoid = Sinusoid::draw(rng, world.scale);
+    let mut sinusoid = Sinusoid::draw(rng, world.scale);
     let stops = match profile {
         SpeedProfile::Constant => None,
         SpeedProfile::StopAndGo => Some(Stops::draw(rng, world.scale)),
+        SpeedProfile::Fast => {
+            sinusoid.speed = rng.gen_range(FAST_SPEED[0]..FAST_SPEED[1]) * world.scale.sqrt();
+            None
+        }
     };
     Some(RandomStart {
         start: [p[0], p[1], yaw],

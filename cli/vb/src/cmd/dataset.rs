@@ -23,6 +23,7 @@ pub enum VariantArg {
 pub enum ProfileArg {
     Constant,
     StopAndGo,
+    Fast,
 }
 
 #[derive(clap::Subcommand)]
@@ -67,8 +68,9 @@ pub enum DatasetCmd {
         /// Time limit of a random episode, s.
         #[arg(long, default_value_t = datasets::generate::DEFAULT_MAX_TIME)]
         max_time: f64,
-        /// Random exploration's speed command: constant (the paper's 2 m/s) or stop-and-go (periodic stops,
-        /// alternately braked and coasting, so the data holds standing and starting on slopes).
+        /// Random exploration's speed command: constant (the paper's 2 m/s), stop-and-go (periodic stops,
+        /// alternately braked and coasting, so the data holds standing and starting on slopes) or fast (a speed
+        /// drawn per episode from 2 to 8 m/s, so the data holds rollovers).
         #[arg(long, value_enum, default_value = "constant")]
         speed_profile: ProfileArg,
         /// Built-in planners (expert: one, default pid; failures: default pid,eh).
@@ -128,6 +130,7 @@ pub fn run(cmd: DatasetCmd) -> anyhow::Result<()> {
             cfg.speed_profile = match speed_profile {
                 ProfileArg::Constant => SpeedProfile::Constant,
                 ProfileArg::StopAndGo => SpeedProfile::StopAndGo,
+                ProfileArg::Fast => SpeedProfile::Fast,
             };
             if !planners.is_empty() {
                 cfg.planners = planners;
