@@ -3,8 +3,9 @@
 //! the uncertainty weight: how the hybrids' planner parameters are looked at without touching the benchmark's tasks.
 //!
 //! `cargo run --release -p eval --example kino_probe -- WEIGHTS TASK_DIR [UNCERTAINTY] [EVERY_NTH_WORLD]` runs task
-//! `w % 10` of every `EVERY_NTH_WORLD`-th world (default 4) with the full-scale HMMWV, in parallel, and prints the
-//! outcomes, the wall time and the model predictions per decision.
+//! `w % 10` of every `EVERY_NTH_WORLD`-th world (default 4) with the full-scale HMMWV, in parallel, and prints each
+//! task's outcome (`w004-t4 success`, for pairing two models' runs), the counts, the wall time and the model
+//! predictions per decision.
 
 use anyhow::Context;
 use learned::kino::{KinoMppi, KinoMppiConfig};
@@ -38,7 +39,7 @@ fn main() -> anyhow::Result<()> {
         .filter(|w| w % nth.max(1) == 0)
         .collect();
     let t0 = Instant::now();
-    let rows: Vec<(String, u64, u64)> = todo
+    let rows: Vec<(String, u64, u64, String)> = todo
         .par_iter()
         .map(|&w| {
             let world = set.world(w, 1.0).expect("world");
@@ -49,9 +50,18 @@ fn main() -> anyhow::Result<()> {
             }
             let r =
                 sim_core::run_episode(&world, &task, &vehicle, &mut p, &EpisodeConfig::default());
-            (r.outcome.as_str().to_string(), p.decisions, p.predictions)
+            let id = format!("w{w:03}-t{}", w % 10);
+            (
+                r.outcome.as_str().to_string(),
+                p.decisions,
+                p.predictions,
+                id,
+            )
         })
         .collect();
+    for r in &rows {
+        println!("{} {}", r.3, r.0);
+    }
     let count = |o: &str| rows.iter().filter(|r| r.0 == o).count();
     let dec: u64 = rows.iter().map(|r| r.1).sum();
     let pred: u64 = rows.iter().map(|r| r.2).sum();
