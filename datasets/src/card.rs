@@ -166,8 +166,12 @@ fn readme(input: &CardInput, paths: bool) -> String {
                   (policy parameters `stop_go`, `stop_duration`, `stop_offset`).\n";
         }
         SpeedProfile::Fast => {
-            s += "\nFast speed profile: the commanded speed is drawn per episode from 2 to 8 m/s at full scale \
-                  (policy parameter `speed`), so the data holds rollovers.\n";
+            let [lo, hi] = crate::generate::random::FAST_SPEED;
+            let _ = writeln!(
+                s,
+                "\nFast speed profile: the commanded speed is drawn per episode from {lo} to {hi} m/s at full scale \
+                 (policy parameter `speed`), so the data holds rollovers."
+            );
         }
     }
     if spec.analysis_only {

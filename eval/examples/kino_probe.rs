@@ -11,9 +11,17 @@ use anyhow::Context;
 use learned::kino::{KinoMppi, KinoMppiConfig};
 use learned::LearnedNet;
 use rayon::prelude::*;
-use sim_core::episode::EpisodeConfig;
+use sim_core::episode::{EpisodeConfig, Outcome};
 use std::path::Path;
 use std::time::Instant;
+
+/// One probe episode.
+struct Row {
+    task: String,
+    outcome: Outcome,
+    decisions: u64,
+    predictions: u64,
+}
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -39,7 +47,7 @@ fn main() -> anyhow::Result<()> {
         .filter(|w| w % nth.max(1) == 0)
         .collect();
     let t0 = Instant::now();
-    let rows: Vec<(String, u64, u64, String)> = todo
+    let rows: Vec<Row> = todo
         .par_iter()
         .map(|&w| {
             let world = set.world(w, 1.0).expect("world");
@@ -50,31 +58,30 @@ fn main() -> anyhow::Result<()> {
             }
             let r =
                 sim_core::run_episode(&world, &task, &vehicle, &mut p, &EpisodeConfig::default());
-            let id = format!("w{w:03}-t{}", w % 10);
-            (
-                r.outcome.as_str().to_string(),
-                p.decisions,
-                p.predictions,
-                id,
-            )
+            Row {
+                task: task.id(),
+                outcome: r.outcome,
+                decisions: p.decisions,
+                predictions: p.predictions,
+            }
         })
         .collect();
     for r in &rows {
-        println!("{} {}", r.3, r.0);
+        println!("{} {}", r.task, r.outcome.as_str());
     }
-    let count = |o: &str| rows.iter().filter(|r| r.0 == o).count();
-    let dec: u64 = rows.iter().map(|r| r.1).sum();
-    let pred: u64 = rows.iter().map(|r| r.2).sum();
+    let count = |o: Outcome| rows.iter().filter(|r| r.outcome == o).count();
+    let dec: u64 = rows.iter().map(|r| r.decisions).sum();
+    let pred: u64 = rows.iter().map(|r| r.predictions).sum();
     println!(
         "uncertainty {}: {} tasks, wall {:.1} s, {:.0} predictions/decision; success {} stuck {} rollover {} timeout {}",
         cfg.uncertainty,
         rows.len(),
         t0.elapsed().as_secs_f64(),
         pred as f64 / dec.max(1) as f64,
-        count("success"),
-        count("stuck"),
-        count("rollover"),
-        count("timeout"),
+        count(Outcome::Success),
+        count(Outcome::Stuck),
+        count(Outcome::Rollover),
+        count(Outcome::Timeout),
     );
     Ok(())
 }

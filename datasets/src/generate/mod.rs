@@ -5,8 +5,8 @@
 //!   covered) from a start drawn uniformly over the world's free area, in a uniformly drawn heading, with sinusoidal
 //!   steering and a commanded 2 m/s through the baselines' speed loop ([`random`]); with
 //!   [`SpeedProfile::StopAndGo`] that command stops periodically, braked or coasting, and with [`SpeedProfile::Fast`]
-//!   it is drawn per episode from 2 to 8 m/s. Every episode is kept, whatever
-//!   its end (rollover, stuck, off map, time limit, or success if it happens to reach its goal).
+//!   it is drawn per episode ([`random::FAST_SPEED`]). Every episode is kept, whatever its end (rollover, stuck, off
+//!   map, time limit, or success if it happens to reach its goal).
 //! - `expert`: successful episodes of a built-in planner (default `pid`): first the task set's tasks, then start/goal
 //!   pairs drawn on the same worlds the way the task generator draws them ([`expert`]).
 //! - `failures`: the last 10 s before every rollover and stuck ([`failures`]) of the built-in planners' evaluation
