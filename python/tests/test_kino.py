@@ -287,7 +287,16 @@ def test_traversability_labels_follow_the_frames_and_poses_land_in_the_maps_grid
     assert not tv.frame_labels(e, fps, 1.0)[1][-1], "an off-map end leaves the last frames unlabelled"
     e.outcome = "rollover"
     lab, _ = tv.frame_labels(e, fps, 1.0)
-    assert lab[-1, 4] == 1 and lab[-40, 4] == 1 and lab[-41, 4] == 0, "rollover within the 2 s window only"
+    assert lab[-1, 4] == 1 and lab[-40, 4] == 1 and lab[-41, 4] == 0, "no lean past 30 deg: the end is the tip"
+    e.poses[70:, 3] = np.radians(40.0)  # tips at frame 70 and stays leaning until the stuck rule ends it
+    e.poses[90, 3] = np.radians(-35.0)  # a lean to the other side is still a lean past the threshold
+    assert tv.tip_frame(e) == 70
+    lab, _ = tv.frame_labels(e, fps, 1.0)
+    assert np.all(lab[30:, 4] == 1) and np.all(lab[:30, 4] == 0), "frames whose 2 s window reaches the tip"
+    e.poses[100, 3] = 0.0  # upright again at frame 100: the final lean starts at 101
+    assert tv.tip_frame(e) == 101 and tv.frame_labels(e, fps, 1.0)[0][60, 4] == 0
+    e.outcome = "stuck"
+    assert tv.tip_frame(e) is None and np.all(tv.frame_labels(e, fps, 1.0)[0][:, 4] == 0)
     anchor = np.array([10.0, 20.0, 0.0, 0.0, 0.0, np.pi / 2])
     poses = np.array([[9.5, 25.5, 0, 0, 0, np.pi / 2],    # 5.5 m ahead, 0.5 m left, same heading
                       [7.5, 20.5, 0, 0, 0, np.pi],        # 0.5 m ahead, 2.5 m left, turned left
@@ -295,6 +304,16 @@ def test_traversability_labels_follow_the_frames_and_poses_land_in_the_maps_grid
     idx, inside = tv.grid_index(anchor, poses, 1.0)
     assert list(inside) == [True, True, False]
     assert idx[0] == 0 * 256 + 7 * 16 + 7 and idx[1] == 1 * 256 + 12 * 16 + 5
+
+
+def test_roc_auc_is_mann_whitneys_u_with_ties_counting_half():
+    from vertibench.kino.trav_train import roc_auc
+
+    score = np.array([0.1, 0.4, 0.35, 0.8])
+    assert roc_auc(score, np.array([False, False, True, True])) == 0.75  # 3 of the 4 pairs ordered
+    assert roc_auc(np.array([0.5, 0.5, 0.2]), np.array([True, False, False])) == 0.75  # a tie counts half
+    assert roc_auc(score, np.array([True, True, False, False])) == 0.25
+    assert roc_auc(score, np.zeros(4, bool)) is None and roc_auc(score, np.ones(4, bool)) is None
 
 
 def test_tnt_trains_resumes_and_writes_weights_with_a_card(kino_data, tmp_path):
@@ -312,6 +331,9 @@ def test_tnt_trains_resumes_and_writes_weights_with_a_card(kino_data, tmp_path):
     card = json.loads((out / "card.json").read_text())
     assert card["epochs"] == 2 and card["labelled_cells"] > 0 and card["heldout_anchors"] > 0
     assert all(0 <= card["heldout"][f"mae_{c}"] <= 1 for c in tv.CHANNELS)
+    assert card["labels_version"] == tv.LABELS_VERSION and "ROC AUC" in (out / "card.md").read_text()
+    aucs = [card["heldout"][f"auc_{c}"] for c in ("stuck", "rollover")]
+    assert all(a is None or 0 <= a <= 1 for a in aucs)
     from safetensors import safe_open
 
     with safe_open(str(out / "tnt.safetensors"), framework="np") as f:

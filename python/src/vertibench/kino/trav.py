@@ -6,9 +6,12 @@ with 5 channels in [0, 1] (:data:`CHANNELS`).
 
 **Labels** come from our simulator's driving in the datasets, per frame over the :data:`WINDOW_S` after it: the
 largest |roll| and |pitch| (/ 30 degrees, clipped), the wheels' mean |longitudinal slip|, stuck (moved less than
-0.5 m x scale with the throttle on) and rollover (the episode ends in a rollover within the window). A frame whose
-window runs past the episode's end is labelled only if the episode ended stuck or rolled over (that end is what the
-window would have seen). An **anchor** every :data:`ANCHOR_EVERY_S` of each episode gives one sample: its map, and
+0.5 m x scale with the throttle on) and rollover (the episode ends in a rollover and its window reaches the tip: the
+first frame of the final run of frames with |roll| above 30 degrees, or the last frame where there is none). A frame
+whose window runs past the episode's end is labelled only if the episode ended stuck or rolled over (that end is what
+the window would have seen). The tip, not the end, is what a rollover's label marks: a vehicle that tips and stays
+leaning is only failed once the stuck rule's 10 s have passed, and its approach to the tip is what the map can
+show. An **anchor** every :data:`ANCHOR_EVERY_S` of each episode gives one sample: its map, and
 the labels of the frames of the next :data:`SPAN_S` in the map's window, each at its cell and relative heading (the
 mean where several fall together). The release's estimator was trained on its own labels; its cost read the
 vehicle-centred map with world coordinates (``learned-baselines.md`` section 1.4): here a rollout pose is
@@ -38,6 +41,21 @@ ANCHOR_EVERY_S = 1.0
 ROLL_LIMIT = math.radians(30.0)
 STUCK_M = 0.5
 THROTTLE_ON = 0.2
+#: Version of the label definitions (part of the trainer's sample cache key; in the card): 2 marks a rollover at
+#: its tip (1 marked only the last :data:`WINDOW_S` before the episode's end).
+LABELS_VERSION = 2
+
+
+def tip_frame(e: kd.Episode) -> int | None:
+    """The frame at which a rolled-over episode tipped (``None`` for any other outcome): the first of its final run
+    of frames with |roll| above 30 degrees, or its last frame where the final frame does not lean that far."""
+    if e.outcome != "rollover":
+        return None
+    over = np.abs(e.poses[:, 3]) > ROLL_LIMIT
+    if not over[-1]:
+        return len(e.poses) - 1
+    upright = np.flatnonzero(~over)
+    return 0 if len(upright) == 0 else int(upright[-1]) + 1
 
 
 def frame_labels(e: kd.Episode, fps: float, scale: float) -> tuple[np.ndarray, np.ndarray]:
@@ -58,7 +76,8 @@ def frame_labels(e: kd.Episode, fps: float, scale: float) -> tuple[np.ndarray, n
     throttle = (t[np.minimum(ends, n)] - t[np.arange(n)]) / span
     moved = np.hypot(*(e.poses[ends, :2] - e.poses[:n, :2]).T)
     stuck = (moved < STUCK_M * scale) & (throttle > THROTTLE_ON)
-    rolled = (e.outcome == "rollover") & (ends >= len(e.poses) - 1)
+    tip = tip_frame(e)
+    rolled = np.zeros(n, bool) if tip is None else ends >= tip
     labels = np.stack([att[:, 0], att[:, 1], mean_slip, stuck, rolled], axis=1).astype(np.float32)
     valid = complete | (e.outcome in ("rollover", "stuck"))
     return labels, valid

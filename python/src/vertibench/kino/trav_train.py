@@ -23,7 +23,7 @@ def load_samples(spec: TrainSpec) -> tuple[tv.TravSamples, dict]:
     """The anchors of every dataset (cached in ``out/trav-samples.npz``) and what the card says about the data."""
     out = Path(spec.out)
     cache, about_path = out / "trav-samples.npz", out / "data.json"
-    key = {"data": [str(Path(d).resolve()) for d in spec.data], "model": "tnt"}
+    key = {"data": [str(Path(d).resolve()) for d in spec.data], "model": "tnt", "labels": tv.LABELS_VERSION}
     if cache.exists() and about_path.exists():
         about = json.loads(about_path.read_text())
         if all(about.get(k) == v for k, v in key.items()):
@@ -49,13 +49,30 @@ def load_samples(spec: TrainSpec) -> tuple[tv.TravSamples, dict]:
     return allv, about
 
 
+#: The event channels whose held-out ranking is also reported (ROC AUC of the prediction against a label >= 0.5).
+EVENTS = ("stuck", "rollover")
+
+
+def roc_auc(score: np.ndarray, positive: np.ndarray) -> float | None:
+    """The probability that a random positive scores above a random negative, ties counting half (Mann-Whitney's
+    U over the two counts); ``None`` without both classes."""
+    pos, n = int(positive.sum()), len(positive)
+    if pos == 0 or pos == n:
+        return None
+    _, inv, counts = np.unique(score, return_inverse=True, return_counts=True)
+    rank = (np.cumsum(counts) - (counts - 1) / 2.0)[inv]  # the mean 1-based rank of each tie group
+    return float((rank[positive].sum() - pos * (pos + 1) / 2.0) / (pos * (n - pos)))
+
+
 def evaluate(model, s: tv.TravSamples, rows: np.ndarray, batch: int = 1024) -> dict:
-    """Held-out cross-entropy and mean absolute error per channel over the labelled entries of ``rows`` (computed on
-    the model's device)."""
+    """Held-out cross-entropy, mean absolute error per channel and the event channels' ROC AUC (with their
+    positives' count) over the labelled entries of ``rows`` (computed on the model's device)."""
     import torch
 
     dev = device_of(model)
     bce, mae, n = 0.0, np.zeros(len(tv.CHANNELS)), 0
+    ev = [tv.CHANNELS.index(c) for c in EVENTS]
+    preds, labels = [], []
     with torch.no_grad():
         for a in range(0, len(rows), batch):
             r = rows[a:a + batch]
@@ -65,8 +82,20 @@ def evaluate(model, s: tv.TravSamples, rows: np.ndarray, batch: int = 1024) -> d
             bce += float(torch.nn.functional.binary_cross_entropy(p, y, reduction="sum"))
             mae += (p - y).abs().sum(0).cpu().numpy()
             n += len(lab)
+            preds.append(p[:, ev].cpu().numpy())
+            labels.append(lab[:, ev])
     n = max(n, 1)
-    return {"bce": bce / (n * len(tv.CHANNELS)), **{f"mae_{c}": float(v / n) for c, v in zip(tv.CHANNELS, mae)}}
+    out = {"bce": bce / (n * len(tv.CHANNELS)), **{f"mae_{c}": float(v / n) for c, v in zip(tv.CHANNELS, mae)}}
+    pr = np.concatenate(preds) if preds else np.zeros((0, len(ev)))
+    la = np.concatenate(labels) if labels else np.zeros((0, len(ev)))
+    for j, c in enumerate(EVENTS):
+        out[f"auc_{c}"] = roc_auc(pr[:, j], la[:, j] >= 0.5)
+        out[f"positives_{c}"] = int((la[:, j] >= 0.5).sum())
+    return out
+
+
+def _fmt(v) -> str:
+    return "-" if v is None else str(v) if isinstance(v, int) else f"{v:.3f}"
 
 
 def train(spec: TrainSpec, log=print) -> Path:
@@ -118,7 +147,7 @@ def train(spec: TrainSpec, log=print) -> Path:
                **{f"heldout_{k}": v for k, v in h.items()}}
         curve.append(row)
         log(f"vertibench.kino tnt: epoch {epoch}/{spec.epochs} loss {row['train_bce']:.4f} held-out "
-            + " ".join(f"{k} {v:.3f}" for k, v in h.items()))
+            + " ".join(f"{k} {_fmt(v)}" for k, v in h.items()))
         save_checkpoint(ckpt, model, opt, rng, epoch, curve, train_s)
         write_curve(curve, curve_path)
     return finish(spec, model.cpu(), s, tr, ho, about, curve, train_s, data_s)
@@ -133,7 +162,7 @@ def finish(spec: TrainSpec, model, s: tv.TravSamples, tr: np.ndarray, ho: np.nda
     base = {c: float(np.abs(lab_ho[:, j] - lab_tr[:, j].mean()).mean()) for j, c in enumerate(tv.CHANNELS)}
     card = {"name": spec.name, "model": "tnt", "layout": tv.LAYOUT, "command": spec.command, "seed": spec.seed,
             "epochs": spec.epochs, "width": spec.hidden, "batch": spec.batch, "lr": spec.lr, "lr_decay": spec.lr_decay,
-            "device": spec.device, "anchors": len(s),
+            "device": spec.device, "anchors": len(s), "labels_version": tv.LABELS_VERSION,
             "heldout_anchors": int(len(ho)), "labelled_cells": int(len(s.cell)), "train_s": round(train_s, 1),
             "data_s": round(data_s, 1), "heldout": h, "heldout_mae_of_the_mean": base, "data": about["sets"],
             "vehicle": about["vehicle"], "scale": about["scale"], "task_set_version": about["task_set_version"],
@@ -154,6 +183,9 @@ def finish(spec: TrainSpec, model, s: tv.TravSamples, tr: np.ndarray, ho: np.nda
              f"{card['train_s']} s training on {spec.device}, {card['data_s']} s making samples", "",
              "## Held-out error per labelled cell", "", "| channel | MAE | MAE of the training mean |", "|---|---|---|"]
     lines += [f"| {c} | {h[f'mae_{c}']:.4f} | {base[c]:.4f} |" for c in tv.CHANNELS]
-    lines += ["", f"Held-out binary cross-entropy: {h['bce']:.4f}."]
+    lines += ["", f"Held-out binary cross-entropy: {h['bce']:.4f}. Labels version {tv.LABELS_VERSION}.", "",
+              "## Held-out ranking of the events (ROC AUC; predicting the mean everywhere: 0.5)", "",
+              "| event | ROC AUC | held-out cells labelled >= 0.5 |", "|---|---|---|"]
+    lines += [f"| {c} | {_fmt(h[f'auc_{c}'])} | {h[f'positives_{c}']} |" for c in EVENTS]
     (out / "card.md").write_text("\n".join(lines) + "\n")
     return weights
