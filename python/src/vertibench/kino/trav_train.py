@@ -1,8 +1,9 @@
 """Training TNT's traversability estimator (``python -m vertibench.kino train --model tnt``): binary cross-entropy of
 the predicted grid against the labelled cells of each anchor (:mod:`.trav`), Adam, a fixed seed, one epoch at a
-time with a checkpoint after each (a run resumes from its ``--out``), a learning curve (held-out cross-entropy and
-mean absolute error per channel) and, at the end, ``tnt.safetensors`` with its card. The card also gives each
-channel's error when predicting the training labels' mean everywhere: what the map adds."""
+time with a checkpoint after each (a run resumes from its ``--out``), a learning curve (held-out cross-entropy, mean
+absolute error per channel and the ROC AUC of the rare events stuck and rollover, which an error cannot judge) and,
+at the end, ``tnt.safetensors`` with its card. The card also gives each channel's error when predicting the training
+labels' mean everywhere: what the map adds."""
 
 from __future__ import annotations
 
