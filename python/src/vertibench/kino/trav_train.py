@@ -87,11 +87,11 @@ def evaluate(model, s: tv.TravSamples, rows: np.ndarray, batch: int = 1024) -> d
             labels.append(lab[:, ev])
     n = max(n, 1)
     out = {"bce": bce / (n * len(tv.CHANNELS)), **{f"mae_{c}": float(v / n) for c, v in zip(tv.CHANNELS, mae)}}
-    pr = np.concatenate(preds) if preds else np.zeros((0, len(ev)))
-    la = np.concatenate(labels) if labels else np.zeros((0, len(ev)))
+    pr = np.concatenate(preds or [np.zeros((0, len(ev)))])
+    positive = np.concatenate(labels or [np.zeros((0, len(ev)))]) >= 0.5
     for j, c in enumerate(EVENTS):
-        out[f"auc_{c}"] = roc_auc(pr[:, j], la[:, j] >= 0.5)
-        out[f"positives_{c}"] = int((la[:, j] >= 0.5).sum())
+        out[f"auc_{c}"] = roc_auc(pr[:, j], positive[:, j])
+        out[f"positives_{c}"] = int(positive[:, j].sum())
     return out
 
 
