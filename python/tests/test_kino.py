@@ -316,6 +316,39 @@ def test_roc_auc_is_mann_whitneys_u_with_ties_counting_half():
     assert roc_auc(score, np.zeros(4, bool)) is None and roc_auc(score, np.ones(4, bool)) is None
 
 
+def test_the_held_out_report_ranks_each_event_by_its_channel_and_by_its_baseline_channel():
+    import torch
+    from vertibench.kino import trav as tv
+    from vertibench.kino.trav_train import evaluate
+
+    # Two anchors, each with three labelled cells; the "model" predicts each cell's roll label in the roll channel
+    # and the opposite of its rollover label in the rollover channel.
+    cells = np.array([0, 1, 2, 3, 4, 5], np.int64)
+    label = np.zeros((6, len(tv.CHANNELS)), np.float32)
+    ri, rr = tv.CHANNELS.index("roll"), tv.CHANNELS.index("rollover")
+    label[:, rr] = [1, 0, 0, 1, 0, 0]
+    label[:, ri] = [0.9, 0.1, 0.2, 0.8, 0.3, 0.1]
+    s = tv.TravSamples(np.zeros((2, 32, 32), np.float32), np.zeros(2, np.int64), np.array([0, 3, 6]), cells, label)
+
+    class Fixed(torch.nn.Module):
+        def __init__(self):
+            super().__init__()
+            self.w = torch.nn.Parameter(torch.zeros(1))
+
+        def forward(self, m):
+            out = torch.full((len(m), tv.HEADINGS, len(tv.CHANNELS), tv.GRID, tv.GRID), 0.5)
+            flat = out.permute(0, 1, 3, 4, 2).reshape(len(m), -1, len(tv.CHANNELS))
+            for k, c in enumerate(cells):
+                flat[k // 3, c, ri] = float(label[k, ri])
+                flat[k // 3, c, rr] = 1.0 - float(label[k, rr])
+            return flat.reshape(len(m), tv.HEADINGS, tv.GRID, tv.GRID, len(tv.CHANNELS)).permute(0, 1, 4, 2, 3)
+
+    h = evaluate(Fixed(), s, np.array([0, 1]))
+    assert h["positives_rollover"] == 2
+    assert h["auc_rollover"] == 0.0 and h["auc_rollover_by_roll"] == 1.0
+    assert h["auc_stuck"] is None and h["auc_stuck_by_slip"] is None  # no stuck cell
+
+
 def test_tnt_trains_resumes_and_writes_weights_with_a_card(kino_data, tmp_path):
     from vertibench.kino import trav as tv
 
@@ -332,7 +365,7 @@ def test_tnt_trains_resumes_and_writes_weights_with_a_card(kino_data, tmp_path):
     assert card["epochs"] == 2 and card["labelled_cells"] > 0 and card["heldout_anchors"] > 0
     assert all(0 <= card["heldout"][f"mae_{c}"] <= 1 for c in tv.CHANNELS)
     assert card["labels_version"] == tv.LABELS_VERSION and "ROC AUC" in (out / "card.md").read_text()
-    aucs = [card["heldout"][f"auc_{c}"] for c in ("stuck", "rollover")]
+    aucs = [card["heldout"][f"auc_{c}"] for c in ("stuck", "rollover", "stuck_by_slip", "rollover_by_roll")]
     assert all(a is None or 0 <= a <= 1 for a in aucs)
     from safetensors import safe_open
 

@@ -52,6 +52,9 @@ def load_samples(spec: TrainSpec) -> tuple[tv.TravSamples, dict]:
 
 #: The event channels whose held-out ranking is also reported (ROC AUC of the prediction against a label >= 0.5).
 EVENTS = ("stuck", "rollover")
+#: Each event's baseline: the channel whose ranking of the same positives says whether the event's own channel adds
+#: anything (a map that shows where large rolls happen ranks rollovers already; the question is which of them tip).
+BASELINE = {"stuck": "slip", "rollover": "roll"}
 
 
 def roc_auc(score: np.ndarray, positive: np.ndarray) -> float | None:
@@ -72,7 +75,7 @@ def evaluate(model, s: tv.TravSamples, rows: np.ndarray, batch: int = 1024) -> d
 
     dev = device_of(model)
     bce, mae, n = 0.0, np.zeros(len(tv.CHANNELS)), 0
-    ev = [tv.CHANNELS.index(c) for c in EVENTS]
+    ev = [tv.CHANNELS.index(c) for c in EVENTS] + [tv.CHANNELS.index(BASELINE[c]) for c in EVENTS]
     preds, labels = [], []
     with torch.no_grad():
         for a in range(0, len(rows), batch):
@@ -84,13 +87,14 @@ def evaluate(model, s: tv.TravSamples, rows: np.ndarray, batch: int = 1024) -> d
             mae += (p - y).abs().sum(0).cpu().numpy()
             n += len(lab)
             preds.append(p[:, ev].cpu().numpy())
-            labels.append(lab[:, ev])
+            labels.append(lab[:, ev[:len(EVENTS)]])
     n = max(n, 1)
     out = {"bce": bce / (n * len(tv.CHANNELS)), **{f"mae_{c}": float(v / n) for c, v in zip(tv.CHANNELS, mae)}}
     pr = np.concatenate(preds or [np.zeros((0, len(ev)))])
-    positive = np.concatenate(labels or [np.zeros((0, len(ev)))]) >= 0.5
+    positive = np.concatenate(labels or [np.zeros((0, len(EVENTS)))]) >= 0.5
     for j, c in enumerate(EVENTS):
         out[f"auc_{c}"] = roc_auc(pr[:, j], positive[:, j])
+        out[f"auc_{c}_by_{BASELINE[c]}"] = roc_auc(pr[:, len(EVENTS) + j], positive[:, j])
         out[f"positives_{c}"] = int(positive[:, j].sum())
     return out
 
@@ -186,7 +190,9 @@ def finish(spec: TrainSpec, model, s: tv.TravSamples, tr: np.ndarray, ho: np.nda
     lines += [f"| {c} | {h[f'mae_{c}']:.4f} | {base[c]:.4f} |" for c in tv.CHANNELS]
     lines += ["", f"Held-out binary cross-entropy: {h['bce']:.4f}. Labels version {tv.LABELS_VERSION}.", "",
               "## Held-out ranking of the events (ROC AUC; predicting the mean everywhere: 0.5)", "",
-              "| event | ROC AUC | held-out cells labelled >= 0.5 |", "|---|---|---|"]
-    lines += [f"| {c} | {_fmt(h[f'auc_{c}'])} | {h[f'positives_{c}']} |" for c in EVENTS]
+              "| event | ROC AUC | ROC AUC of the baseline channel | held-out cells labelled >= 0.5 |",
+              "|---|---|---|---|"]
+    lines += [f"| {c} | {_fmt(h[f'auc_{c}'])} | {BASELINE[c]}: {_fmt(h[f'auc_{c}_by_{BASELINE[c]}'])} | "
+              f"{h[f'positives_{c}']} |" for c in EVENTS]
     (out / "card.md").write_text("\n".join(lines) + "\n")
     return weights
