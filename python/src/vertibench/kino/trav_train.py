@@ -75,7 +75,8 @@ def evaluate(model, s: tv.TravSamples, rows: np.ndarray, batch: int = 1024) -> d
 
     dev = device_of(model)
     bce, mae, n = 0.0, np.zeros(len(tv.CHANNELS)), 0
-    ev = [tv.CHANNELS.index(c) for c in EVENTS] + [tv.CHANNELS.index(BASELINE[c]) for c in EVENTS]
+    ev = [tv.CHANNELS.index(c) for c in EVENTS]
+    scored = ev + [tv.CHANNELS.index(BASELINE[c]) for c in EVENTS]  # each event's channel, then its baseline's
     preds, labels = [], []
     with torch.no_grad():
         for a in range(0, len(rows), batch):
@@ -86,15 +87,15 @@ def evaluate(model, s: tv.TravSamples, rows: np.ndarray, batch: int = 1024) -> d
             bce += float(torch.nn.functional.binary_cross_entropy(p, y, reduction="sum"))
             mae += (p - y).abs().sum(0).cpu().numpy()
             n += len(lab)
-            preds.append(p[:, ev].cpu().numpy())
-            labels.append(lab[:, ev[:len(EVENTS)]])
+            preds.append(p[:, scored].cpu().numpy())
+            labels.append(lab[:, ev])
     n = max(n, 1)
     out = {"bce": bce / (n * len(tv.CHANNELS)), **{f"mae_{c}": float(v / n) for c, v in zip(tv.CHANNELS, mae)}}
-    pr = np.concatenate(preds or [np.zeros((0, len(ev)))])
-    positive = np.concatenate(labels or [np.zeros((0, len(EVENTS)))]) >= 0.5
+    pr = np.concatenate(preds or [np.zeros((0, len(scored)))])
+    positive = np.concatenate(labels or [np.zeros((0, len(ev)))]) >= 0.5
     for j, c in enumerate(EVENTS):
         out[f"auc_{c}"] = roc_auc(pr[:, j], positive[:, j])
-        out[f"auc_{c}_by_{BASELINE[c]}"] = roc_auc(pr[:, len(EVENTS) + j], positive[:, j])
+        out[f"auc_{c}_by_{BASELINE[c]}"] = roc_auc(pr[:, len(ev) + j], positive[:, j])
         out[f"positives_{c}"] = int(positive[:, j].sum())
     return out
 
