@@ -2,6 +2,7 @@
 //! and they may run as an unprivileged user.
 
 use std::path::{Path, PathBuf};
+use std::process::Command;
 
 use super::{example_planner, run, vb_submit};
 
@@ -19,16 +20,16 @@ fn eventually(secs: f64, pred: impl Fn() -> bool) -> bool {
 
 /// `vb-submit validate exec` of a `sh -c` script, 2 simulated seconds.
 fn validate_script(script: &str) -> (bool, String) {
-    run(vb_submit().args([
-        "validate",
-        "exec",
-        "--max-time",
-        "2",
-        "--",
-        "sh",
-        "-c",
-        script,
-    ]))
+    validate_script_as(&mut vb_submit(), None, script)
+}
+
+/// [`validate_script`] with `c`'s arguments and environment, the planner run as `user` when given.
+fn validate_script_as(c: &mut Command, user: Option<&str>, script: &str) -> (bool, String) {
+    c.args(["validate", "exec", "--max-time", "2"]);
+    if let Some(user) = user {
+        c.args(["--planner-user", user]);
+    }
+    run(c.args(["--", "sh", "-c", script]))
 }
 
 /// Whether process `pid` has ended (gone, or a zombie waiting for its parent).
@@ -250,20 +251,13 @@ fn a_planner_scanning_proc_finds_no_other_process_s_secrets() {
          grep -q \"${{p}}{tail}\" $f 2>/dev/null && n=$((n+1)); done; echo \"FOUND: $n\"; exec {}",
         planner.display()
     );
-    let (ok, text) = run(vb_submit().env("VB_TOKEN", &secret).args([
-        "--token",
-        &secret,
-        "validate",
-        "exec",
-        "--max-time",
-        "2",
-        "--planner-user",
-        "nobody",
-        "--",
-        "sh",
-        "-c",
+    let (ok, text) = validate_script_as(
+        vb_submit()
+            .env("VB_TOKEN", &secret)
+            .args(["--token", &secret]),
+        Some("nobody"),
         &script,
-    ]));
+    );
     assert!(ok, "{text}");
     if text.contains("ran without namespaces") {
         eprintln!("SKIPPED: the /proc scan (this machine gives planners no namespaces)");
@@ -305,18 +299,7 @@ fn exec_planners_can_run_as_an_unprivileged_user() {
         secret.display(),
         planner.display()
     );
-    let (ok, text) = run(vb_submit().args([
-        "validate",
-        "exec",
-        "--max-time",
-        "2",
-        "--planner-user",
-        "nobody",
-        "--",
-        "sh",
-        "-c",
-        &script,
-    ]));
+    let (ok, text) = validate_script_as(&mut vb_submit(), Some("nobody"), &script);
     assert!(ok, "{text}");
     assert_ne!(logged(&text, "UID:"), "0", "{text}");
     assert_eq!(
