@@ -45,9 +45,8 @@ pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
 /// displacement, the spin driven by the soil's moment) and Chrono's 100 N m clutches for "locked" differentials.
 /// Revision 8: the damping pressure at a rim's advancing edge carries its Mohr-Coulomb shear, as Chrono's damping is
 /// part of every node's shear strength (a spinning wheel had half its traction on mud). Revision 9 (issue 29): the
-/// damping is unclamped as Chrono's (suction and reversed shear on nodes in contact that the body moves out of), and
-/// the chassis gets the strut force the wheel's implicit update applied (r8 passed it the force from the step's
-/// start, a step late, which pumped the pitch and bounce: snow's 20 s distance was 8.6% short at 4 ms against 1 ms).
+/// chassis gets the strut force the wheel's implicit update applied (r8 passed it the force from the step's start, a
+/// step late, which pumped the pitch and bounce: snow's 20 s distance was 8.6% short at 4 ms against 1 ms).
 pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r9");
 pub use vehicle::{Action, Simulation, VehicleSpec};
 pub mod world;

@@ -8,8 +8,8 @@
 //! `z(u) = z0 - (r - sqrt(r^2 - u^2))` and carries, in order:
 //! - the elastic trial `K_e (z - z_p)`, no contact below zero (`:1361`), Bekker `(k_c / b + k_phi) z^n` on yield
 //!   with `z_p = z - sigma / K_e` (`:1388-1395`), so the pressure unloads elastically behind the bottom;
-//! - damping `R (omega u)` (`:1402`; spin included): pressure on the leading arc, where the rim's material moves
-//!   down into the soil, suction on the few trailing millimetres still in contact behind the bottom (unclamped);
+//! - damping `R (omega u)` on the leading arc, where the rim's material moves down into the soil (`:1402`;
+//!   spin included; without Chrono's suction on the few trailing millimetres, as sim-core);
 //! - shear displacement `j += |v - omega h(u)| du / v` (`:1385`: `|v_t| dt` with `dt = du / v`), stress
 //!   `(c + sigma tan phi)(1 - exp(-j / K))` opposite the current slip `v - omega h` (`:1406-1409, 1376-1378`);
 //! - forces along the vertical (pressure) and the horizontal (shear) over the cell's horizontal area (`:1413, 1426`).
@@ -78,7 +78,7 @@ fn chrono_forces(s: SoilParams, z0: f64, i: f64, v: f64, delta: f64) -> (f64, f6
         }
         let slip = v - omega * h;
         j += slip.abs() * du / v;
-        sigma += s.damping * omega * u;
+        sigma += s.damping * (omega * u).max(0.0);
         let tau = (s.cohesion + sigma * mu) * (1.0 - (-j / s.janosi_k).exp());
         fz += sigma * du * B;
         fx -= slip.signum() * tau * du * B;

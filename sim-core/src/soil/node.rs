@@ -271,12 +271,9 @@ impl SoilGrid {
         node.found = found;
         // 2. Pressure: elastic trial, Bekker on yield.
         let (sigma, tangent) = node.load(&soil, k_e, s, b);
-        // 3. Damping `-R (v . N)`, unclamped as Chrono's (its `Vn < 0` guard is commented out). Where the body's
-        // material moves into the soil: a wheel's over the part of the cell its rim covers ([`RimPoint::damping`],
-        // its edge found from the surface the rim found here, which the soil ahead still has), a plate's over the
-        // whole cell. Where it moves out of a node still in contact (the rear half of a wheel spinning in its rut):
-        // suction, at the node over its cell, as Chrono samples it (a rolling wheel's rim leaves the soil behind its
-        // bottom, so it has next to none).
+        // 3. Damping while the body's material moves into the soil: a wheel's over the part of the cell its rim
+        // covers ([`RimPoint::damping`], its edge found from the surface the rim found here, which the soil ahead
+        // still has); a plate's over the whole cell.
         let vn = hit.v.dot(&n);
         let arm = p - centre;
         let (damping, damping_arm) = match hit.rim {
@@ -294,18 +291,7 @@ impl SoilGrid {
             }
             None => (0.0, arm),
         };
-        let mut suction = 0.0;
-        if vn > 0.0 {
-            suction = -soil.damping * vn;
-            out.normal_damping += cell * soil.damping * n.z * n.z;
-            if hit.rim.is_some() {
-                // Its moment about the axle grows with the spin as the pressure's does.
-                let lever = hit.axle.dot(&arm.cross(&n));
-                out.spin_stiffness += cell * soil.damping * lever * lever;
-                out.spin_lift -= cell * soil.damping * lever;
-            }
-        }
-        let sigma_total = sigma + damping + suction;
+        let sigma_total = sigma + damping;
         // The branch the node moves along: a node the body's surface moves into stays on the branch it is on; one
         // it moves away from (or rests on) unloads along the elastic line.
         let approach = hit.approach;
@@ -343,20 +329,18 @@ impl SoilGrid {
             trial
         };
         node.shear = rho;
-        // 5. Janosi-Hanamoto shear opposing the slip: `tau = tau_max rho`, with the damping in `sigma` (Chrono). Under
-        // suction the strength is negative, as Chrono leaves it: the shear reverses.
-        let tau_max = soil.cohesion + sigma_total * soil.friction_angle_deg.to_radians().tan();
+        // 5. Janosi-Hanamoto shear opposing the slip: `tau = tau_max rho`, with the damping in `sigma` (Chrono).
+        let tau_max =
+            (soil.cohesion + sigma_total * soil.friction_angle_deg.to_radians().tan()).max(0.0);
         // 6. Force over the cell's horizontal area (Chrono's `delta^2`): pressure along the terrain normal, shear in
         // its plane.
         let f = (n * sigma - rho * tau_max) * cell;
-        let (f_damping, f_suction) = (n * (damping * cell), n * (suction * cell));
-        out.force += f + f_damping + f_suction;
+        let f_damping = n * (damping * cell);
+        out.force += f + f_damping;
         // The damping acts where it was taken, at the damped part's midpoint (on a fast wheel's leading edge up to
         // half a cell from the node): its moment about the axle is the spin's largest resistance at speed.
-        out.torque += arm.cross(&(f + f_suction)) + damping_arm.cross(&f_damping);
+        out.torque += arm.cross(&f) + damping_arm.cross(&f_damping);
         out.normal += sigma_total * cell;
-        // A negative strength (suction) acts explicitly: the Jacobians take none of it.
-        let tau_max = tau_max.max(0.0);
         out.shear_capacity += tau_max * cell;
         out.sinkage = out.sinkage.max(s);
         out.nodes += 1;
