@@ -87,7 +87,7 @@ pub(super) fn wheel_forces(
         // The chassis gets the strut force the wheel's implicit update applied, at the new compression and rate
         // (spring and damper; the bump stop likewise), so action and reaction match within the step. With the
         // force from the step's start (r8) the chassis felt the wheel's motion a step late, which pumped energy
-        // into the pitch and bounce: on snow above 18 m/s the HMMWV porpoised 45% harder at 4 ms than at 0.5 ms
+        // into the pitch and bounce: on snow above 18 m/s the HMMWV porpoised half as hard again at 4 ms as at 0.5 ms
         // and covered 8.6% less ground in 20 s than at 1 ms (now 0.3%).
         let (f_strut, _) = strut(wp, wm.compression, wm.compression_rate);
         // Chassis: strut force at the hard point plus the ground force components across the strut.
