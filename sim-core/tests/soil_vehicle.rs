@@ -21,7 +21,7 @@ const SOILS: [(Ground, SoilParams); 3] = [
 /// climbed with the heading held, 18 / 26 / 28 deg, and distance after 20 s of full throttle from rest, 373 / 479 /
 /// 534 m, on snow / mud / sand. Issue 29's tolerances: 4 deg and 20%. Under r9 all three distances (404 / 498 /
 /// 563 m) and mud's and sand's grades (27.6 and 30.6 deg) are within them; snow's grade (26.0 deg, +8.0) is not,
-/// and is checked here at 8.5 deg as what r9 gives, not as agreement. Near the limit the front wheels spin at 95%
+/// and is checked here at 8.5 deg as what r9 gives, not as agreement. Near the limit the front wheels spin at 94%
 /// slip riding 3 cm deep on the damping pressure `R omega u` of their leading arc (Chrono's steady law: 2.3 cm,
 /// pull 0.57 W) and the rear wheels at 30% slip 36 cm deep, both shearing near the friction limit (tan 30 deg =
 /// 0.58), which Chrono's law gives on every soil (`soil_chrono_reference.rs`); what holds Chrono's own HMMWV to 18

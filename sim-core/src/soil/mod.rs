@@ -54,7 +54,7 @@
 //! - no damping suction: Chrono leaves `-R (v . N)` unclamped, so trailing nodes still in contact (about 1 mm of
 //!   elastic rebound behind a rolling wheel, the whole rear half of one spinning in its rut) pull the wheel; here
 //!   only material moving into the soil is damped, and the shear strength `c + sigma tan phi` is not negative.
-//!   Chrono's unclamped law, tried in r9's development, put 1 MPa of suction on the rear half of a HMMWV front
+//!   Chrono's unclamped law, tried in r9's development, put about 1 MPa of suction on the rear half of a HMMWV front
 //!   wheel spinning at 190 rad/s 44 cm deep in snow, and its reversed shear drove the vehicle backwards down a 24
 //!   degree slope at 25 m/s; limited so that the soil carries no tension, the suction moved the grades by under
 //!   0.3 deg and the 20 s distances by under 0.5%, so it is left out;
