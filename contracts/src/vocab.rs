@@ -93,6 +93,27 @@ named!(
 );
 
 impl EndReason {
+    /// What the public may read of why an episode ended: a sentence of the service's own, never the planner's
+    /// output, program, image or URL (those go to the submission's owner only).
+    pub fn public_sentence(self) -> &'static str {
+        match self {
+            Self::Success => "reached the goal",
+            Self::Rollover => "the vehicle rolled over",
+            Self::Stuck => "the vehicle stopped making progress",
+            Self::Timeout => "the episode's time limit passed",
+            Self::OffMap => "the vehicle left the map",
+            Self::NumericalFailure => "the simulation diverged (counted as a rollover)",
+            Self::InvalidAction => "the planner sent an invalid action (NaN or out of range)",
+            Self::PlannerTimeout => "the planner did not answer within its deadline",
+            Self::PlannerCrash => "the planner's process ended or could not start",
+            Self::PlannerProtocol => "the planner broke the protocol",
+            Self::PlannerUnreachable => "the planner could not be reached",
+            Self::PlannerError => "the planner reported an error",
+            Self::Cancelled => "the episode was cancelled",
+            Self::Infrastructure => "no worker could run the episode",
+        }
+    }
+
     /// Whether the episode was truncated at its time limit rather than terminated (gymnasium's meanings).
     pub fn is_time_limit(self) -> bool {
         self == Self::Timeout

@@ -124,6 +124,54 @@ def test_ctrl_c_stops_a_python_planner_in_its_act_and_a_rerun_resumes(tmp_path):
     assert r.stdout.split()[1:] == ["4", "True"]
 
 
+STUCK = """
+    import signal, sys, time
+    import vertibench as vb
+
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    class Stuck(vb.Planner):
+        # act never returns: it loops on short sleeps until stopped.
+        name = "stuck"
+
+        def act(self, obs):
+            while True:
+                time.sleep(0.01)
+
+    tasks = ",".join(f"w001-t{t}" for t in range(10)) + "," + ",".join(f"w002-t{t}" for t in range(10))
+    df, summary = vb.evaluate(Stuck(), tasks, out=sys.argv[1], progress=False, step_timeout=1.0)
+    print("returned", len(df), summary["complete"], flush=True)
+"""
+
+
+def test_ctrl_c_stops_an_evaluation_whose_planner_is_stuck_in_act(tmp_path):
+    """Issue 58, point 5: SIGINT while ``act`` loops on ``time.sleep(0.01)`` (each episode ending
+    ``planner_timeout`` after 1 s) stops the evaluation, keeping the finished episodes; it went on for as long as
+    it was watched. The bound only tells a stop from a run that goes on."""
+    out = tmp_path / "stuck"
+    path = tmp_path / "stuck.py"
+    path.write_text(textwrap.dedent(STUCK))
+    proc = subprocess.Popen([sys.executable, str(path), str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    deadline = time.monotonic() + HANG
+    while results_lines(out) < 2:
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "no episode finished"
+        time.sleep(0.05)
+    time.sleep(0.3)  # inside the third episode's act
+    proc.send_signal(signal.SIGINT)
+    t0 = time.monotonic()
+    try:
+        stdout, stderr = proc.communicate(timeout=15)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        stdout, stderr = proc.communicate()
+        pytest.fail(f"evaluate went on after SIGINT ({results_lines(out)} episodes): {stderr[-2000:]}")
+    assert proc.returncode == 0, stderr
+    n = check_kept(out, stdout, stderr)
+    assert 2 <= n < 20, (n, time.monotonic() - t0)
+
+
 class Forever(vb.Planner):
     name = "forever"
 

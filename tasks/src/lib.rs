@@ -17,6 +17,8 @@
 pub mod check;
 pub mod cli;
 pub mod design;
+#[cfg(feature = "embedded")]
+pub mod embedded;
 pub mod format;
 pub mod generate;
 pub mod heightmap_io;

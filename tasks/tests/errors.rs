@@ -171,3 +171,47 @@ fn importer_errors_name_the_file_and_field() {
         "{e}"
     );
 }
+
+/// CRC-32 (PNG's, ISO 3309) of `bytes`.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = 0xFFFF_FFFFu32;
+    for &b in bytes {
+        c ^= u32::from(b);
+        for _ in 0..8 {
+            c = if c & 1 != 0 {
+                0xEDB8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
+}
+
+/// Issue 58, point 8: a heightmap whose header claims 12000 x 12000 pixels is refused by its size, from the header,
+/// before any pixel is decoded (this one's pixel data stops after four bytes, so a decoder would fail otherwise).
+#[test]
+fn an_oversized_heightmap_is_refused_from_its_header() {
+    let dir = scratch("huge-png");
+    copy_world(&dir, 3);
+    let mut ihdr = b"IHDR".to_vec();
+    ihdr.extend(12000u32.to_be_bytes());
+    ihdr.extend(12000u32.to_be_bytes());
+    ihdr.extend([16, 0, 0, 0, 0]); // 16-bit grayscale, deflate, no filter method, no interlace
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend(13u32.to_be_bytes());
+    png.extend(&ihdr);
+    png.extend(crc32(&ihdr).to_be_bytes());
+    // The start of the pixel data: a few bytes of a deflate stream that would go on for 288 MB.
+    let idat = b"IDAT\x78\x9c\x00\x00".to_vec();
+    png.extend(4u32.to_be_bytes());
+    png.extend(&idat);
+    png.extend(crc32(&idat).to_be_bytes());
+    std::fs::write(dir.join("worlds/003.png"), png).unwrap();
+    seal(&dir, &[3]);
+    let e = match TaskSet::load(&dir) {
+        Err(e) => e.to_string(),
+        Ok(set) => set.world(3, 1.0).unwrap_err().to_string(),
+    };
+    assert!(e.contains("003.png") && e.contains("12000 x 12000"), "{e}");
+}

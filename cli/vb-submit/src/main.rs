@@ -8,6 +8,22 @@ use std::path::PathBuf;
 use vb_proto::v1 as pb;
 use vb_proto::ProtoEnum;
 
+// Standard output through `cli::out`: a closed pipe ends the program quietly while SIGPIPE stays ignored (a socket
+// closed mid-write is an error that says so, never a silent death by signal).
+macro_rules! println {
+    () => {
+        vb_submit::cli::out(format_args!("\n"))
+    };
+    ($($t:tt)*) => {
+        vb_submit::cli::out(format_args!("{}\n", format_args!($($t)*)))
+    };
+}
+macro_rules! print {
+    ($($t:tt)*) => {
+        vb_submit::cli::out(format_args!($($t)*))
+    };
+}
+
 #[derive(Parser)]
 #[command(
     name = "vb-submit",
@@ -154,7 +170,7 @@ struct ValidateOpts {
     /// Per-control-step deadline of the planner, s.
     #[arg(long, default_value_t = 1.0)]
     step_deadline: f64,
-    /// Task-set directory (default: the benchmark's committed set, tasks/data/v4).
+    /// Task-set directory (default: the benchmark's set this binary carries, unpacked into ~/.cache/vertibench/tasks/VERSION).
     #[arg(long)]
     task_dir: Option<PathBuf>,
     /// Run an exec planner as this user, as a worker with `--planner-user` does (needs root).
@@ -260,11 +276,8 @@ async fn do_submit(
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    // `validate` runs a planner it talks to over a socket: a planner that closes early must fail validation, not
-    // kill vb-submit with SIGPIPE (which stays ignored there); printing commands end quietly on a closed pipe.
-    if !matches!(cli.command, Cmd::Validate { .. }) {
-        vb_submit::cli::restore_sigpipe();
-    }
+    // SIGPIPE stays ignored (the Rust runtime's default): every command talks over a socket, and a peer that closes
+    // mid-write must cost a clear error, not a silent exit 141; printing into a closed pipe ends quietly (`print!`).
     let result = tokio::runtime::Runtime::new()
         .map_err(anyhow::Error::from)
         .and_then(|rt| rt.block_on(run(cli)));
@@ -403,9 +416,10 @@ async fn validate(what: &ValidateCmd) -> anyhow::Result<()> {
             pb::PlannerRef {
                 kind: Some(planner),
             },
-            &v.task_dir
-                .clone()
-                .unwrap_or_else(tasks::TaskSet::default_dir),
+            &match &v.task_dir {
+                Some(d) => d.clone(),
+                None => tasks::embedded::committed_dir()?,
+            },
             &v.task,
             v.max_time,
             v.step_deadline,

@@ -62,6 +62,11 @@ fn main() -> std::process::ExitCode {
         vb_submit::cli::restore_sigpipe();
     }
     init_logging();
+    // The benchmark's task set, carried in this binary, into its versioned cache directory (every file checked)
+    // where the commands' default `--task-dir` points; a failure is the loading command's to report.
+    if let Err(e) = tasks::embedded::committed_dir() {
+        tracing::debug!(error = %e, "the carried task set is not in place");
+    }
     vb_submit::cli::exit_code(run(cli))
 }
 

@@ -117,6 +117,29 @@ fn sim_core_sources_do_no_io_and_use_no_clock_or_global_rng() {
     );
 }
 
+/// ARCHITECTURE.md: the vehicle never imports `planner` (issue 60: `vehicle/dynamics.rs` did).
+#[test]
+fn the_vehicle_never_imports_the_planner_module() {
+    let mut files = Vec::new();
+    rust_files(&repo_root().join("sim-core/src/vehicle"), &mut files);
+    assert!(files.len() >= 3, "sim-core's vehicle sources not found");
+    let mut violations = Vec::new();
+    for file in &files {
+        let text = std::fs::read_to_string(file).unwrap();
+        for (no, line) in text.lines().enumerate() {
+            let code = line.split("//").next().unwrap_or("");
+            if code.contains("crate::planner") || code.contains("planner::") {
+                violations.push(format!("{}:{}", file.display(), no + 1));
+            }
+        }
+    }
+    assert!(
+        violations.is_empty(),
+        "the vehicle imports the planner module:\n{}",
+        violations.join("\n")
+    );
+}
+
 fn deps_of(crate_dir: &str) -> Vec<String> {
     let manifest = std::fs::read_to_string(repo_root().join(crate_dir).join("Cargo.toml"))
         .unwrap_or_else(|e| panic!("{crate_dir}/Cargo.toml: {e}"));

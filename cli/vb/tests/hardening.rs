@@ -212,31 +212,8 @@ fn eventually(limit: Duration, pred: impl Fn() -> bool) -> bool {
     pred()
 }
 
-/// Whether this machine gives planners namespaces; prints why not (the tests that need them are then skipped:
-/// the worker refuses exec planners there, which its own log says).
-async fn namespaces_available(user: Option<&str>) -> bool {
-    let user = user.map(|u| vb_worker::sandbox::PlannerUser::lookup(u).expect("the user"));
-    match vb_worker::sandbox::Containment::probe(user).await {
-        Ok(_) => true,
-        Err(why) => {
-            eprintln!("SKIPPED: {why}");
-            false
-        }
-    }
-}
-
 fn exec_submission(name: &str, tasks: &[&str], script: String) -> pb::SubmitRequest {
-    pb::SubmitRequest {
-        name: name.into(),
-        planner: Some(pb::PlannerRef {
-            kind: Some(pb::planner_ref::Kind::Exec(pb::ExecPlanner {
-                argv: vec!["sh".into(), "-c".into(), script],
-            })),
-        }),
-        task_ids: tasks.iter().map(|s| s.to_string()).collect(),
-        step_deadline_s: 2.0,
-        ..Default::default()
-    }
+    exec_argv_submission(name, tasks, vec!["sh".into(), "-c".into(), script])
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -368,4 +345,39 @@ async fn a_planner_finds_no_token_in_proc_and_its_log_is_its_owner_s() -> anyhow
     assert!(err.to_string().contains("no submission"), "{err}");
     let _ = std::fs::remove_dir_all(&planner_dir);
     Ok(())
+}
+
+/// Issue 58, point 6: against a server that accepts and closes every connection at once, `vb-submit` fails with a
+/// message every time (it exited 141, silently, by SIGPIPE in 6 of 10 tries).
+#[test]
+fn vb_submit_says_why_when_the_server_closes_at_once() {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("a port");
+    let port = listener.local_addr().expect("addr").port();
+    std::thread::spawn(move || {
+        for s in listener.incoming().flatten() {
+            drop(s);
+        }
+    });
+    let url = format!("http://127.0.0.1:{port}");
+    for args in [
+        &["status", "s-1"][..],
+        &["status"][..],
+        &["endpoint", "http://127.0.0.1:9/x", "--tasks", "w000-t0"][..],
+    ] {
+        for _ in 0..4 {
+            let out = std::process::Command::new(vb_submit_bin())
+                .args(args)
+                .args(["--coordinator", &url, "--token", "t"])
+                .output()
+                .expect("vb-submit");
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(
+                out.status.code(),
+                Some(1),
+                "{args:?}: {:?} {err}",
+                out.status
+            );
+            assert!(err.contains("error:"), "{args:?}: no message: {err}");
+        }
+    }
 }

@@ -72,10 +72,7 @@ def evaluate(
     stderr and runs only the missing episodes; ``out`` holding another planner's (or configuration's) results is
     refused with a ValueError.
     """
-    try:
-        import pandas as pd
-    except ImportError:
-        raise ImportError("evaluate returns a pandas DataFrame: pip install pandas (or 'vertibench[analysis]')") from None
+    import pandas as pd  # a core dependency
 
     _check_planner(planner)
     if scale is not None:

@@ -1,7 +1,9 @@
 //! What the public may see of a submission: its name, planner kind and an identity hash, never its command line,
 //! environment, endpoint URL (which may carry credentials), owner token or planner log (a planner prints what it
-//! likes, secrets it found included: the owner reads it with `vb-submit log`). Every read of the store by the
-//! leaderboard goes through here.
+//! likes, secrets it found included: the owner reads it with `vb-submit log`). An episode's `detail` of a
+//! submitted planner is the worker's account, which names the program and the URL and quotes the planner's last
+//! output: the public gets the reason's own sentence ([`contracts::EndReason::public_sentence`]) instead, and the
+//! owner the whole detail (`vb-submit results`). Every read of the store by the leaderboard goes through here.
 
 use contracts::PlannerKind;
 use serde::Serialize;
@@ -42,6 +44,10 @@ fn redact(mut s: Submission) -> Submission {
 fn redact_episode(kind: PlannerKind, mut e: EpisodeRecord) -> EpisodeRecord {
     if kind != PlannerKind::Builtin {
         e.planner_identity = e.planner_identity.as_deref().map(identity_hash);
+        e.detail = e
+            .detail
+            .as_ref()
+            .map(|_| e.reason.map_or("", |r| r.public_sentence()).to_string());
     }
     e
 }

@@ -1,43 +1,27 @@
 //! [`Conn`]: an accepted TCP connection with its slot, its idle timeout and, where asked, a first-request deadline.
 
+use crate::registry::{ConnState, Slot};
 use std::future::Future;
 use std::io;
 use std::net::SocketAddr;
 use std::pin::Pin;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::task::{Context, Poll};
 use std::time::Duration;
 use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 use tokio::net::TcpStream;
-use tokio::sync::OwnedSemaphorePermit;
 use tokio::time::{Instant, Sleep};
 
-/// What a connection and the requests on it share: whether a request has arrived.
-#[derive(Debug, Default)]
-pub(crate) struct ConnState {
-    requested: AtomicBool,
-}
-
-impl ConnState {
-    pub(crate) fn mark_request(&self) {
-        self.requested.store(true, Ordering::Relaxed);
-    }
-
-    fn requested(&self) -> bool {
-        self.requested.load(Ordering::Relaxed)
-    }
-}
-
-/// An accepted connection. It holds one of its server's connection slots until it is dropped. Once its deadline
+/// An accepted connection. It holds its place in its server's registry until it is dropped. Once its deadline
 /// has passed, its reads and writes fail (with [`io::ErrorKind::ConnectionAborted`]), so the protocol on top ends the
 /// connection (and drops it, closing the socket). The deadline is the last read or write that moved bytes plus the
-/// idle timeout and, until its first request is marked, its start plus the first-request timeout.
+/// idle timeout and, until its first request is marked, its start plus the first-request timeout; a connection the
+/// server sheds for a new one (it had sent no request when the server was full) fails at once.
 #[derive(Debug)]
 pub struct Conn {
     io: TcpStream,
     remote: Option<SocketAddr>,
-    _slot: OwnedSemaphorePermit,
+    _slot: Slot,
     pub(crate) state: Arc<ConnState>,
     idle: Duration,
     last_progress: Instant,
@@ -51,7 +35,7 @@ pub struct Conn {
 impl Conn {
     pub(crate) fn new(
         io: TcpStream,
-        slot: OwnedSemaphorePermit,
+        slot: Slot,
         idle: Duration,
         first_request: Option<Duration>,
     ) -> Conn {
@@ -61,8 +45,8 @@ impl Conn {
         Conn {
             io,
             remote,
+            state: slot.state.clone(),
             _slot: slot,
-            state: Arc::default(),
             idle,
             last_progress: now,
             first_request_by: first_request.map(|d| now + d),
@@ -95,9 +79,12 @@ impl Conn {
                     why = "no request within the header timeout";
                 }
             }
-            if Instant::now() >= deadline {
+            if self.state.is_shed() {
+                self.expired = Some("shed for a new connection: the server is full");
+            } else if Instant::now() >= deadline {
                 self.expired = Some(why);
             } else {
+                self.state.park(cx.waker());
                 if self.timer_at != deadline {
                     self.timer.as_mut().reset(deadline);
                     self.timer_at = deadline;

@@ -6,7 +6,7 @@
 //! (so a worker's or a progress stream's quiet connection stays and a dead peer's goes), and one that moves no
 //! bytes for [`Limits::idle_timeout`] is closed.
 
-use crate::conn::ConnState;
+use crate::registry::ConnState;
 use crate::{Conn, Incoming, Limits};
 use std::net::SocketAddr;
 use std::sync::Arc;

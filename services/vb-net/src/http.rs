@@ -28,12 +28,39 @@ pub async fn serve(
         .keep_alive(true);
     loop {
         let conn = incoming.accept().await;
-        let svc = TowerToHyperService::new(router.clone());
+        let svc = Marked {
+            state: conn.state.clone(),
+            inner: TowerToHyperService::new(router.clone()),
+        };
         let served = http.serve_connection(TokioIo::new(conn), svc);
         tokio::spawn(async move {
             if let Err(e) = served.await {
                 tracing::debug!(error = %e, "connection ended with an error");
             }
         });
+    }
+}
+
+/// The router's service, marking on its connection that a request arrived (a full server sheds only connections
+/// that have not sent one).
+struct Marked {
+    state: std::sync::Arc<crate::registry::ConnState>,
+    inner: TowerToHyperService<axum::Router>,
+}
+
+impl<B> hyper::service::Service<hyper::Request<B>> for Marked
+where
+    TowerToHyperService<axum::Router>: hyper::service::Service<hyper::Request<B>>,
+{
+    type Response =
+        <TowerToHyperService<axum::Router> as hyper::service::Service<hyper::Request<B>>>::Response;
+    type Error =
+        <TowerToHyperService<axum::Router> as hyper::service::Service<hyper::Request<B>>>::Error;
+    type Future =
+        <TowerToHyperService<axum::Router> as hyper::service::Service<hyper::Request<B>>>::Future;
+
+    fn call(&self, req: hyper::Request<B>) -> Self::Future {
+        self.state.mark_request();
+        self.inner.call(req)
     }
 }

@@ -1,5 +1,6 @@
 //! [`Incoming`]: the accept loop of every server, with its connection limit.
 
+use crate::registry::{Refusal, Registry};
 use crate::{Conn, Limits};
 use std::future::Future;
 use std::io;
@@ -8,7 +9,6 @@ use std::sync::Arc;
 use std::task::{Context, Poll};
 use std::time::Duration;
 use tokio::net::TcpListener;
-use tokio::sync::Semaphore;
 use tokio::time::{Instant, Sleep};
 
 /// How long the loop waits after an accept error that is not about one connection (out of descriptors or memory).
@@ -16,16 +16,18 @@ const BACKOFF: Duration = Duration::from_millis(100);
 /// At most one warning per this about closed connections and accept errors (a flood must not flood the log).
 const WARN_EVERY: Duration = Duration::from_secs(10);
 
-/// The connections a listener accepts, as a stream that never ends and never fails: [`Conn`]s within the limit.
-/// A connection accepted while [`Limits::max_connections`] are open is closed at once.
+/// The connections a listener accepts, as a stream that never ends and never fails: [`Conn`]s within the limits.
+/// A connection beyond its peer address's share is closed at once; one accepted while [`Limits::max_connections`]
+/// are open replaces the oldest that has sent no request, or is closed at once when all have.
 pub struct Incoming {
     listener: TcpListener,
-    slots: Arc<Semaphore>,
+    registry: Arc<Registry>,
     limits: Limits,
     first_request: bool,
     name: &'static str,
     backoff: Option<Pin<Box<Sleep>>>,
     refused: u64,
+    shed: u64,
     errors: u64,
     last_warning: Option<Instant>,
 }
@@ -35,12 +37,13 @@ impl Incoming {
     pub fn new(listener: TcpListener, limits: &Limits, name: &'static str) -> Incoming {
         Incoming {
             listener,
-            slots: Arc::new(Semaphore::new(limits.max_connections)),
+            registry: Registry::new(limits.max_connections, limits.max_connections_per_peer),
             limits: *limits,
             first_request: false,
             name,
             backoff: None,
             refused: 0,
+            shed: 0,
             errors: 0,
             last_warning: None,
         }
@@ -56,7 +59,7 @@ impl Incoming {
 
     /// Connections open now.
     pub fn open(&self) -> usize {
-        self.limits.max_connections - self.slots.available_permits()
+        self.registry.open()
     }
 
     fn warn_now(&mut self) -> bool {
@@ -82,22 +85,42 @@ impl Incoming {
             }
             match self.listener.poll_accept(cx) {
                 Poll::Pending => return Poll::Pending,
-                Poll::Ready(Ok((io, _addr))) => match self.slots.clone().try_acquire_owned() {
-                    Ok(slot) => {
+                Poll::Ready(Ok((io, addr))) => match self.registry.admit(Some(addr.ip())) {
+                    Ok((slot, shed)) => {
+                        self.shed += u64::from(shed);
+                        if shed && self.warn_now() {
+                            tracing::warn!(
+                                server = self.name,
+                                max_connections = self.limits.max_connections,
+                                shed = self.shed,
+                                "connection limit reached: closing the oldest connections that sent no request"
+                            );
+                            self.shed = 0;
+                        }
                         let _ = io.set_nodelay(true);
                         let first = self.first_request.then_some(self.limits.header_timeout);
                         return Poll::Ready(Conn::new(io, slot, self.limits.idle_timeout, first));
                     }
-                    Err(_) => {
+                    Err(why) => {
                         // Dropping it closes it at once: no descriptor and no memory is kept for it.
                         drop(io);
                         self.refused += 1;
                         if self.warn_now() {
+                            let what = match why {
+                                Refusal::PeerShare => {
+                                    "a peer address holds its share of connections"
+                                }
+                                Refusal::Full => {
+                                    "connection limit reached and every connection is in use"
+                                }
+                            };
                             tracing::warn!(
                                 server = self.name,
+                                peer = %addr.ip(),
                                 max_connections = self.limits.max_connections,
+                                max_connections_per_peer = self.limits.max_connections_per_peer,
                                 closed = self.refused,
-                                "connection limit reached: closing new connections"
+                                "{what}: closing new connections"
                             );
                             self.refused = 0;
                         }

@@ -1,10 +1,12 @@
 //! What every network server of the service does with a connection before its protocol sees it, in one place: the
 //! leaderboard's HTTP/1 ([`http`]), the coordinator's and the `Sim` API's gRPC ([`grpc`]).
 //!
-//! - [`Incoming`]: the accept loop. At most [`Limits::max_connections`] connections are open at once; one accepted
-//!   beyond that is closed at once (so open descriptors and memory stay bounded under a flood, and the client
-//!   learns it at once instead of waiting in the backlog); accept errors (out of descriptors) back off instead of
-//!   spinning.
+//! - [`Incoming`]: the accept loop. At most [`Limits::max_connections`] connections are open at once, at most
+//!   [`Limits::max_connections_per_peer`] of them from one peer address. A connection beyond its peer's share is
+//!   closed at once; one beyond the whole limit takes the place of the oldest connection that has not sent a
+//!   request yet, and is closed at once only when every open connection has (so open descriptors and memory stay
+//!   bounded under a flood, one client cannot lock out the others, and a refused client learns it at once instead
+//!   of waiting in the backlog); accept errors (out of descriptors) back off instead of spinning.
 //! - [`Conn`]: the connection, holding its slot until it is dropped, closed (reads and writes fail) when nothing
 //!   has been read or written for [`Limits::idle_timeout`], and, for gRPC, when its first request has not arrived
 //!   [`Limits::header_timeout`] after it was accepted (TLS handshake, HTTP/2 preface and headers together).
@@ -18,11 +20,15 @@ pub mod grpc;
 #[cfg(feature = "http")]
 pub mod http;
 mod incoming;
+mod registry;
 
 pub use conn::Conn;
 pub use incoming::Incoming;
 
 use std::time::Duration;
+
+/// [`Limits::max_connections_per_peer`]'s default.
+pub const DEFAULT_PER_PEER: usize = 256;
 
 /// The limits of one server (each server counts its own connections).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -32,8 +38,11 @@ pub struct Limits {
     pub header_timeout: Duration,
     /// A connection on which nothing is read or written for this long is closed.
     pub idle_timeout: Duration,
-    /// Connections open at once; more are closed as soon as they are accepted.
+    /// Connections open at once; past it a new one replaces the oldest that has sent no request, or is closed.
     pub max_connections: usize,
+    /// Connections open at once from one peer address; more are closed as soon as they are accepted (behind a
+    /// reverse proxy every client has the proxy's address: raise it to `max_connections` there).
+    pub max_connections_per_peer: usize,
     /// HTTP/2: the server pings a connection this long after it last heard from it.
     pub keepalive_interval: Duration,
     /// HTTP/2: a connection whose peer does not answer a ping within this is dropped.
@@ -46,6 +55,7 @@ impl Default for Limits {
             header_timeout: Duration::from_secs(10),
             idle_timeout: Duration::from_secs(120),
             max_connections: 1024,
+            max_connections_per_peer: DEFAULT_PER_PEER,
             keepalive_interval: Duration::from_secs(30),
             keepalive_timeout: Duration::from_secs(20),
         }
@@ -59,6 +69,8 @@ pub enum LimitsError {
     Duration(&'static str),
     #[error("max connections must be between 1 and 1000000 (got {0})")]
     Connections(usize),
+    #[error("max connections per peer must be between 1 and max connections ({max}) (got {got})")]
+    PerPeer { got: usize, max: usize },
     #[error(
         "the keepalive interval ({keepalive:?}) must be shorter than the idle timeout ({idle:?}): a gRPC peer \
          that answers pings must not be dropped as idle"
@@ -72,6 +84,7 @@ impl Limits {
         header_timeout_s: f64,
         idle_timeout_s: f64,
         max_connections: usize,
+        max_connections_per_peer: usize,
         keepalive_s: f64,
         keepalive_timeout_s: f64,
     ) -> Result<Limits, LimitsError> {
@@ -86,6 +99,7 @@ impl Limits {
             header_timeout: secs(header_timeout_s, "the header timeout")?,
             idle_timeout: secs(idle_timeout_s, "the idle timeout")?,
             max_connections,
+            max_connections_per_peer,
             keepalive_interval: secs(keepalive_s, "the keepalive interval")?,
             keepalive_timeout: secs(keepalive_timeout_s, "the keepalive timeout")?,
         };
@@ -97,6 +111,12 @@ impl Limits {
     pub fn check(&self) -> Result<(), LimitsError> {
         if !(1..=1_000_000).contains(&self.max_connections) {
             return Err(LimitsError::Connections(self.max_connections));
+        }
+        if !(1..=self.max_connections).contains(&self.max_connections_per_peer) {
+            return Err(LimitsError::PerPeer {
+                got: self.max_connections_per_peer,
+                max: self.max_connections,
+            });
         }
         for (d, name) in [
             (self.header_timeout, "the header timeout"),
@@ -126,24 +146,28 @@ mod tests {
     fn defaults_pass_and_nonsense_is_refused() {
         assert_eq!(Limits::default().check(), Ok(()));
         assert_eq!(
-            Limits::from_secs(10.0, 120.0, 1024, 30.0, 20.0),
+            Limits::from_secs(10.0, 120.0, 1024, 256, 30.0, 20.0),
             Ok(Limits::default())
         );
         assert!(matches!(
-            Limits::from_secs(0.0, 120.0, 1024, 30.0, 20.0),
+            Limits::from_secs(0.0, 120.0, 1024, 256, 30.0, 20.0),
             Err(LimitsError::Duration("the header timeout"))
         ));
         assert!(matches!(
-            Limits::from_secs(10.0, f64::NAN, 1024, 30.0, 20.0),
+            Limits::from_secs(10.0, f64::NAN, 1024, 256, 30.0, 20.0),
             Err(LimitsError::Duration("the idle timeout"))
         ));
         assert!(matches!(
-            Limits::from_secs(10.0, 120.0, 0, 30.0, 20.0),
+            Limits::from_secs(10.0, 120.0, 0, 1, 30.0, 20.0),
             Err(LimitsError::Connections(0))
         ));
         assert!(matches!(
-            Limits::from_secs(10.0, 20.0, 1024, 30.0, 20.0),
+            Limits::from_secs(10.0, 20.0, 1024, 256, 30.0, 20.0),
             Err(LimitsError::KeepaliveNotBelowIdle { .. })
+        ));
+        assert!(matches!(
+            Limits::from_secs(10.0, 120.0, 64, 65, 30.0, 20.0),
+            Err(LimitsError::PerPeer { got: 65, max: 64 })
         ));
     }
 }

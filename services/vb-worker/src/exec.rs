@@ -272,6 +272,11 @@ pub async fn start(
         user,
     };
     let namespaces = Namespaces::new(user.map(|u| (u.uid, u.gid)), &argv);
+    let sandbox = if isolated {
+        sandbox_note(&argv)
+    } else {
+        String::new()
+    };
     let mut command = Command::new(&argv[0]);
     // SAFETY: the closure runs in the forked child before `exec`; `apply_in_child` makes only async-signal-safe
     // system calls (setrlimit, prctl, unshare, fork, mount, setgroups, setgid, setuid) on memory prepared here.
@@ -303,7 +308,7 @@ pub async fn start(
                 let _ = std::fs::remove_dir_all(dir);
             }
             return Err((
-                PlannerError::Crashed(format!("cannot start planner `{program}`: {e}")),
+                PlannerError::Crashed(format!("cannot start planner `{program}`: {e}{sandbox}")),
                 String::new(),
             ));
         }
@@ -336,7 +341,7 @@ pub async fn start(
             let tail = output.lock().map(|l| l.tail(600)).unwrap_or_default();
             return Err((
                 PlannerError::Crashed(format!(
-                    "planner process `{program}` exited ({status}) before serving on {addr}; last output:\n{tail}"
+                    "planner process `{program}` exited ({status}) before serving on {addr}{sandbox}; last output:\n{tail}"
                 )),
                 text,
             ));
@@ -367,6 +372,25 @@ pub async fn start(
         }
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
+}
+
+/// What the sandbox hides, for the message of a planner that did not start: a missing file is then often one the
+/// sandbox does not show.
+fn sandbox_note(argv: &[String]) -> String {
+    let shown = crate::sandbox::namespaces::visible_paths(argv);
+    let shown = if shown.is_empty() {
+        "none".to_string()
+    } else {
+        shown
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    format!(
+        " (its sandbox has a private /tmp, /var/tmp and /dev/shm: of the host's files there it sees only the \
+         top-level folders its command names, read-only: {shown}; the worker's secrets read as empty)"
+    )
 }
 
 /// The container name in a `docker run --name NAME ...` command line.

@@ -15,6 +15,7 @@ pub mod exec;
 mod pool;
 pub mod remote;
 pub mod sandbox;
+pub mod sim_access;
 pub mod sim_service;
 // The client's TLS setup is the protocol crate's (vb-submit uses it without the worker).
 pub use vb_proto::tls;

@@ -8,8 +8,11 @@
 //! full scale), `roll_penalty` and `pitch_penalty` (never positive: `-0.1 (angle / 30 deg)^2`), `terminal` (+10 on
 //! success, -10 on any other end except the time limit). `truncated` is the time limit; every other end is
 //! `terminated`.
+//!
+//! Who may call, whose each episode is and when an untouched one is closed: [`crate::sim_access`].
 
 use crate::convert;
+use crate::sim_access::{Client, SimAccess, PER_CLIENT};
 use sim_core::episode::EpisodeConfig;
 use sim_core::observe::CropSpec;
 use sim_core::planner::Action;
@@ -100,16 +103,25 @@ impl SimEpisode {
     }
 }
 
+/// An open episode with its owner and its last use.
+struct Entry {
+    owner: Client,
+    last_used: std::time::Instant,
+    episode: Arc<Mutex<SimEpisode>>,
+}
+
 /// The `Sim` gRPC service.
 pub struct SimService {
     set: Arc<TaskSet>,
-    episodes: Mutex<HashMap<String, Arc<Mutex<SimEpisode>>>>,
+    access: SimAccess,
+    episodes: Mutex<HashMap<String, Entry>>,
 }
 
 impl SimService {
-    pub fn new(set: Arc<TaskSet>) -> SimService {
+    pub fn new(set: Arc<TaskSet>, access: SimAccess) -> SimService {
         SimService {
             set,
+            access,
             episodes: Mutex::new(HashMap::new()),
         }
     }
@@ -131,10 +143,21 @@ impl SimService {
             .await
     }
 
-    async fn get(&self, id: &str) -> Result<Arc<Mutex<SimEpisode>>, Status> {
-        self.episodes.lock().await.get(id).cloned().ok_or_else(|| {
-            Status::not_found(format!("no episode `{id}` (closed, or never created)"))
-        })
+    /// Episode `id` if it is `client`'s and still open (another client's reads as absent); marks its use.
+    async fn get<T>(&self, req: &Request<T>, id: &str) -> Result<Arc<Mutex<SimEpisode>>, Status> {
+        let client = self.access.client(req)?;
+        let mut map = self.episodes.lock().await;
+        let now = std::time::Instant::now();
+        match map.get_mut(id) {
+            Some(e) if e.owner == client && now.duration_since(e.last_used) < self.access.idle => {
+                e.last_used = now;
+                Ok(e.episode.clone())
+            }
+            _ => Err(Status::not_found(format!(
+                "no episode `{id}` of yours (closed, expired after {:.0} s unused, or never created)",
+                self.access.idle.as_secs_f64()
+            ))),
+        }
     }
 }
 
@@ -144,6 +167,7 @@ impl pb::sim_server::Sim for SimService {
         &self,
         req: Request<pb::CreateEpisodeRequest>,
     ) -> Result<Response<pb::CreateEpisodeResponse>, Status> {
+        let client = self.access.client(&req)?;
         let r = req.into_inner();
         let bad = Status::invalid_argument;
         let (w, t) = crate::parse_task_id(&r.task_id)
@@ -201,7 +225,7 @@ impl pb::sim_server::Sim for SimService {
             .ok_or_else(|| Status::not_found(format!("no task {t} in world {w}")))?;
         let task_info = convert::task_info(&task, &world, self.set.version());
         let info = convert::vehicle_info(&vehicle.info());
-        let mut id_bytes = [0u8; 8];
+        let mut id_bytes = [0u8; 16];
         getrandom::getrandom(&mut id_bytes).map_err(|e| Status::internal(e.to_string()))?;
         let id = format!(
             "ep-{}",
@@ -223,12 +247,29 @@ impl pb::sim_server::Sim for SimService {
             run: None,
         };
         let mut map = self.episodes.lock().await;
-        if map.len() >= MAX_EPISODES {
+        let now = std::time::Instant::now();
+        map.retain(|_, e| now.duration_since(e.last_used) < self.access.idle);
+        if map.values().filter(|e| e.owner == client).count() >= PER_CLIENT {
             return Err(Status::resource_exhausted(format!(
-                "{MAX_EPISODES} episodes are open on this server: close some first"
+                "you have {PER_CLIENT} episodes open on this server: close some first (unused ones close after \
+                 {:.0} s)",
+                self.access.idle.as_secs_f64()
             )));
         }
-        map.insert(id.clone(), Arc::new(Mutex::new(ep)));
+        if map.len() >= MAX_EPISODES {
+            return Err(Status::resource_exhausted(format!(
+                "{MAX_EPISODES} episodes are open on this server: close some first (unused ones close after {:.0} s)",
+                self.access.idle.as_secs_f64()
+            )));
+        }
+        map.insert(
+            id.clone(),
+            Entry {
+                owner: client,
+                last_used: now,
+                episode: Arc::new(Mutex::new(ep)),
+            },
+        );
         Ok(Response::new(pb::CreateEpisodeResponse {
             episode_id: id,
             task: Some(task_info),
@@ -240,7 +281,7 @@ impl pb::sim_server::Sim for SimService {
         &self,
         req: Request<pb::ResetRequest>,
     ) -> Result<Response<pb::StepResponse>, Status> {
-        let ep = self.get(&req.get_ref().episode_id).await?;
+        let ep = self.get(&req, &req.get_ref().episode_id).await?;
         let mut ep = ep.lock_owned().await;
         let resp = tokio::task::spawn_blocking(move || ep.reset())
             .await
@@ -252,11 +293,11 @@ impl pb::sim_server::Sim for SimService {
         &self,
         req: Request<pb::StepRequest>,
     ) -> Result<Response<pb::StepResponse>, Status> {
+        let ep = self.get(&req, &req.get_ref().episode_id).await?;
         let r = req.into_inner();
         let action = r
             .action
             .ok_or_else(|| Status::invalid_argument("step without an action"))?;
-        let ep = self.get(&r.episode_id).await?;
         let mut ep = ep.lock_owned().await;
         let resp = tokio::task::spawn_blocking(move || ep.step(convert::action(&action)))
             .await
@@ -268,7 +309,7 @@ impl pb::sim_server::Sim for SimService {
         &self,
         req: Request<pb::GetMapsRequest>,
     ) -> Result<Response<pb::WorldMaps>, Status> {
-        let ep = self.get(&req.get_ref().episode_id).await?;
+        let ep = self.get(&req, &req.get_ref().episode_id).await?;
         let ep = ep.lock().await;
         Ok(Response::new(convert::world_maps(&ep.world)))
     }
@@ -278,11 +319,8 @@ impl pb::sim_server::Sim for SimService {
         req: Request<pb::CloseEpisodeRequest>,
     ) -> Result<Response<pb::CloseEpisodeResponse>, Status> {
         let id = &req.get_ref().episode_id;
-        self.episodes
-            .lock()
-            .await
-            .remove(id)
-            .ok_or_else(|| Status::not_found(format!("no episode `{id}`")))?;
+        self.get(&req, id).await?;
+        self.episodes.lock().await.remove(id);
         Ok(Response::new(pb::CloseEpisodeResponse {}))
     }
 }

@@ -4,18 +4,122 @@ use std::sync::Arc;
 use tokio_stream::wrappers::TcpListenerStream;
 use vb_proto::v1 as pb;
 use vb_proto::v1::sim_client::SimClient;
+use vb_worker::sim_access::SimAccess;
 use vb_worker::sim_service::SimService;
 
 async fn server() -> anyhow::Result<SimClient<tonic::transport::Channel>> {
+    let addr = server_with(SimAccess::loopback_only()).await?;
+    Ok(SimClient::connect(format!("http://{addr}")).await?)
+}
+
+/// A Sim server with `access`; its address.
+async fn server_with(access: SimAccess) -> anyhow::Result<std::net::SocketAddr> {
     let set = Arc::new(tasks::TaskSet::committed()?);
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let addr = listener.local_addr()?;
     tokio::spawn(
         tonic::transport::Server::builder()
-            .add_service(SimService::new(set).server())
+            .add_service(SimService::new(set, access).server())
             .serve_with_incoming(TcpListenerStream::new(listener)),
     );
-    Ok(SimClient::connect(format!("http://{addr}")).await?)
+    Ok(addr)
+}
+
+/// A request carrying `token`.
+fn with_token<T>(msg: T, token: &str) -> tonic::Request<T> {
+    let mut r = tonic::Request::new(msg);
+    r.metadata_mut()
+        .insert("authorization", format!("Bearer {token}").parse().unwrap());
+    r
+}
+
+fn create(task: &str) -> pb::CreateEpisodeRequest {
+    pb::CreateEpisodeRequest {
+        task_id: task.into(),
+        ..Default::default()
+    }
+}
+
+/// Issue 58, point 3: with tokens, a call without one (or with another) is refused; an episode is its creator's
+/// (another client's token finds nothing); unused episodes expire and give their places back; one client holds
+/// at most its share.
+#[tokio::test]
+async fn the_sim_api_needs_a_token_episodes_are_their_owners_and_unused_ones_expire(
+) -> anyhow::Result<()> {
+    use vb_worker::sim_access::PER_CLIENT;
+    let access = SimAccess::with_tokens(["alice".to_string(), "bob".to_string()])
+        .with_idle(std::time::Duration::from_millis(1500));
+    let addr = server_with(access).await?;
+    let mut c = SimClient::connect(format!("http://{addr}")).await?;
+    let e = c.create_episode(create("w001-t0")).await.unwrap_err();
+    assert_eq!(e.code(), tonic::Code::Unauthenticated, "{e:?}");
+    let e = c
+        .create_episode(with_token(create("w001-t0"), "mallory"))
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::Unauthenticated, "{e:?}");
+    let id = c
+        .create_episode(with_token(create("w001-t0"), "alice"))
+        .await?
+        .into_inner()
+        .episode_id;
+    c.reset(with_token(
+        pb::ResetRequest {
+            episode_id: id.clone(),
+        },
+        "alice",
+    ))
+    .await?;
+    // Bob has the id but not the episode: nothing to reset, step or close.
+    let e = c
+        .reset(with_token(
+            pb::ResetRequest {
+                episode_id: id.clone(),
+            },
+            "bob",
+        ))
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::NotFound, "{e:?}");
+    let e = c
+        .close_episode(with_token(
+            pb::CloseEpisodeRequest {
+                episode_id: id.clone(),
+            },
+            "bob",
+        ))
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::NotFound, "{e:?}");
+    // Alice fills her share; one more is refused, Bob still gets one.
+    for _ in 1..PER_CLIENT {
+        c.create_episode(with_token(create("w001-t0"), "alice"))
+            .await?;
+    }
+    let e = c
+        .create_episode(with_token(create("w001-t0"), "alice"))
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::ResourceExhausted, "{e:?}");
+    c.create_episode(with_token(create("w001-t0"), "bob"))
+        .await?;
+    // Alice goes away: her episodes expire and her share is hers again.
+    tokio::time::sleep(std::time::Duration::from_millis(1800)).await;
+    let e = c
+        .reset(with_token(
+            pb::ResetRequest {
+                episode_id: id.clone(),
+            },
+            "alice",
+        ))
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::NotFound, "{e:?}");
+    for _ in 0..PER_CLIENT {
+        c.create_episode(with_token(create("w001-t0"), "alice"))
+            .await?;
+    }
+    Ok(())
 }
 
 /// Steers toward the goal at a moderate throttle.

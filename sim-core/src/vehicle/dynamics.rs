@@ -2,9 +2,9 @@
 //! snapshot a model-based planner copies to start each rollout (MPPI-6) and a dataset records;
 //! [`Simulation::dynamics`] reads it and [`Simulation::set_dynamics`] writes it.
 
+use super::action::VehicleState;
 use super::simulation::{Simulation, StateCopyError};
 use crate::collide::NearList;
-use crate::planner::VehicleState;
 use crate::soil::SoilGrid;
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -39,7 +39,7 @@ pub(super) struct Origin {
     pub(super) obstacles: usize,
 }
 
-/// The dynamic state of a simulated vehicle (the name keeps it apart from [`crate::planner::VehicleState`], the
+/// The dynamic state of a simulated vehicle (the name keeps it apart from [`super::VehicleState`], the
 /// ground-truth observation a planner gets): time and step count, the chassis' pose and velocities, gear and
 /// steering, every wheel's suspension, spin, tyre and rut state, the obstacles near the vehicle and the soil's
 /// memory (ruts, yield pressure, shear). With the vehicle's parameters and the world it determines every later

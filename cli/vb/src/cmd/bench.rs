@@ -157,7 +157,7 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
             db,
             task_dir,
         } => {
-            let set = tasks::TaskSet::load(&task_dir.unwrap_or_else(tasks::TaskSet::default_dir))?;
+            let set = tasks::TaskSet::load(&task_dir.unwrap_or_else(tasks::embedded::default_dir))?;
             let tmp =
                 std::env::temp_dir().join(format!("vb-bench-leaderboard-{}", std::process::id()));
             let url = match db {
@@ -213,7 +213,7 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
             command,
         } => bench_planner(
             &tasks,
-            task_dir.unwrap_or_else(tasks::TaskSet::default_dir),
+            task_dir.unwrap_or_else(tasks::embedded::default_dir),
             command,
         ),
         BenchCmd::Sim { seconds, task_dir } => {
@@ -221,7 +221,7 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
                 seconds.is_finite() && seconds > 0.0,
                 "--seconds must be positive"
             );
-            let set = tasks::TaskSet::load(&task_dir.unwrap_or_else(tasks::TaskSet::default_dir))?;
+            let set = tasks::TaskSet::load(&task_dir.unwrap_or_else(tasks::embedded::default_dir))?;
             // The first rigid and the first deformable world of the set.
             let pick = |kind: sim_core::world::SemanticsKind| -> anyhow::Result<u32> {
                 set.world_ids()

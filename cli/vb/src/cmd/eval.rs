@@ -60,7 +60,7 @@ pub fn run(a: EvalArgs) -> anyhow::Result<()> {
         task_dir: a
             .task_dir
             .clone()
-            .unwrap_or_else(tasks::TaskSet::default_dir),
+            .unwrap_or_else(tasks::embedded::default_dir),
         tasks: a.tasks,
         vehicle: a.vehicle,
         scale: a.scale,

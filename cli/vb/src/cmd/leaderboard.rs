@@ -21,7 +21,7 @@ pub struct LeaderboardArgs {
 }
 
 pub fn run(a: LeaderboardArgs) -> anyhow::Result<()> {
-    let set = tasks::TaskSet::load(&a.task_dir.unwrap_or_else(tasks::TaskSet::default_dir)).ok();
+    let set = tasks::TaskSet::load(&a.task_dir.unwrap_or_else(tasks::embedded::default_dir)).ok();
     let mut evals = Vec::new();
     for d in &a.dirs {
         let p = d.join("summary.json");

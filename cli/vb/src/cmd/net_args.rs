@@ -14,9 +14,15 @@ pub struct NetArgs {
     /// A connection that moves no bytes either way for this long is closed, s.
     #[arg(long, default_value_t = 120.0)]
     pub idle_timeout_s: f64,
-    /// Connections open at once; one more is closed as soon as it is accepted.
+    /// Connections open at once; past it a new one replaces the oldest that has sent no request yet, or is closed
+    /// at once when every one has.
     #[arg(long, default_value_t = 1024)]
     pub max_connections: usize,
+    /// Connections open at once from one peer address (so one client cannot hold the whole limit); more are
+    /// closed as soon as they are accepted. Behind a reverse proxy every client has its address: raise this.
+    /// [default: 256, at most --max-connections]
+    #[arg(long)]
+    pub max_connections_per_peer: Option<usize>,
     /// gRPC: ping a connection this long after last hearing from it, s (below --idle-timeout-s).
     #[arg(long, default_value_t = 30.0)]
     pub keepalive_s: f64,
@@ -31,6 +37,8 @@ impl NetArgs {
             self.header_timeout_s,
             self.idle_timeout_s,
             self.max_connections,
+            self.max_connections_per_peer
+                .unwrap_or(vb_net::DEFAULT_PER_PEER.min(self.max_connections)),
             self.keepalive_s,
             self.keepalive_timeout_s,
         )?)

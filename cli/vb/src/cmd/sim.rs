@@ -70,7 +70,7 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
             );
             let spec = sim_core::vehicle::vehicle_by_name(&vehicle)?;
             let scale = scale.unwrap_or(spec.scale);
-            let set = tasks::TaskSet::load(&task_dir.unwrap_or_else(tasks::TaskSet::default_dir))?;
+            let set = tasks::TaskSet::load(&task_dir.unwrap_or_else(tasks::embedded::default_dir))?;
             let w = set.world(world, scale)?;
             let t = set
                 .tasks(world, scale)?

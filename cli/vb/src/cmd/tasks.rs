@@ -85,7 +85,9 @@ fn same_dir(a: &std::path::Path, b: &std::path::Path) -> bool {
 }
 
 fn open(dir: Option<PathBuf>) -> anyhow::Result<TaskSet> {
-    Ok(TaskSet::load(&dir.unwrap_or_else(TaskSet::default_dir))?)
+    Ok(TaskSet::load(
+        &dir.unwrap_or_else(tasks::embedded::default_dir),
+    )?)
 }
 
 pub fn run(cmd: TasksCmd) -> anyhow::Result<()> {

@@ -427,3 +427,34 @@ pub fn endpoint_submission(name: &str, url: &str, tasks: &[&str]) -> vb_proto::v
         ..Default::default()
     }
 }
+
+/// Whether this machine gives exec planners namespaces (as `user`, or the worker's own); prints why not (the tests
+/// that need them are then skipped: the worker refuses exec planners there, which its own log says).
+pub async fn namespaces_available(user: Option<&str>) -> bool {
+    let user = user.map(|u| vb_worker::sandbox::PlannerUser::lookup(u).expect("the user"));
+    match vb_worker::sandbox::Containment::probe(user).await {
+        Ok(_) => true,
+        Err(why) => {
+            eprintln!("SKIPPED: {why}");
+            false
+        }
+    }
+}
+
+/// A submission of the exec planner `argv` on `tasks`, with a 2 s step deadline.
+pub fn exec_argv_submission(
+    name: &str,
+    tasks: &[&str],
+    argv: Vec<String>,
+) -> vb_proto::v1::SubmitRequest {
+    use vb_proto::v1 as pb;
+    pb::SubmitRequest {
+        name: name.into(),
+        planner: Some(pb::PlannerRef {
+            kind: Some(pb::planner_ref::Kind::Exec(pb::ExecPlanner { argv })),
+        }),
+        task_ids: tasks.iter().map(|s| s.to_string()).collect(),
+        step_deadline_s: 2.0,
+        ..Default::default()
+    }
+}

@@ -21,6 +21,77 @@ pub fn connect(port: u16) -> TcpStream {
     s
 }
 
+/// A connection from loopback address `127.0.0.{from}` (every 127/8 address is this machine's), reads giving up
+/// after 100 ms.
+pub fn connect_from(from: u8, port: u16) -> std::io::Result<TcpStream> {
+    use socket2::{Domain, Socket, Type};
+    let s = Socket::new(Domain::IPV4, Type::STREAM, None)?;
+    s.bind(&std::net::SocketAddr::from(([127, 0, 0, from], 0)).into())?;
+    s.connect_timeout(
+        &std::net::SocketAddr::from(([127, 0, 0, 1], port)).into(),
+        Duration::from_secs(5),
+    )?;
+    let s: TcpStream = s.into();
+    s.set_read_timeout(Some(Duration::from_millis(100))).ok();
+    Ok(s)
+}
+
+/// GET / from `127.0.0.{from}` on a fresh connection: its status, or `None` if the server closed it unanswered.
+pub fn get_from(from: u8, port: u16) -> Option<u16> {
+    let mut s = connect_from(from, port).ok()?;
+    s.set_read_timeout(Some(Duration::from_secs(10))).ok();
+    s.write_all(b"GET / HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n")
+        .ok()?;
+    let mut head = [0u8; 12];
+    s.read_exact(&mut head).ok()?;
+    std::str::from_utf8(&head[9..12]).ok()?.parse().ok()
+}
+
+/// Whether the server has not closed `s` (what it sent is read and dropped).
+fn not_closed(s: &mut TcpStream) -> bool {
+    let mut buf = [0u8; 4096];
+    s.set_nonblocking(true).ok();
+    let open = loop {
+        match s.read(&mut buf) {
+            Ok(0) => break false,
+            Ok(_) => {}
+            Err(e) => break e.kind() == ErrorKind::WouldBlock,
+        }
+    };
+    s.set_nonblocking(false).ok();
+    open
+}
+
+/// An attacker at `127.0.0.{from}` for `for_`: keeps up to `hold` connections open, each sending `partial` (a
+/// request head it never finishes), reopening each one the server closes, at most 100 new connections a second.
+/// Returns how many connections it opened.
+pub fn hold_partial_heads(
+    from: u8,
+    port: u16,
+    hold: usize,
+    partial: &[u8],
+    for_: Duration,
+) -> usize {
+    let t0 = Instant::now();
+    let mut open: Vec<TcpStream> = Vec::new();
+    let mut opened = 0;
+    while t0.elapsed() < for_ {
+        // Drop the ones the server closed.
+        open.retain_mut(not_closed);
+        let mut this_round = 0;
+        while open.len() < hold && this_round < 10 {
+            if let Ok(mut s) = connect_from(from, port) {
+                let _ = s.write_all(partial);
+                open.push(s);
+                opened += 1;
+            }
+            this_round += 1;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    opened
+}
+
 /// Reads (discarding what the server sends) and, every 200 ms, writes the next byte of `trickle`, until the server
 /// closes the connection; how long that took, or `None` if it was still open after `limit`.
 pub fn closed_within(s: &mut TcpStream, limit: Duration, trickle: &[u8]) -> Option<Duration> {
@@ -152,6 +223,32 @@ pub async fn h2_client(
     });
     let send = h2_request(send, port, path).await.expect("an answer");
     (send, driver)
+}
+
+/// Whether one gRPC request from a fresh HTTP/2 connection at `127.0.0.{from}` is answered (with any status).
+pub async fn h2_answered_from(from: u8, port: u16, path: &str) -> bool {
+    let Ok(std) = connect_from(from, port) else {
+        return false;
+    };
+    if std.set_nonblocking(true).is_err() {
+        return false;
+    }
+    let Ok(tcp) = tokio::net::TcpStream::from_std(std) else {
+        return false;
+    };
+    let go = async {
+        let (send, conn) = h2::client::handshake(tcp).await.ok()?;
+        let driver = tokio::spawn(async move {
+            let _ = conn.await;
+        });
+        let ok = h2_request(send, port, path).await.is_ok();
+        driver.abort();
+        Some(ok)
+    };
+    matches!(
+        tokio::time::timeout(Duration::from_secs(10), go).await,
+        Ok(Some(true))
+    )
 }
 
 /// Sends an (empty) gRPC request on `send` and waits for the answer's headers.

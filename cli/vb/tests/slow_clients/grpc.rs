@@ -319,3 +319,53 @@ async fn the_sim_api_of_a_worker_drops_silent_connections_and_caps_its_connectio
         tokio::time::sleep(Duration::from_millis(200)).await;
     }
 }
+
+/// Issue 58, point 1, on the coordinator's gRPC port: one client holding every connection it can with a preface it
+/// never finishes gets its address's share, and head-less connections from many addresses make way for new
+/// clients; a fresh client's request from another address is answered throughout.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_grpc_client_cannot_lock_others_out_and_headless_floods_make_way() {
+    let dir = temp_dir("conn-share-grpc");
+    let (db, _) = store(&dir);
+    let port = free_port();
+    let _c = coordinator(
+        &dir,
+        &db,
+        port,
+        &[
+            "--header-timeout-s",
+            "30",
+            "--max-connections",
+            "40",
+            "--max-connections-per-peer",
+            "10",
+        ],
+    );
+    wait_port(port, Duration::from_secs(60));
+    let path = "/vertibench.v1.Coordinator/ListSubmissions";
+    for (attackers, what) in [(1..=1u8, "one client"), (3..=10u8, "many addresses")] {
+        let threads: Vec<_> = attackers
+            .map(|ip| {
+                let hold = if ip == 1 { 60 } else { 10 };
+                std::thread::spawn(move || {
+                    hold_partial_heads(ip, port, hold, &PREFACE[..10], Duration::from_secs(6))
+                })
+            })
+            .collect();
+        tokio::time::sleep(Duration::from_secs(1)).await;
+        let mut answered = 0;
+        for _ in 0..20 {
+            tokio::time::sleep(Duration::from_millis(100)).await;
+            answered += usize::from(h2_answered_from(2, port, path).await);
+        }
+        for t in threads {
+            t.join().expect("attacker");
+        }
+        assert_eq!(
+            answered,
+            20,
+            "{} of 20 fresh gRPC requests went unanswered under a flood from {what}",
+            20 - answered
+        );
+    }
+}

@@ -147,3 +147,80 @@ fn the_leaderboard_closes_connections_beyond_its_limit_and_answers_again_once_th
         lb.output()
     );
 }
+
+/// Issue 58, point 1: one client that holds every connection it can with request heads it never finishes (and
+/// reopens each one closed) gets its peer address's share and no more, and head-less connections from many
+/// addresses make way for new clients: fresh requests from another address are all answered during both attacks.
+#[test]
+fn one_client_cannot_lock_others_out_and_headless_floods_make_way() {
+    let dir = temp_dir("conn-share-http");
+    let (db, _) = store(&dir);
+    let port = free_port();
+    let mut lb = start_leaderboard(
+        &dir,
+        "leaderboard",
+        &db,
+        port,
+        &[
+            "--header-timeout-s",
+            "30",
+            "--max-connections",
+            "40",
+            "--max-connections-per-peer",
+            "10",
+        ],
+    );
+    get_ok_within(port, Duration::from_secs(10));
+    let partial = b"GET / HTTP/1.1\r\nHost: localhost\r\n";
+    // One attacker at 127.0.0.1 trying to hold 60 connections.
+    let attack = std::thread::spawn(move || {
+        hold_partial_heads(1, port, 60, partial, Duration::from_secs(6))
+    });
+    std::thread::sleep(Duration::from_secs(1));
+    let answered = (0..20)
+        .filter(|_| {
+            std::thread::sleep(Duration::from_millis(100));
+            get_from(2, port) == Some(200)
+        })
+        .count();
+    let opened = attack.join().expect("attacker");
+    assert!(
+        opened >= 10,
+        "the attacker opened only {opened} connections"
+    );
+    assert_eq!(
+        answered,
+        20,
+        "{} of 20 fresh requests went unanswered under one client's flood",
+        20 - answered
+    );
+    // Eight attackers at 127.0.0.3-10 holding their 10 each: 80 head-less connections for 40 places.
+    let attackers: Vec<_> = (3..=10u8)
+        .map(|ip| {
+            std::thread::spawn(move || {
+                hold_partial_heads(ip, port, 10, partial, Duration::from_secs(6))
+            })
+        })
+        .collect();
+    std::thread::sleep(Duration::from_secs(1));
+    let answered = (0..20)
+        .filter(|_| {
+            std::thread::sleep(Duration::from_millis(100));
+            get_from(2, port) == Some(200)
+        })
+        .count();
+    for a in attackers {
+        a.join().expect("attacker");
+    }
+    assert_eq!(
+        answered,
+        20,
+        "{} of 20 fresh requests went unanswered under a flood from many addresses",
+        20 - answered
+    );
+    assert!(
+        lb.child.try_wait().expect("wait").is_none(),
+        "{}",
+        lb.output()
+    );
+}

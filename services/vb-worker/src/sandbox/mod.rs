@@ -6,6 +6,7 @@
 
 use nix::sys::resource::{setrlimit, Resource};
 
+pub mod hidden;
 pub mod namespaces;
 pub mod reaper;
 
@@ -61,7 +62,7 @@ impl Containment {
 
     /// Everything the forked child does before `exec`, in order: resource limits and the death signal, the
     /// namespaces (the child then is the planner, PID 1 of its namespace, with a private `/proc` and temporary
-    /// directories), the user. Only async-signal-safe system calls on memory prepared before the fork.
+    /// directories, the worker's secrets covered: [`hidden`]), the user, and then no capability left. Only async-signal-safe system calls on memory prepared before the fork.
     pub fn apply_in_child(
         &self,
         limits: &Limits,
@@ -72,10 +73,13 @@ impl Containment {
         if self.namespaces {
             ns.enter_in_child()?;
         }
-        match &self.user {
-            Some(u) => u.become_in_child(),
-            None => Ok(()),
+        if let Some(u) = &self.user {
+            u.become_in_child()?;
         }
+        if self.namespaces {
+            hidden::drop_capabilities()?;
+        }
+        Ok(())
     }
 }
 

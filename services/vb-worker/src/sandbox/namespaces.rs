@@ -8,7 +8,9 @@
 //!   `/dev/shm` and `/run/lock`, which vanish with the namespace: nothing it writes there outlives it or is seen
 //!   by another planner. Files its command names in those directories (a script in `/tmp/...`) stay visible to
 //!   it, read-only, at the same path ([`Visible`]);
-//! - an **IPC namespace** (System V and POSIX message queues of its own).
+//! - an **IPC namespace** (System V and POSIX message queues of its own);
+//! - the worker's secrets (its token file) covered with an empty file, and no capability to uncover them
+//!   ([`super::hidden`]).
 //!
 //! The worker's child (the *keeper*) unshares the namespaces and forks the planner into them; the keeper stays in the
 //! worker's process group, waits for the planner and exits with its status. Both carry `PR_SET_PDEATHSIG`: the
@@ -26,6 +28,7 @@ use nix::unistd::{fork, ForkResult, Pid};
 use std::ffi::{CStr, CString};
 use std::io;
 use std::os::fd::{AsRawFd, OwnedFd};
+use std::path::{Path, PathBuf};
 
 /// Size of the planner's `/tmp` (its working directory); the other temporary mounts get [`SMALL_TMPFS`].
 pub const TMP_SIZE: &str = "1g";
@@ -58,38 +61,19 @@ struct Visible {
 }
 
 impl Visible {
-    /// What to keep visible for each absolute path in `argv` under a private root: the directory holding it (its
-    /// neighbours, modules a script imports, go with it), or the file alone when it lies directly in the root.
+    /// What to keep visible for each absolute path under a private root that `argv` names, as an argument or as a
+    /// word inside one (`sh -c "/tmp/env/bin/python -m planner"`, `VAR=/tmp/x`): the whole top-level directory
+    /// below the root that holds it (`/tmp/env` for `/tmp/env/bin/python`: an interpreter's environment with its
+    /// `pyvenv.cfg` and `lib/`, a build's target directory, a script's neighbours), or the file alone when it lies
+    /// directly in the root.
     fn for_command(argv: &[String]) -> Vec<Visible> {
-        use std::path::{Path, PathBuf};
-        let mut chosen: Vec<(PathBuf, bool)> = Vec::new();
-        for arg in argv {
-            let p = Path::new(arg);
-            let Some(root) = PRIVATE_ROOTS
-                .iter()
-                .find(|r| p.starts_with(r) && p != Path::new(r))
-            else {
-                continue;
-            };
-            let Ok(meta) = std::fs::metadata(p) else {
-                continue;
-            };
-            let (path, is_dir) = match p.parent() {
-                _ if meta.is_dir() => (p.to_path_buf(), true),
-                Some(dir) if dir != Path::new(root) => (dir.to_path_buf(), true),
-                _ => (p.to_path_buf(), false),
-            };
-            chosen.push((path, is_dir));
-        }
+        let mut chosen: Vec<(PathBuf, bool)> = command_paths(argv)
+            .into_iter()
+            .filter_map(|p| kept_for(&p))
+            .collect();
         chosen.sort();
         chosen.dedup();
-        // A directory inside another kept one comes with it.
-        let outer: Vec<(PathBuf, bool)> = chosen
-            .iter()
-            .filter(|(p, _)| !chosen.iter().any(|(q, d)| *d && q != p && p.starts_with(q)))
-            .cloned()
-            .collect();
-        outer
+        chosen
             .into_iter()
             .take(MAX_VISIBLE)
             .enumerate()
@@ -184,6 +168,51 @@ impl Visible {
     }
 }
 
+/// Every absolute path under a private root named in `argv`: whole arguments, and the words of each argument split
+/// at white space and shell punctuation.
+fn command_paths(argv: &[String]) -> Vec<PathBuf> {
+    let is_break = |c: char| c.is_whitespace() || ";&|()<>\"'`=:,".contains(c);
+    let mut out = Vec::new();
+    for arg in argv {
+        for word in std::iter::once(arg.as_str()).chain(arg.split(is_break)) {
+            let p = Path::new(word);
+            if PRIVATE_ROOTS
+                .iter()
+                .any(|r| p.starts_with(r) && p != Path::new(r))
+            {
+                out.push(p.to_path_buf());
+            }
+        }
+    }
+    out
+}
+
+/// What keeping `p` visible takes: the top-level directory below its private root that holds it, or the file
+/// itself directly in the root; nothing for a path that does not exist.
+fn kept_for(p: &Path) -> Option<(PathBuf, bool)> {
+    let root = PRIVATE_ROOTS.iter().find(|r| p.starts_with(r))?;
+    let below = p.strip_prefix(root).ok()?;
+    let first = below.components().next()?;
+    let top = Path::new(root).join(first);
+    let meta = std::fs::metadata(&top).ok()?;
+    if !meta.is_dir() && top != p {
+        return None;
+    }
+    std::fs::metadata(p).ok()?;
+    Some((top, meta.is_dir()))
+}
+
+/// The host's files a planner of `argv` still sees in its private temporary directories, for error messages.
+pub fn visible_paths(argv: &[String]) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = command_paths(argv)
+        .into_iter()
+        .filter_map(|p| kept_for(&p).map(|(t, _)| t))
+        .collect();
+    v.sort();
+    v.dedup();
+    v
+}
+
 /// What the child needs, prepared before the fork (the child may not allocate).
 #[derive(Debug)]
 pub struct Namespaces {
@@ -196,6 +225,8 @@ pub struct Namespaces {
     worker: i32,
     /// Files of the command in the private directories.
     visible: Vec<Visible>,
+    /// The worker's files covered in the planner's view ([`super::hidden`]).
+    hidden: Vec<CString>,
 }
 
 impl Namespaces {
@@ -219,6 +250,7 @@ impl Namespaces {
             }),
             worker: std::process::id() as i32,
             visible: Visible::for_command(argv),
+            hidden: super::hidden::targets(),
         }
     }
 
@@ -319,6 +351,7 @@ impl Namespaces {
         for v in &self.visible {
             v.mount()?;
         }
+        super::hidden::cover(&self.hidden)?;
         nix::unistd::chdir(c"/tmp").map_err(|e| errno("chdir /tmp", e))
     }
 }

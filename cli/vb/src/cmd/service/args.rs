@@ -5,6 +5,44 @@ use clap::{Args, Subcommand};
 use std::net::SocketAddr;
 use std::path::PathBuf;
 
+/// Who may use the `Sim` API (`vb worker --sim`, `vb serve`'s gRPC port) and how long an unused episode stays.
+#[derive(Args, Clone, Debug)]
+#[command(next_help_heading = "The Sim API's access")]
+pub struct SimAccessArgs {
+    /// File of Sim API tokens, one per line (clients send `authorization: Bearer <token>`); else the tokens in
+    /// VB_SIM_TOKEN (comma-separated). Without any, the Sim API serves only clients on this machine.
+    #[arg(long)]
+    pub sim_token_file: Option<PathBuf>,
+    /// A Sim episode that no call touches for this long is closed, s.
+    #[arg(long, default_value_t = 600.0)]
+    pub sim_idle_timeout_s: f64,
+}
+
+impl SimAccessArgs {
+    pub fn access(&self) -> anyhow::Result<vb_worker::sim_access::SimAccess> {
+        use anyhow::Context;
+        let s = self.sim_idle_timeout_s;
+        anyhow::ensure!(
+            s.is_finite() && s > 0.0 && s <= 86_400.0,
+            "--sim-idle-timeout-s must be a positive number of seconds, at most a day (got {s})"
+        );
+        let tokens: Vec<String> = match &self.sim_token_file {
+            Some(p) => std::fs::read_to_string(p)
+                .with_context(|| format!("reading the Sim API tokens from {}", p.display()))?
+                .lines()
+                .map(str::to_string)
+                .collect(),
+            None => std::env::var("VB_SIM_TOKEN")
+                .unwrap_or_default()
+                .split(',')
+                .map(str::to_string)
+                .collect(),
+        };
+        Ok(vb_worker::sim_access::SimAccess::with_tokens(tokens)
+            .with_idle(std::time::Duration::from_secs_f64(s)))
+    }
+}
+
 fn default_slots() -> usize {
     std::thread::available_parallelism().map_or(2, |n| n.get())
 }
@@ -23,8 +61,8 @@ pub struct ServeArgs {
     /// Episodes run at once by the in-process worker pool.
     #[arg(long, default_value_t = default_slots())]
     pub(super) slots: usize,
-    /// Task-set directory (default: the benchmark's committed set, tasks/data/v4).
-    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
+    /// Task-set directory (default: the benchmark's set this binary carries, unpacked into ~/.cache/vertibench/tasks/VERSION).
+    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::embedded::default_dir(), hide_default_value = true)]
     pub(super) task_dir: PathBuf,
     /// Submit this built-in planner through the gRPC API and follow it to the end.
     #[arg(long)]
@@ -43,6 +81,8 @@ pub struct ServeArgs {
     #[arg(long)]
     pub(super) planner_user: Option<String>,
     #[command(flatten)]
+    pub(super) sim_access: SimAccessArgs,
+    #[command(flatten)]
     pub(super) net: NetArgs,
 }
 
@@ -54,8 +94,8 @@ pub struct CoordinatorArgs {
     /// gRPC address of the submission and worker APIs.
     #[arg(long, default_value = "127.0.0.1:50051")]
     pub(super) listen: SocketAddr,
-    /// Task-set directory (default: the benchmark's committed set, tasks/data/v4).
-    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
+    /// Task-set directory (default: the benchmark's set this binary carries, unpacked into ~/.cache/vertibench/tasks/VERSION).
+    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::embedded::default_dir(), hide_default_value = true)]
     pub(super) task_dir: PathBuf,
     /// Lease length without a heartbeat, s: a dead worker's episodes are re-queued after this.
     #[arg(long, default_value_t = 30.0)]
@@ -102,8 +142,8 @@ pub struct WorkerArgs {
     /// Name shown in the coordinator's logs.
     #[arg(long)]
     pub(super) name: Option<String>,
-    /// Task-set directory (default: the benchmark's committed set, tasks/data/v4).
-    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
+    /// Task-set directory (default: the benchmark's set this binary carries, unpacked into ~/.cache/vertibench/tasks/VERSION).
+    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::embedded::default_dir(), hide_default_value = true)]
     pub(super) task_dir: PathBuf,
     /// How long a planner process may take to start serving, s.
     #[arg(long, default_value_t = 30.0)]
@@ -131,6 +171,8 @@ pub struct WorkerArgs {
     #[arg(long, default_value_t = 20.0)]
     pub(super) drain_s: f64,
     #[command(flatten)]
+    pub(super) sim_access: SimAccessArgs,
+    #[command(flatten)]
     pub(super) net: NetArgs,
 }
 
@@ -142,8 +184,8 @@ pub struct LeaderboardArgs {
     /// HTTP address of the pages and the JSON API.
     #[arg(long, default_value = "127.0.0.1:8080")]
     pub(super) listen: SocketAddr,
-    /// Task-set directory (default: the benchmark's committed set, tasks/data/v4).
-    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::TaskSet::default_dir(), hide_default_value = true)]
+    /// Task-set directory (default: the benchmark's set this binary carries, unpacked into ~/.cache/vertibench/tasks/VERSION).
+    #[arg(long, env = "VB_TASK_DIR", default_value_os_t = tasks::embedded::default_dir(), hide_default_value = true)]
     pub(super) task_dir: PathBuf,
     #[command(flatten)]
     pub(super) net: NetArgs,

@@ -17,6 +17,28 @@ pub(super) fn planner_user(
         .map_err(anyhow::Error::msg)
 }
 
+/// Covers this process's secrets in the view of every exec planner it starts ([`vb_worker::sandbox::hidden`]):
+/// `files` (the worker's token file, the store's SQLite files), and the user's own submission token.
+pub(super) fn hide_from_planners(files: &[std::path::PathBuf]) {
+    let mut all = files.to_vec();
+    if let Some(home) = std::env::var_os("HOME") {
+        all.push(std::path::Path::new(&home).join(".config/vertibench/token"));
+    }
+    vb_worker::sandbox::hidden::hide_from_planners(all);
+}
+
+/// The files of a `sqlite://PATH[?...]` store (its journal files too); none for another database.
+pub(super) fn sqlite_files(url: &str) -> Vec<std::path::PathBuf> {
+    let Some(rest) = url.strip_prefix("sqlite://") else {
+        return Vec::new();
+    };
+    let path = rest.split('?').next().unwrap_or(rest);
+    ["", "-wal", "-shm", "-journal"]
+        .iter()
+        .map(|ext| std::path::PathBuf::from(format!("{path}{ext}")))
+        .collect()
+}
+
 /// A database URL for a log line: the password (and user) of `postgres://user:password@host/db` left out.
 pub(super) fn without_credentials(url: &str) -> String {
     match (url.split_once("://"), url.rsplit_once('@')) {
@@ -111,10 +133,20 @@ pub(super) async fn bind(addr: SocketAddr, what: &str) -> anyhow::Result<TcpList
 /// The `Sim` API on the task set in `dir`.
 pub(super) fn sim_service(
     dir: &std::path::Path,
+    access: &super::args::SimAccessArgs,
 ) -> anyhow::Result<vb_worker::sim_service::SimService> {
+    let access = access.access()?;
     let set = tasks::TaskSet::load(dir)
         .with_context(|| format!("loading the task set {}", dir.display()))?;
-    Ok(vb_worker::sim_service::SimService::new(Arc::new(set)))
+    if !access.needs_token() {
+        tracing::info!(
+            "the Sim API serves clients on this machine only (no --sim-token-file or VB_SIM_TOKEN)"
+        );
+    }
+    Ok(vb_worker::sim_service::SimService::new(
+        Arc::new(set),
+        access,
+    ))
 }
 
 /// Starts the coordinator's gRPC services on `listener` within `limits`, with the `Sim` API when `sim` is given.

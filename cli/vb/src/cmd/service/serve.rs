@@ -2,8 +2,8 @@
 
 use super::args::{CoordinatorArgs, ServeArgs};
 use super::common::{
-    bind, catalog, open_store, planner_user, runtime, served_tasks, sim_service, start_coordinator,
-    without_credentials, StopSignal,
+    bind, catalog, hide_from_planners, open_store, planner_user, runtime, served_tasks,
+    sim_service, sqlite_files, start_coordinator, without_credentials, StopSignal,
 };
 use anyhow::bail;
 use std::time::Duration;
@@ -62,11 +62,12 @@ pub fn serve(a: ServeArgs) -> anyhow::Result<()> {
     runtime()?.block_on(async move {
         let mut signal = StopSignal::new()?;
         let store = open_store(&a.db).await?;
+        hide_from_planners(&sqlite_files(&a.db));
         let grpc = bind(a.grpc, "coordinator gRPC API").await?;
         let http = bind(a.http, "leaderboard").await?;
         let grpc_addr = grpc.local_addr()?;
         let http_addr = http.local_addr()?;
-        let sim = sim_service(&a.task_dir)?;
+        let sim = sim_service(&a.task_dir, &a.sim_access)?;
         let mut ccfg = CoordinatorConfig::new(catalog(&a.task_dir)?);
         ccfg.allow_exec = !a.no_exec;
         let coord = start_coordinator(store.clone(), ccfg, grpc, Some(sim), None, &limits).await?;

@@ -1,7 +1,7 @@
 //! `vb worker`: runs episodes leased from a coordinator, optionally serving the `Sim` API.
 
 use super::args::WorkerArgs;
-use super::common::{bind, planner_user, runtime, sim_service, StopSignal};
+use super::common::{bind, hide_from_planners, planner_user, runtime, sim_service, StopSignal};
 use anyhow::{bail, Context};
 use std::time::Duration;
 
@@ -30,6 +30,7 @@ fn worker_token(a: &WorkerArgs) -> anyhow::Result<String> {
 
 pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
     let token = worker_token(&a)?;
+    hide_from_planners(a.token_file.as_slice());
     let limits = a.net.limits()?;
     runtime()?.block_on(async move {
         let (stop, shutdown) = tokio::sync::watch::channel(false);
@@ -55,7 +56,7 @@ pub fn worker(a: WorkerArgs) -> anyhow::Result<()> {
             drain: Duration::from_secs_f64(a.drain_s.clamp(0.0, 3600.0)),
         };
         if let Some(addr) = a.sim {
-            let sim = sim_service(&a.task_dir)?;
+            let sim = sim_service(&a.task_dir, &a.sim_access)?;
             let listener = bind(addr, "Sim API").await?;
             tracing::info!(addr = %listener.local_addr()?, "Sim API listening");
             tokio::spawn(async move {
