@@ -172,6 +172,35 @@ def test_ctrl_c_stops_an_evaluation_whose_planner_is_stuck_in_act(tmp_path):
     assert 2 <= n < 20, (n, time.monotonic() - t0)
 
 
+def test_a_background_job_that_ignores_sigint_is_told_so_and_stops_on_sigterm(tmp_path):
+    """Issue 58, point 5, as it was found: started as a background job of a non-interactive shell, a process has
+    SIGINT ignored and Python keeps it so, so ``kill -INT`` could not stop the evaluation (nor any Python program).
+    ``evaluate`` now says so on stderr at once, and SIGTERM stops it as Ctrl-C does, keeping what finished."""
+    out = tmp_path / "bg"
+    path = tmp_path / "stuck.py"
+    path.write_text(textwrap.dedent(STUCK).replace("signal.signal(signal.SIGINT, signal.default_int_handler)", ""))
+    proc = subprocess.Popen([sys.executable, str(path), str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    deadline = time.monotonic() + HANG
+    while results_lines(out) < 2:
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "no episode finished"
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)  # ignored, as the process asked
+    time.sleep(0.5)
+    assert proc.poll() is None
+    proc.send_signal(signal.SIGTERM)
+    try:
+        stdout, stderr = proc.communicate(timeout=15)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        pytest.fail("evaluate went on after SIGTERM")
+    assert proc.returncode == 0, stderr
+    assert "SIGINT is ignored in this process" in stderr and "send SIGTERM" in stderr, stderr
+    n = check_kept(out, stdout, stderr)
+    assert 2 <= n < 20
+
+
 class Forever(vb.Planner):
     name = "forever"
 

@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
-from collections.abc import Iterable
+import signal
+import sys
+import threading
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -31,6 +35,37 @@ def _check_planner(planner) -> None:
         check_positive(planner.crop_resolution, "planner.crop_resolution")
     if not isinstance(planner.name, str) or not planner.name:
         raise ValueError(f"planner.name={planner.name!r} must be a non-empty string")
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM during :func:`evaluate`: stops it as Ctrl-C does."""
+
+
+def _on_sigterm(signum, frame):
+    raise _Terminated(f"signal {signum}")
+
+
+@contextlib.contextmanager
+def _stop_signals() -> Iterator[None]:
+    """While an evaluation runs in the main thread: SIGTERM stops it as Ctrl-C does (finished episodes kept), unless
+    the program handles SIGTERM itself; and a process that ignores SIGINT (a background job of a non-interactive
+    shell, where Python leaves it ignored) is told that Ctrl-C cannot stop it."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        print(f"vertibench.evaluate: SIGINT is ignored in this process (pid {os.getpid()}; a background job of a "
+              "non-interactive shell ignores it), so Ctrl-C cannot stop this evaluation: send SIGTERM to stop it "
+              "and keep what finished", file=sys.stderr, flush=True)
+    previous = signal.getsignal(signal.SIGTERM)
+    if previous != signal.SIG_DFL:
+        yield
+        return
+    signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def evaluate(
@@ -67,8 +102,10 @@ def evaluate(
     ``out`` gets ``results.jsonl`` (one line per finished episode), ``planner.json`` (the planner's identity, see
     :class:`~vertibench.planner.Planner`), ``episodes.csv``, ``episodes.parquet``, ``summary.json``,
     ``summary.txt`` and ``charts.svg``, so ``vb compare`` and ``vb leaderboard-static`` read it like any other.
-    Ctrl-C stops the evaluation within a second: the episodes that finished are kept in ``out``, written and
-    returned (``summary["complete"]`` is False). Calling again with the same ``out`` resumes: it says so on
+    Ctrl-C (or SIGTERM, unless the program handles SIGTERM itself) stops the evaluation within a second: the
+    episodes that finished are kept in ``out``, written and returned (``summary["complete"]`` is False). A process
+    that ignores SIGINT (started as a background job of a non-interactive shell: Python keeps it ignored) is told
+    on stderr that Ctrl-C cannot stop it. Calling again with the same ``out`` resumes: it says so on
     stderr and runs only the missing episodes; ``out`` holding another planner's (or configuration's) results is
     refused with a ValueError.
     """
@@ -90,19 +127,20 @@ def evaluate(
         raise ValueError(f"task_set={str(task_set)!r} holds no task set (no manifest.json): give a directory made "
                          "by vertibench.tasks.generate or vb tasks generate, or None for the benchmark's")
     out = Path(out)
-    table, complete = _core.evaluate(
-        planner,
-        str(out),
-        str(task_set) if task_set is not None else default_task_set(),
-        tasks=task_spec(tasks),
-        vehicle=vehicle,
-        scale=scale,
-        rules=rules,
-        progress=bool(progress),
-        identity=None if isinstance(planner, str) else json.dumps(identity(planner)),
-        step_timeout=step_timeout,
-        num_threads=num_threads,
-    )
+    with _stop_signals():
+        table, complete = _core.evaluate(
+            planner,
+            str(out),
+            str(task_set) if task_set is not None else default_task_set(),
+            tasks=task_spec(tasks),
+            vehicle=vehicle,
+            scale=scale,
+            rules=rules,
+            progress=bool(progress),
+            identity=None if isinstance(planner, str) else json.dumps(identity(planner)),
+            step_timeout=step_timeout,
+            num_threads=num_threads,
+        )
     episodes = pd.DataFrame(table)
     summary = json.loads((out / "summary.json").read_text())
     summary["complete"] = complete
