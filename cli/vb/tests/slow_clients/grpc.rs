@@ -320,29 +320,20 @@ async fn the_sim_api_of_a_worker_drops_silent_connections_and_caps_its_connectio
     }
 }
 
-/// Issue 58, point 1, on the coordinator's gRPC port: one client holding every connection it can with a preface it
-/// never finishes gets its address's share, and head-less connections from many addresses make way for new
-/// clients; a fresh client's request from another address is answered throughout.
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn one_grpc_client_cannot_lock_others_out_and_headless_floods_make_way() {
-    let dir = temp_dir("conn-share-grpc");
-    let (db, _) = store(&dir);
-    let port = free_port();
-    let _c = coordinator(
-        &dir,
-        &db,
-        port,
-        &[
-            "--header-timeout-s",
-            "30",
-            "--max-connections",
-            "40",
-            "--max-connections-per-peer",
-            "10",
-        ],
-    );
-    wait_port(port, Duration::from_secs(60));
-    let path = "/vertibench.v1.Coordinator/ListSubmissions";
+/// The flags of issue 58's attack tests: a small limit and share, heads allowed to take 30 s.
+const SHARE_LIMITS: [&str; 6] = [
+    "--header-timeout-s",
+    "30",
+    "--max-connections",
+    "40",
+    "--max-connections-per-peer",
+    "10",
+];
+
+/// Issue 58, point 1, against a gRPC port: one client holding every connection it can with a preface it never
+/// finishes gets its address's share, and head-less connections from many addresses make way for new clients; a
+/// fresh client's request (`path`) from another address is answered throughout.
+async fn attack_grpc(port: u16, path: &str, server: &str) {
     for (attackers, what) in [(1..=1u8, "one client"), (3..=10u8, "many addresses")] {
         let threads: Vec<_> = attackers
             .map(|ip| {
@@ -364,8 +355,99 @@ async fn one_grpc_client_cannot_lock_others_out_and_headless_floods_make_way() {
         assert_eq!(
             answered,
             20,
-            "{} of 20 fresh gRPC requests went unanswered under a flood from {what}",
+            "{server}: {} of 20 fresh gRPC requests went unanswered under a flood from {what}",
             20 - answered
         );
     }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_grpc_client_cannot_lock_others_out_and_headless_floods_make_way() {
+    let dir = temp_dir("conn-share-grpc");
+    let (db, _) = store(&dir);
+    let port = free_port();
+    let _c = coordinator(&dir, &db, port, &SHARE_LIMITS);
+    wait_port(port, Duration::from_secs(60));
+    attack_grpc(
+        port,
+        "/vertibench.v1.Coordinator/ListSubmissions",
+        "the coordinator",
+    )
+    .await;
+    // A worker's Sim port accepts through the same guard (as vb serve's ports do: vb_serve_applies_its_limits_...).
+    let sim = free_port();
+    let sim_addr = format!("127.0.0.1:{sim}");
+    let mut args = vec!["--sim", sim_addr.as_str()];
+    args.extend_from_slice(&SHARE_LIMITS);
+    let _w = start_worker_with(&dir, "worker-share", &db, port, 1, &args);
+    wait_port(sim, Duration::from_secs(60));
+    attack_grpc(sim, "/vertibench.v1.Sim/CloseEpisode", "the Sim API").await;
+}
+
+/// Issue 58, point 3, over real processes: `vb worker --sim` with tokens (VB_SIM_TOKEN) refuses a call without one
+/// or with another, and serves one with a listed token.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_sim_api_of_a_worker_takes_only_its_tokens() {
+    let dir = temp_dir("sim-token");
+    let (db, _) = store(&dir);
+    let port = free_port();
+    let _c = coordinator(&dir, &db, port, &[]);
+    let sim = free_port();
+    let url = format!("http://127.0.0.1:{port}");
+    let sim_addr = format!("127.0.0.1:{sim}");
+    let worker_token = create_token_with_role(&db, "worker-sim-token", "worker");
+    let _w = Proc::start_env(
+        "worker-sim-token",
+        &dir,
+        &vb(),
+        &[
+            "worker",
+            "--coordinator",
+            &url,
+            "--slots",
+            "1",
+            "--sim",
+            &sim_addr,
+        ],
+        &[
+            ("VB_WORKER_TOKEN", &worker_token),
+            ("VB_SIM_TOKEN", "sim-secret-1,sim-secret-2"),
+        ],
+    );
+    wait_port(sim, Duration::from_secs(60));
+    let mut c = pb::sim_client::SimClient::connect(format!("http://{sim_addr}"))
+        .await
+        .expect("connect");
+    let create = |token: Option<&str>| {
+        let mut r = tonic::Request::new(pb::CreateEpisodeRequest {
+            task_id: "w001-t0".into(),
+            ..Default::default()
+        });
+        if let Some(t) = token {
+            r.metadata_mut().insert(
+                "authorization",
+                format!("Bearer {t}").parse().expect("header"),
+            );
+        }
+        r
+    };
+    for token in [None, Some("guess")] {
+        let e = c
+            .create_episode(create(token))
+            .await
+            .expect_err("served without its token");
+        assert_eq!(e.code(), tonic::Code::Unauthenticated, "{e:?}");
+    }
+    let id = c
+        .create_episode(create(Some("sim-secret-2")))
+        .await
+        .expect("a listed token")
+        .into_inner()
+        .episode_id;
+    let mut close = tonic::Request::new(pb::CloseEpisodeRequest { episode_id: id });
+    close.metadata_mut().insert(
+        "authorization",
+        "Bearer sim-secret-2".parse().expect("header"),
+    );
+    c.close_episode(close).await.expect("close");
 }
