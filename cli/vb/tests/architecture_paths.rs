@@ -56,6 +56,11 @@ fn architecture_md_names_only_existing_paths_and_is_short() {
         lines < 200,
         "ARCHITECTURE.md has {lines} lines; keep it under 200"
     );
+    let chars = text.chars().count();
+    assert!(
+        chars <= 15_000,
+        "ARCHITECTURE.md has {chars} characters; keep it at most 15,000"
+    );
 }
 
 #[test]
