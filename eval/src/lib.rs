@@ -20,6 +20,7 @@
 pub mod builtin;
 pub mod identity;
 pub mod move_off;
+pub mod reference;
 pub mod run;
 
 use contracts::Catalog;

@@ -129,3 +129,76 @@ fn characterize_counts_the_starts_a_vehicle_cannot_move_off_from() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 59, item 2: `--reference FILE` prints every figure beside the reference's. Our own datasheet as the
+/// reference is within tolerance everywhere (ratio 1); one with a grade 5 degrees off and a distance 25% off fails
+/// those two; a file of another schema is refused before anything runs.
+#[test]
+fn characterize_compares_with_a_reference_file() {
+    let dir = common::temp_dir("characterize-reference");
+    let ours = vb_ok(["sim", "characterize", "--surface", "rigid", "--json"]);
+    let mut reference: serde_json::Value = serde_json::from_slice(&ours).unwrap();
+    let same = dir.join("same.json");
+    std::fs::write(&same, serde_json::to_string(&reference).unwrap()).unwrap();
+    let text = String::from_utf8(vb_ok([
+        OsStr::new("sim"),
+        OsStr::new("characterize"),
+        OsStr::new("--surface"),
+        OsStr::new("rigid"),
+        OsStr::new("--reference"),
+        same.as_os_str(),
+    ]))
+    .unwrap();
+    let last = text.lines().last().unwrap_or("");
+    let (within, compared) = last
+        .split_once(" of ")
+        .map(|(a, b)| (a.to_string(), b.split(' ').next().unwrap_or("").to_string()))
+        .unwrap();
+    assert_eq!(within, compared, "{text}");
+    assert!(!text.contains(" NO"), "{text}");
+    let d = &mut reference["datasheets"][0];
+    let grade = d["climb_grade_deg"].as_f64().unwrap();
+    d["climb_grade_deg"] = serde_json::json!(grade + 5.0);
+    let distance = d["distance_20s"].as_f64().unwrap();
+    d["distance_20s"] = serde_json::json!(distance / 1.25 / 1.01);
+    let off = dir.join("off.json");
+    std::fs::write(&off, serde_json::to_string(&reference).unwrap()).unwrap();
+    let out = vb_ok([
+        OsStr::new("sim"),
+        OsStr::new("characterize"),
+        OsStr::new("--surface"),
+        OsStr::new("rigid"),
+        OsStr::new("--json"),
+        OsStr::new("--reference"),
+        off.as_os_str(),
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    let failed: Vec<&str> = v["comparison"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| {
+            let (o, r2) = (r["ours"].as_f64(), r["reference"].as_f64());
+            match (o, r2, r["tolerance"].as_str()) {
+                (Some(o), Some(x), Some("angle")) => (o - x).abs() > 4.0,
+                (Some(o), Some(x), _) => ((o - x) / x).abs() > 0.2,
+                _ => false,
+            }
+        })
+        .map(|r| r["figure"].as_str().unwrap())
+        .collect();
+    assert_eq!(failed, ["distance_20s", "climb_grade_deg"], "{v}");
+    let bad = dir.join("bad.json");
+    std::fs::write(&bad, "[1, 2]").unwrap();
+    let out = Command::new(common::vb())
+        .args(["sim", "characterize", "--reference"])
+        .arg(&bad)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("bad.json") && err.contains("datasheets"),
+        "{err}"
+    );
+}

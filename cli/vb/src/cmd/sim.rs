@@ -49,6 +49,10 @@ pub enum SimCmd {
         /// vehicle cannot get 5 m away from (sim_core::move_off).
         #[arg(long)]
         task_dir: Option<PathBuf>,
+        /// A reference's datasheets (JSON in --json's schema, e.g. the Chrono harness's): prints every figure of
+        /// both with the ratio and whether ours is within tolerance (angles 4 deg, everything else 20%).
+        #[arg(long)]
+        reference: Option<PathBuf>,
     },
 }
 
@@ -99,8 +103,22 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
             dt,
             json,
             task_dir,
+            reference,
         } => {
+            use anyhow::Context;
             use sim_core::characterize::{datasheet, Ground, Setup};
+            // Read first: a bad file fails before minutes of simulation.
+            let reference = reference
+                .map(|p| {
+                    std::fs::read_to_string(&p)
+                        .with_context(|| format!("reading the reference {}", p.display()))
+                        .map(|t| (p, t))
+                })
+                .transpose()?;
+            if let Some((p, text)) = &reference {
+                eval::reference::compare(&[], text)
+                    .with_context(|| format!("the reference {}", p.display()))?;
+            }
             let spec = sim_core::vehicle::vehicle_by_name(&vehicle)?;
             if let Some(dt) = dt {
                 anyhow::ensure!(
@@ -127,12 +145,27 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
                 )?),
                 None => None,
             };
+            let comparison = match &reference {
+                Some((p, text)) => {
+                    let ours = sheets
+                        .iter()
+                        .map(serde_json::to_value)
+                        .collect::<Result<Vec<_>, _>>()?;
+                    Some(
+                        eval::reference::compare(&ours, text)
+                            .with_context(|| format!("the reference {}", p.display()))?,
+                    )
+                }
+                None => None,
+            };
             if json {
                 println!(
                     "{}",
-                    serde_json::to_string_pretty(
-                        &serde_json::json!({ "datasheets": sheets, "move_off": move_off })
-                    )?
+                    serde_json::to_string_pretty(&serde_json::json!({
+                        "datasheets": sheets,
+                        "move_off": move_off,
+                        "comparison": comparison
+                    }))?
                 );
             } else {
                 print!("{}", sim_core::characterize::table(&sheets));
@@ -146,6 +179,10 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
                         if m.stuck.is_empty() { "" } else { ": " },
                         m.stuck.join(" ")
                     );
+                }
+                if let (Some(rows), Some((p, _))) = (&comparison, &reference) {
+                    println!("beside the reference {}:", p.display());
+                    print!("{}", eval::reference::table(rows));
                 }
             }
         }
