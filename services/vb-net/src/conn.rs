@@ -84,7 +84,10 @@ impl Conn {
             } else if Instant::now() >= deadline {
                 self.expired = Some(why);
             } else {
-                self.state.park(cx.waker());
+                // Only a connection without a request can be shed, so only it needs waking for that.
+                if !self.state.requested() {
+                    self.state.park(cx.waker());
+                }
                 if self.timer_at != deadline {
                     self.timer.as_mut().reset(deadline);
                     self.timer_at = deadline;

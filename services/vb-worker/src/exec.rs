@@ -272,10 +272,13 @@ pub async fn start(
         user,
     };
     let namespaces = Namespaces::new(user.map(|u| (u.uid, u.gid)), &argv);
-    let sandbox = if isolated {
-        sandbox_note(&argv)
-    } else {
-        String::new()
+    // Only a planner that fails to start needs it (it reads the file system).
+    let sandbox = || {
+        if isolated {
+            sandbox_note(&argv)
+        } else {
+            String::new()
+        }
     };
     let mut command = Command::new(&argv[0]);
     // SAFETY: the closure runs in the forked child before `exec`; `apply_in_child` makes only async-signal-safe
@@ -308,7 +311,10 @@ pub async fn start(
                 let _ = std::fs::remove_dir_all(dir);
             }
             return Err((
-                PlannerError::Crashed(format!("cannot start planner `{program}`: {e}{sandbox}")),
+                PlannerError::Crashed(format!(
+                    "cannot start planner `{program}`: {e}{}",
+                    sandbox()
+                )),
                 String::new(),
             ));
         }
@@ -341,7 +347,8 @@ pub async fn start(
             let tail = output.lock().map(|l| l.tail(600)).unwrap_or_default();
             return Err((
                 PlannerError::Crashed(format!(
-                    "planner process `{program}` exited ({status}) before serving on {addr}{sandbox}; last output:\n{tail}"
+                    "planner process `{program}` exited ({status}) before serving on {addr}{}; last output:\n{tail}",
+                    sandbox()
                 )),
                 text,
             ));

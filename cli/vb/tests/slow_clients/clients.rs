@@ -7,6 +7,16 @@ use std::net::TcpStream;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+/// The flags of issue 58's attack tests: a small limit and share, heads allowed to take 30 s.
+pub const SHARE_LIMITS: [&str; 6] = [
+    "--header-timeout-s",
+    "30",
+    "--max-connections",
+    "40",
+    "--max-connections-per-peer",
+    "10",
+];
+
 /// The bound within which a connection past a 1 s timeout must have been closed.
 pub const CLOSED_BY: Duration = Duration::from_secs(10);
 /// The HTTP/2 client preface.

@@ -320,16 +320,6 @@ async fn the_sim_api_of_a_worker_drops_silent_connections_and_caps_its_connectio
     }
 }
 
-/// The flags of issue 58's attack tests: a small limit and share, heads allowed to take 30 s.
-const SHARE_LIMITS: [&str; 6] = [
-    "--header-timeout-s",
-    "30",
-    "--max-connections",
-    "40",
-    "--max-connections-per-peer",
-    "10",
-];
-
 /// Issue 58, point 1, against a gRPC port: one client holding every connection it can with a preface it never
 /// finishes gets its address's share, and head-less connections from many addresses make way for new clients; a
 /// fresh client's request (`path`) from another address is answered throughout.

@@ -156,20 +156,7 @@ fn one_client_cannot_lock_others_out_and_headless_floods_make_way() {
     let dir = temp_dir("conn-share-http");
     let (db, _) = store(&dir);
     let port = free_port();
-    let mut lb = start_leaderboard(
-        &dir,
-        "leaderboard",
-        &db,
-        port,
-        &[
-            "--header-timeout-s",
-            "30",
-            "--max-connections",
-            "40",
-            "--max-connections-per-peer",
-            "10",
-        ],
-    );
+    let mut lb = start_leaderboard(&dir, "leaderboard", &db, port, &SHARE_LIMITS);
     get_ok_within(port, Duration::from_secs(10));
     let partial = b"GET / HTTP/1.1\r\nHost: localhost\r\n";
     // One attacker at 127.0.0.1 trying to hold 60 connections.

@@ -67,13 +67,7 @@ impl Visible {
     /// `pyvenv.cfg` and `lib/`, a build's target directory, a script's neighbours), or the file alone when it lies
     /// directly in the root.
     fn for_command(argv: &[String]) -> Vec<Visible> {
-        let mut chosen: Vec<(PathBuf, bool)> = command_paths(argv)
-            .into_iter()
-            .filter_map(|p| kept_for(&p))
-            .collect();
-        chosen.sort();
-        chosen.dedup();
-        chosen
+        kept(argv)
             .into_iter()
             .take(MAX_VISIBLE)
             .enumerate()
@@ -202,15 +196,20 @@ fn kept_for(p: &Path) -> Option<(PathBuf, bool)> {
     Some((top, meta.is_dir()))
 }
 
-/// The host's files a planner of `argv` still sees in its private temporary directories, for error messages.
-pub fn visible_paths(argv: &[String]) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = command_paths(argv)
-        .into_iter()
-        .filter_map(|p| kept_for(&p).map(|(t, _)| t))
+/// What stays visible for `argv`, sorted, once each: (path, whether a directory).
+fn kept(argv: &[String]) -> Vec<(PathBuf, bool)> {
+    let mut v: Vec<(PathBuf, bool)> = command_paths(argv)
+        .iter()
+        .filter_map(|p| kept_for(p))
         .collect();
     v.sort();
     v.dedup();
     v
+}
+
+/// The host's files a planner of `argv` still sees in its private temporary directories, for error messages.
+pub fn visible_paths(argv: &[String]) -> Vec<PathBuf> {
+    kept(argv).into_iter().map(|(p, _)| p).collect()
 }
 
 /// What the child needs, prepared before the fork (the child may not allocate).
