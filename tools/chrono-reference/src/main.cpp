@@ -1,0 +1,203 @@
+// chrono-reference: Chrono's HMMWV_Reduced, as Verti-Bench's release configures it, on the scenarios of
+// `vb sim characterize` (issue 59). Writes JSON in `vb sim characterize --json`'s schema, or per-wheel traces.
+//
+//   chrono-reference datasheet [--ground rigid|snow|mud|sand|all] [VARIANT...] [--out FILE]
+//   chrono-reference climb --ground G --grade DEG[,DEG...] [VARIANT...] [--trace FILE.csv]
+//
+// VARIANT: --dt S (default 0.005), --smc (SMC contact instead of NSC), --no-chassis-collision,
+// --no-bulldozing, --chassis-domain (an SCM domain around the chassis too), --threads N (default 1).
+
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <sys/utsname.h>
+#include <thread>
+#include <vector>
+#include <cmath>
+
+#include "chrono/ChVersion.h"
+#include "scenarios.h"
+
+using namespace vbref;
+
+namespace {
+
+std::string num(double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.6g", v);
+    return buf;
+}
+
+std::string opt(const std::optional<double>& v) {
+    return v ? num(*v) : "null";
+}
+
+std::string cpu_model() {
+    std::ifstream f("/proc/cpuinfo");
+    std::string line;
+    while (std::getline(f, line))
+        if (line.rfind("model name", 0) == 0)
+            return line.substr(line.find(':') + 2);
+    return "unknown";
+}
+
+std::string today() {
+    std::time_t t = std::time(nullptr);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%d", std::gmtime(&t));
+    return buf;
+}
+
+std::string json_sheet(const Datasheet& d) {
+    std::ostringstream s;
+    s << "    {\"vehicle\": \"hmmwv\", \"scale\": 1, \"surface\": \"" << d.surface << "\", \"dt\": " << num(d.dt)
+      << ", \"settle_time\": " << num(d.settle_time) << ", \"static_sinkage\": " << num(d.static_sinkage)
+      << ", \"ride_height\": " << num(d.ride_height) << ", \"speed_at\": [";
+    double marks[4] = {2, 5, 10, 20};
+    for (int i = 0; i < 4; i++)
+        s << (i ? ", " : "") << "[" << num(marks[i]) << ", " << num(d.speed_at[i]) << "]";
+    s << "], \"distance_20s\": " << num(d.distance_20s) << ", \"braking_decel_g\": " << num(d.braking_decel_g)
+      << ", \"climb_grade_deg\": " << num(d.climb_grade_deg) << ", \"slide_angle_deg\": " << opt(d.slide_angle_deg)
+      << ", \"tip_angle_deg\": " << opt(d.tip_angle_deg) << ", \"turn_radius_half\": " << opt(d.turn_radius_half)
+      << ", \"turn_radius_full\": " << opt(d.turn_radius_full) << ", \"wall_s\": " << num(d.wall_s)
+      << ", \"simulated_s\": " << num(d.simulated_s) << "}";
+    return s.str();
+}
+
+std::string json_meta(const Options& o) {
+    utsname u{};
+    uname(&u);
+    std::ostringstream s;
+    s << "  \"reference\": {\"simulator\": \"Chrono " << CHRONO_VERSION << "\", \"commit\": \"" << CHRONO_COMMIT
+      << "\", \"build_flags\": \"" << CHRONO_BUILD_FLAGS << "\", \"machine\": \"" << u.machine << ", "
+      << cpu_model() << ", " << std::thread::hardware_concurrency() << " cores\", \"threads\": " << o.threads
+      << ", \"date\": \"" << today() << "\",\n    \"config\": {\"vehicle\": \"HMMWV_Reduced\", \"contact\": \""
+      << (o.smc ? "SMC" : "NSC") << "\", \"collision\": \"Bullet\", \"dt\": " << num(o.dt)
+      << ", \"tyre\": \"RIGID\", \"engine\": \"SIMPLE_MAP\", \"transmission\": \"AUTOMATIC_SIMPLE_MAP\", "
+         "\"drive\": \"AWD, axle and central differentials locked\", \"chassis_collision\": \""
+      << (o.chassis_collision ? "PRIMITIVES" : "NONE") << "\", \"scm_delta\": " << num(o.scm_delta)
+      << ", \"bulldozing\": " << (o.bulldozing ? "[55, 1, 5, 10]" : "null")
+      << ", \"scm_domains\": \"" << (o.chassis_domain ? "wheels 1.0x0.6x1.0 and chassis 5x3x1" : "wheels 1.0x0.6x1.0")
+      << "\", \"rigid_friction\": " << num(o.rigid_friction) << "}}";
+    return s.str();
+}
+
+[[noreturn]] void usage(const std::string& why) {
+    std::cerr << "chrono-reference: " << why
+              << "\nusage: chrono-reference datasheet [--ground G|all] [--out FILE] [VARIANT...]\n"
+                 "       chrono-reference climb --ground G --grade DEG[,DEG...] [--trace FILE.csv] [VARIANT...]\n"
+                 "VARIANT: --dt S, --smc, --no-chassis-collision, --no-bulldozing, --chassis-domain, --threads N\n";
+    std::exit(2);
+}
+
+double parse_number(const std::string& flag, const std::string& v) {
+    try {
+        size_t used = 0;
+        double x = std::stod(v, &used);
+        if (used == v.size() && std::isfinite(x))
+            return x;
+    } catch (...) {
+    }
+    usage(flag + " wants a number, not '" + v + "'");
+}
+
+}  // namespace
+
+int main(int argc, char* argv[]) {
+    if (argc < 2)
+        usage("no command");
+    std::string command = argv[1];
+    Options o;
+    std::string ground = "all", out, trace;
+    std::vector<double> grades;
+    for (int i = 2; i < argc; i++) {
+        std::string a = argv[i];
+        auto value = [&]() -> std::string {
+            if (i + 1 >= argc)
+                usage(a + " wants a value");
+            return argv[++i];
+        };
+        if (a == "--ground")
+            ground = value();
+        else if (a == "--out")
+            out = value();
+        else if (a == "--trace")
+            trace = value();
+        else if (a == "--dt")
+            o.dt = parse_number(a, value());
+        else if (a == "--threads")
+            o.threads = (int)parse_number(a, value());
+        else if (a == "--smc")
+            o.smc = true;
+        else if (a == "--no-chassis-collision")
+            o.chassis_collision = false;
+        else if (a == "--no-bulldozing")
+            o.bulldozing = false;
+        else if (a == "--chassis-domain")
+            o.chassis_domain = true;
+        else if (a == "--grade") {
+            std::stringstream list(value());
+            std::string g;
+            while (std::getline(list, g, ','))
+                grades.push_back(parse_number("--grade", g));
+        } else
+            usage("unknown argument '" + a + "'");
+    }
+    if (!(o.dt > 0 && o.dt <= 0.02))
+        usage("--dt must be in (0, 0.02] s");
+    if (o.threads < 1)
+        usage("--threads must be at least 1");
+    try {
+        if (command == "datasheet") {
+            std::vector<Soil> soils;
+            if (ground == "all")
+                soils = {Soil::Rigid, Soil::Snow, Soil::Mud, Soil::Sand};
+            else
+                soils = {soil_from_name(ground)};
+            std::ostringstream json;
+            json << "{\n" << json_meta(o) << ",\n  \"datasheets\": [\n";
+            for (size_t i = 0; i < soils.size(); i++) {
+                Options oi = o;
+                oi.soil = soils[i];
+                Datasheet d = datasheet(oi);
+                json << (i ? ",\n" : "") << json_sheet(d);
+                std::cerr << json_sheet(d) << std::endl;
+            }
+            json << "\n  ]\n}\n";
+            if (out.empty()) {
+                std::cout << json.str();
+            } else {
+                std::ofstream f(out);
+                f << json.str();
+                if (!f)
+                    throw std::runtime_error("cannot write " + out);
+            }
+        } else if (command == "climb") {
+            if (ground == "all" || grades.empty())
+                usage("climb wants one --ground and --grade");
+            o.soil = soil_from_name(ground);
+            std::ofstream f;
+            Trace t;
+            if (!trace.empty()) {
+                f.open(trace);
+                if (!f)
+                    throw std::runtime_error("cannot write " + trace);
+                write_trace_header(f);
+                t.out = &f;
+            }
+            for (double g : grades) {
+                bool ok = climbs(o, g, trace.empty() ? nullptr : &t);
+                std::cout << ground << " " << g << " deg: " << (ok ? "climbs" : "does not climb") << std::endl;
+            }
+        } else {
+            usage("unknown command '" + command + "'");
+        }
+    } catch (const std::exception& e) {
+        std::cerr << "chrono-reference: " << e.what() << std::endl;
+        return 1;
+    }
+    return 0;
+}

@@ -1,0 +1,44 @@
+// The scenarios of `vb sim characterize` (sim-core/src/characterize.rs), run on the Chrono rig by the same
+// criteria: settle, full-throttle speeds and 20 s distance, braking from 10 m/s, the steepest grade, the tilt table's
+// slide and tip, the steady turning radii. Full-size HMMWV: the scale is 1.
+#pragma once
+
+#include <optional>
+#include <ostream>
+#include <string>
+
+#include "rig.h"
+
+namespace vbref {
+
+struct Datasheet {
+    std::string surface;
+    double dt = 0;
+    double settle_time = 0;
+    double static_sinkage = 0;
+    double ride_height = 0;
+    double speed_at[4] = {0, 0, 0, 0};  // at 2, 5, 10, 20 s
+    double distance_20s = 0;
+    double braking_decel_g = 0;
+    double climb_grade_deg = 0;
+    std::optional<double> slide_angle_deg, tip_angle_deg;
+    std::optional<double> turn_radius_half, turn_radius_full;
+    // Wall time and simulated time of every run of the datasheet, s.
+    double wall_s = 0;
+    double simulated_s = 0;
+};
+
+// Per-wheel, chassis and suspension samples every `every` s, as CSV (one row per wheel per sample).
+struct Trace {
+    std::ostream* out = nullptr;
+    double every = 0.05;
+};
+
+Datasheet datasheet(const Options& options);
+
+// Whether the vehicle climbs `grade_deg` by characterize.rs's criterion; writes the run to `trace` if given.
+bool climbs(const Options& options, double grade_deg, Trace* trace = nullptr);
+
+void write_trace_header(std::ostream& out);
+
+}  // namespace vbref
