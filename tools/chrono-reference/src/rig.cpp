@@ -1,5 +1,6 @@
 #include "rig.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -297,13 +298,19 @@ const char* Rig::wheel_name(int i) {
     return names[i];
 }
 
-ChVector3d Rig::body_contact_force(const std::shared_ptr<ChBody>& body) const {
+void Rig::ground_force(const std::shared_ptr<ChBody>& body, ChVector3d& force, ChVector3d& torque) const {
     if (m_scm) {
-        ChVector3d f, t;
-        static_cast<SCMTerrain*>(m_terrain.get())->GetContactForceBody(body, f, t);
-        return f;
+        static_cast<SCMTerrain*>(m_terrain.get())->GetContactForceBody(body, force, torque);
+    } else {
+        force = body->GetContactForce();
+        torque = body->GetContactTorque();
     }
-    return body->GetContactForce();
+}
+
+ChVector3d Rig::body_contact_force(const std::shared_ptr<ChBody>& body) const {
+    ChVector3d force, torque;
+    ground_force(body, force, torque);
+    return force;
 }
 
 std::array<WheelSample, 4> Rig::wheels() const {
@@ -321,12 +328,7 @@ std::array<WheelSample, 4> Rig::wheels() const {
         ChVector3d fwd = Vcross(axis, n);
         fwd.Normalize();
         ChVector3d force, torque;
-        if (m_scm) {
-            static_cast<SCMTerrain*>(m_terrain.get())->GetContactForceBody(spindle, force, torque);
-        } else {
-            force = spindle->GetContactForce();
-            torque = spindle->GetContactTorque();
-        }
+        ground_force(spindle, force, torque);
         WheelSample& w = out[i];
         w.sinkage = TYRE_RADIUS - (pos.z() - m_ground.height(pos.x())) * cos_a;
         w.omega = Vdot(spindle->GetAngVelParent(), axis);
@@ -356,13 +358,9 @@ ChVector3d Rig::suspension_contact_force() const {
         for (auto& wheel : axle->GetWheels())
             excluded.push_back(wheel->GetSpindle().get());
     ChVector3d sum(0);
-    for (auto& body : m_system->GetBodies()) {
-        bool skip = false;
-        for (auto* e : excluded)
-            skip = skip || e == body.get();
-        if (!skip && body->IsFixed() == false)
+    for (auto& body : m_system->GetBodies())
+        if (!body->IsFixed() && std::find(excluded.begin(), excluded.end(), body.get()) == excluded.end())
             sum += body_contact_force(body);
-    }
     return sum;
 }
 

@@ -102,6 +102,9 @@ class Rig {
 
   private:
     double settle();
+    // The soil's (SCM) or the contact container's (rigid) force and torque on `body`, world frame, about its COM.
+    void ground_force(const std::shared_ptr<chrono::ChBody>& body, chrono::ChVector3d& force,
+                      chrono::ChVector3d& torque) const;
     chrono::ChVector3d body_contact_force(const std::shared_ptr<chrono::ChBody>& body) const;
 
     Options m_options;

@@ -19,12 +19,18 @@ struct Clock {
 };
 Clock g_clock;
 
+// Adds the wall time of its scope to g_clock.
+struct Timed {
+    std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+    ~Timed() { g_clock.wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); }
+};
+
 // Runs `seconds` calling `control` (steering, throttle, brake) before every step, and `each` after it.
 void drive(Rig& rig,
            double seconds,
            const std::function<void(const Rig&, double&, double&, double&)>& control,
            const std::function<bool(const Rig&)>& each = nullptr) {
-    auto start = std::chrono::steady_clock::now();
+    Timed timed;
     long steps = std::lround(seconds / rig.dt());
     for (long i = 0; i < steps; i++) {
         double s = 0, t = 0, b = 0;
@@ -34,7 +40,6 @@ void drive(Rig& rig,
         if (each && each(rig))
             break;
     }
-    g_clock.wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 // characterize.rs's `steer`: proportional to the heading error, damped by the yaw rate.
@@ -48,16 +53,16 @@ void hold_heading_full_throttle(const Rig& rig, double& s, double& t, double& b)
     b = 0;
 }
 
-std::unique_ptr<Rig> flat_rig(const Options& o, double x) {
-    auto start = std::chrono::steady_clock::now();
-    Ground flat;
-    flat.x_start = -600;
-    flat.x_end = 600;
-    flat.half_width = 60;
-    auto rig = std::make_unique<Rig>(o, flat, x, 0, 0);
-    g_clock.wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+// A settled vehicle at (x, 0) facing +x; its building and settling are counted in g_clock.
+std::unique_ptr<Rig> make_rig(const Options& o, const Ground& ground, double x) {
+    Timed timed;
+    auto rig = std::make_unique<Rig>(o, ground, x, 0, 0);
     g_clock.simulated += rig->settle_time();
     return rig;
+}
+
+std::unique_ptr<Rig> flat_rig(const Options& o, double x) {
+    return make_rig(o, Ground{}, x);
 }
 
 double mean_sinkage(const Rig& rig) {
@@ -131,7 +136,7 @@ void tilt_table(const Options& o, Datasheet& d) {
     auto rig = flat_rig(o, 0);
     double weight = rig->chassis_mass() * G;
     std::optional<double> slide, tip;
-    auto start = std::chrono::steady_clock::now();
+    Timed timed;
     while (rig->time() < 80) {
         double deg = rig->time();
         double a = deg * chrono::CH_DEG_TO_RAD;
@@ -147,7 +152,6 @@ void tilt_table(const Options& o, Datasheet& d) {
         if (slide && (tip || rig->time() > *slide + 5))
             break;
     }
-    g_clock.wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     d.slide_angle_deg = slide;
     d.tip_angle_deg = tip;
 }
@@ -202,7 +206,6 @@ void write_trace_header(std::ostream& out) {
 }
 
 bool climbs(const Options& o, double deg, Trace* trace) {
-    auto start = std::chrono::steady_clock::now();
     Ground slope;
     slope.grade_deg = deg;
     // Centred on x = 0: SCM's mesh-initialised grid is laid out about the mesh's centre but looked up about the
@@ -210,9 +213,8 @@ bool climbs(const Options& o, double deg, Trace* trace) {
     slope.x_start = -300;
     slope.x_end = 300;
     slope.half_width = 15;
-    Rig rig(o, slope, -250, 0, 0);
-    g_clock.wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    g_clock.simulated += rig.settle_time();
+    auto owned = make_rig(o, slope, -250);
+    Rig& rig = *owned;
     double a = deg * chrono::CH_DEG_TO_RAD;
     auto along = [&](const Rig& r) { return r.com().x() / std::cos(a); };
     double x_start = along(rig);
