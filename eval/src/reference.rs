@@ -2,7 +2,8 @@
 //! ratio and whether ours is within tolerance (issue 59, item 2): grades and tilt angles within 4 degrees, every
 //! other figure within 20%. The reference is JSON in `vb sim characterize --json`'s schema (`{"datasheets":
 //! [...]}`), as the Chrono reference harness writes it; a figure the reference leaves out (or sets to null) is
-//! listed as not compared.
+//! listed as not compared. A reference may also hold the move-off check start by start (`{"move_off": {"tasks":
+//! [{"task": "w001-t0", "distance": 12.3}, ...]}}`, the harness's `move-off`), read by [`move_off`].
 
 use serde_json::Value;
 
@@ -20,6 +21,8 @@ pub enum ReferenceError {
     NoDatasheets,
     #[error("reference datasheet {0} has no `surface`")]
     NoSurface(usize),
+    #[error("the reference's move_off.tasks[{index}] is not {{\"task\": \"wNNN-tK\", \"distance\": metres}}: {why}")]
+    BadMoveOff { index: usize, why: String },
 }
 
 /// How a figure is compared.
@@ -167,6 +170,37 @@ pub fn table(rows: &[Comparison]) -> String {
     s
 }
 
+/// The reference's move-off check start by start (`move_off.tasks`), or `None` if it has none.
+pub fn move_off(
+    reference_json: &str,
+) -> Result<Option<Vec<crate::move_off::StartDistance>>, ReferenceError> {
+    let reference: Value = serde_json::from_str(reference_json)?;
+    let Some(tasks) = reference.get("move_off").and_then(|m| m.get("tasks")) else {
+        return Ok(None);
+    };
+    let bad = |index: usize, why: &str| ReferenceError::BadMoveOff {
+        index,
+        why: why.to_string(),
+    };
+    let list = tasks.as_array().ok_or_else(|| bad(0, "not a list"))?;
+    let mut out = Vec::with_capacity(list.len());
+    for (i, t) in list.iter().enumerate() {
+        let task = t
+            .get("task")
+            .and_then(Value::as_str)
+            .ok_or_else(|| bad(i, "no task id"))?
+            .parse()
+            .map_err(|e: contracts::TaskIdError| bad(i, &e.to_string()))?;
+        let distance = t
+            .get("distance")
+            .and_then(Value::as_f64)
+            .filter(|d| d.is_finite() && *d >= 0.0)
+            .ok_or_else(|| bad(i, "no finite, non-negative distance"))?;
+        out.push(crate::move_off::StartDistance { task, distance });
+    }
+    Ok(Some(out))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -225,6 +259,66 @@ mod tests {
             (get("distance_20s"), get("climb_grade_deg")),
             (Some(false), Some(true))
         );
+    }
+
+    #[test]
+    fn the_move_off_check_pairs_start_by_start_and_counts_each_way_of_disagreeing() {
+        use crate::move_off::{agreement, agreement_table, MoveOff, StartDistance};
+        let id = |s: &str| s.parse::<contracts::TaskId>().unwrap();
+        let start = |t: &str, d: f64| StartDistance {
+            task: id(t),
+            distance: d,
+        };
+        let ours = MoveOff {
+            starts: 5,
+            stuck: vec![id("w001-t1"), id("w001-t2")],
+            tasks: vec![
+                start("w001-t0", 80.0),
+                start("w001-t1", 1.0),
+                start("w001-t2", 4.9),
+                start("w001-t3", 5.0),
+                start("w002-t0", 30.0),
+            ],
+        };
+        let text = json!({"datasheets": [], "move_off": {"tasks": [
+            {"task": "w001-t3", "distance": 0.2}, {"task": "w001-t0", "distance": 60.0},
+            {"task": "w001-t1", "distance": 3.0}, {"task": "w001-t2", "distance": 12.0}
+        ]}})
+        .to_string();
+        let reference = move_off(&text).unwrap().unwrap();
+        let a = agreement(&ours, &reference);
+        assert_eq!(
+            (
+                a.both_moved,
+                a.both_stranded,
+                a.only_ours_stranded,
+                a.only_reference_stranded
+            ),
+            (1, 1, 1, 1),
+            "5.0 m is moved (the check's >= 5 m), 4.9 m is not"
+        );
+        assert_eq!(a.not_in_reference, vec![id("w002-t0")]);
+        assert_eq!(a.starts[0].reference, 60.0, "paired by task, not by order");
+        let t = agreement_table(&a);
+        assert!(
+            t.contains(
+                "stranded only in ours 1, stranded only in the reference 1; 1 not in the reference"
+            ),
+            "{t}"
+        );
+        assert!(compare(&[], &text).unwrap().is_empty());
+        // No move_off: none; a malformed row: refused, naming it.
+        assert_eq!(move_off(r#"{"datasheets": []}"#).unwrap(), None);
+        let e = move_off(
+            r#"{"move_off": {"tasks": [{"task": "w001-t0", "distance": 1}, {"task": "t9"}]}}"#,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("move_off.tasks[1]") && e.contains("t9"), "{e}");
+        let e = move_off(r#"{"move_off": {"tasks": [{"task": "w001-t0", "distance": -1}]}}"#)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("non-negative"), "{e}");
     }
 
     #[test]

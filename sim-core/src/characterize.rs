@@ -248,13 +248,27 @@ pub fn braking(spec: &VehicleSpec, setup: &Setup) -> f64 {
 /// (its up axis within 30 degrees of the slope's normal), has gained at least 3 m (times scale) along the slope
 /// from its settled start, and is still climbing at least 0.2 m/s (times sqrt(scale)) on average over the last 5 s.
 pub fn climbs(spec: &VehicleSpec, setup: &Setup, deg: f64) -> bool {
+    climbs_observed(spec, setup, deg, |_| {})
+}
+
+/// [`climbs`], showing `observe` the simulation before every step (a trace's hook: `climb_trace`).
+pub fn climbs_observed(
+    spec: &VehicleSpec,
+    setup: &Setup,
+    deg: f64,
+    mut observe: impl FnMut(&Simulation),
+) -> bool {
     let world = test_world(setup.ground, deg, spec.scale);
     let mut sim = new_sim(&world, spec, setup, -100.0);
     let along = |s: &Simulation| s.position().x / deg.to_radians().cos();
     let start = along(&sim);
-    drive(&mut sim, 15.0, |s| act(hold_heading(s), 1.0, 0.0));
+    let mut control = |s: &Simulation| {
+        observe(s);
+        act(hold_heading(s), 1.0, 0.0)
+    };
+    drive(&mut sim, 15.0, &mut control);
     let x = along(&sim);
-    drive(&mut sim, 5.0, |s| act(hold_heading(s), 1.0, 0.0));
+    drive(&mut sim, 5.0, &mut control);
     let a = deg.to_radians();
     let slope_normal = Vector3::new(-a.sin(), 0.0, a.cos());
     let upright = (sim.orientation() * Vector3::z()).dot(&slope_normal) > 30f64.to_radians().cos();

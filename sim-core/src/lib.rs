@@ -12,6 +12,7 @@
 //! - [`terrain_stats`]: relief, slope and roughness statistics of heightmaps.
 
 pub mod characterize;
+pub mod climb_trace;
 pub mod collide;
 pub mod control;
 pub mod episode;

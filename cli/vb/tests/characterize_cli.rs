@@ -96,6 +96,14 @@ fn characterize_counts_the_starts_a_vehicle_cannot_move_off_from() {
         OsStr::new("--out"),
         tasks.as_os_str(),
     ]);
+    // Beside a reference that lists two of the starts (issue 59, item 4: the Chrono harness's `move-off`): one it
+    // says is stranded, one it says moved.
+    let reference = dir.join("reference.json");
+    std::fs::write(
+        &reference,
+        r#"{"datasheets": [], "move_off": {"tasks": [{"task": "w005-t0", "distance": 0.5}, {"task": "w001-t3", "distance": 88.0}]}}"#,
+    )
+    .unwrap();
     let out = vb_ok([
         OsStr::new("sim"),
         OsStr::new("characterize"),
@@ -104,10 +112,32 @@ fn characterize_counts_the_starts_a_vehicle_cannot_move_off_from() {
         OsStr::new("--json"),
         OsStr::new("--task-dir"),
         tasks.as_os_str(),
+        OsStr::new("--reference"),
+        reference.as_os_str(),
     ]);
     let v: serde_json::Value = serde_json::from_slice(&out).unwrap();
     assert_eq!(v["datasheets"][0]["surface"], "rigid");
     assert_eq!(v["move_off"]["starts"], 100);
+    let rows = v["move_off"]["tasks"].as_array().unwrap();
+    assert_eq!(rows.len(), 100);
+    let distance = |id: &str| {
+        rows.iter()
+            .find(|r| r["task"] == id)
+            .and_then(|r| r["distance"].as_f64())
+            .unwrap()
+    };
+    let a = &v["move_off_agreement"];
+    assert_eq!(a["not_in_reference"].as_array().unwrap().len(), 98, "{a}");
+    assert_eq!(a["starts"][0]["task"], "w001-t3", "in our task order");
+    assert_eq!(a["starts"][0]["ours"].as_f64(), Some(distance("w001-t3")));
+    // w005 is a low world: we move off from it, the reference says stranded.
+    assert!(distance("w005-t0") >= 5.0);
+    let counted = a["both_moved"].as_u64().unwrap()
+        + a["only_ours_stranded"].as_u64().unwrap()
+        + a["only_reference_stranded"].as_u64().unwrap()
+        + a["both_stranded"].as_u64().unwrap();
+    assert_eq!(counted, 2, "{a}");
+    assert!(a["only_reference_stranded"].as_u64().unwrap() >= 1, "{a}");
     let stuck: Vec<&str> = v["move_off"]["stuck"]
         .as_array()
         .unwrap()
@@ -201,4 +231,94 @@ fn characterize_compares_with_a_reference_file() {
         err.contains("bad.json") && err.contains("datasheets"),
         "{err}"
     );
+    // A reference of move-off starts wants the task set they ran on; a malformed start is named.
+    for (text, says) in [
+        (
+            r#"{"datasheets": [], "move_off": {"tasks": [{"task": "w001-t0", "distance": 3}]}}"#,
+            "--task-dir",
+        ),
+        (
+            r#"{"datasheets": [], "move_off": {"tasks": [{"task": "w001-t0"}]}}"#,
+            "move_off.tasks[0]",
+        ),
+    ] {
+        std::fs::write(&bad, text).unwrap();
+        let out = Command::new(common::vb())
+            .args(["sim", "characterize", "--reference"])
+            .arg(&bad)
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(says), "{err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `vb sim climb`: the grade scenario with a per-wheel trace in the Chrono harness's columns (issue 59, item 3);
+/// its verdict is the datasheet's criterion, and bad input is refused before anything runs.
+#[test]
+fn climb_writes_a_per_wheel_trace_in_the_harness_columns() {
+    let dir = common::temp_dir("climb-trace");
+    let trace = dir.join("trace.csv");
+    let out = String::from_utf8(vb_ok([
+        OsStr::new("sim"),
+        OsStr::new("climb"),
+        OsStr::new("--surface"),
+        OsStr::new("rigid"),
+        OsStr::new("--grade"),
+        OsStr::new("10,50"),
+        OsStr::new("--every"),
+        OsStr::new("1"),
+        OsStr::new("--trace"),
+        trace.as_os_str(),
+    ]))
+    .unwrap();
+    // 50 degrees is beyond atan(0.85) = 40.4: no tyre can hold it.
+    assert!(
+        out.contains("rigid 10 deg: climbs") && out.contains("rigid 50 deg: does not climb"),
+        "{out}"
+    );
+    let text = std::fs::read_to_string(&trace).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let harness = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../tools/chrono-reference/measured/snow-climb-nsc-5ms.csv"),
+    )
+    .unwrap();
+    assert_eq!(
+        header,
+        harness.lines().next().unwrap(),
+        "the harness's columns"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(
+        rows.len(),
+        2 * 20 * 4,
+        "two grades, every 1 s for 20 s, four wheels"
+    );
+    assert!(rows.iter().all(|r| r.len() == 19), "19 columns");
+    assert_eq!(
+        (rows[0][0], rows[0][2], rows[3][2]),
+        ("10", "front_left", "rear_right")
+    );
+    for (args, says) in [
+        (vec!["--surface", "snow", "--grade", "70"], "--grade"),
+        (vec!["--surface", "ice", "--grade", "10"], "ice"),
+        (
+            vec!["--surface", "rigid", "--grade", "10", "--every", "0"],
+            "--every",
+        ),
+    ] {
+        let out = Command::new(common::vb())
+            .args(["sim", "climb"])
+            .args(&args)
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -3,6 +3,7 @@
 //
 //   chrono-reference datasheet [--ground rigid|snow|mud|sand|all] [VARIANT...] [--out FILE]
 //   chrono-reference climb --ground G --grade DEG[,DEG...] [VARIANT...] [--trace FILE.csv]
+//   chrono-reference move-off --task-dir DIR [--worlds ID[,ID...]] [VARIANT...] [--out FILE]
 //
 // VARIANT: --dt S (default 0.005), --smc (SMC contact instead of NSC), --no-chassis-collision,
 // --no-bulldozing, --chassis-domain (an SCM domain around the chassis too), --threads N (default 1).
@@ -85,10 +86,23 @@ std::string json_meta(const Options& o) {
     return s.str();
 }
 
+// To `path`, or stdout if empty.
+void write_out(const std::string& path, const std::string& text) {
+    if (path.empty()) {
+        std::cout << text;
+        return;
+    }
+    std::ofstream f(path);
+    f << text;
+    if (!f)
+        throw std::runtime_error("cannot write " + path);
+}
+
 [[noreturn]] void usage(const std::string& why) {
     std::cerr << "chrono-reference: " << why
               << "\nusage: chrono-reference datasheet [--ground G|all] [--out FILE] [VARIANT...]\n"
                  "       chrono-reference climb --ground G --grade DEG[,DEG...] [--trace FILE.csv] [VARIANT...]\n"
+                 "       chrono-reference move-off --task-dir DIR [--worlds ID[,ID...]] [--out FILE] [VARIANT...]\n"
                  "VARIANT: --dt S, --smc, --no-chassis-collision, --no-bulldozing, --chassis-domain, --threads N\n";
     std::exit(2);
 }
@@ -111,8 +125,8 @@ int main(int argc, char* argv[]) {
         usage("no command");
     std::string command = argv[1];
     Options o;
-    std::string ground = "all", out, trace;
-    std::vector<double> grades;
+    std::string ground = "all", out, trace, task_dir;
+    std::vector<double> grades, worlds;
     for (int i = 2; i < argc; i++) {
         std::string a = argv[i];
         auto value = [&]() -> std::string {
@@ -138,11 +152,13 @@ int main(int argc, char* argv[]) {
             o.bulldozing = false;
         else if (a == "--chassis-domain")
             o.chassis_domain = true;
-        else if (a == "--grade") {
+        else if (a == "--task-dir")
+            task_dir = value();
+        else if (a == "--grade" || a == "--worlds") {
             std::stringstream list(value());
             std::string g;
             while (std::getline(list, g, ','))
-                grades.push_back(parse_number("--grade", g));
+                (a == "--grade" ? grades : worlds).push_back(parse_number(a, g));
         } else
             usage("unknown argument '" + a + "'");
     }
@@ -167,14 +183,48 @@ int main(int argc, char* argv[]) {
                 std::cerr << json_sheet(d) << std::endl;
             }
             json << "\n  ]\n}\n";
-            if (out.empty()) {
-                std::cout << json.str();
-            } else {
-                std::ofstream f(out);
-                f << json.str();
-                if (!f)
-                    throw std::runtime_error("cannot write " + out);
+            write_out(out, json.str());
+        } else if (command == "move-off") {
+            if (task_dir.empty())
+                usage("move-off wants --task-dir");
+            std::vector<int> ids;
+            if (worlds.empty())
+                ids = world_ids(task_dir);
+            for (double w : worlds)
+                ids.push_back((int)w);
+            std::ostringstream rows, stuck;
+            int starts = 0, stranded = 0;
+            double wall = 0;
+            for (int id : ids) {
+                World world = World::load(task_dir, id);
+                for (const WorldTask& t : world.tasks) {
+                    double w = 0;
+                    double d = move_off_distance(o, world, t, &w);
+                    wall += w;
+                    bool moved = d >= 5.0;
+                    rows << (starts ? ",\n" : "") << "      {\"task\": \"" << t.id << "\", \"distance\": " << num(d)
+                         << "}";
+                    if (!moved)
+                        stuck << (stranded++ ? ", " : "") << "\"" << t.id << "\"";
+                    starts++;
+                    std::cerr << t.id << " (" << world.semantics << "): " << num(d) << " m"
+                              << (moved ? "" : " STRANDED") << ", " << num(w) << " s wall" << std::endl;
+                }
             }
+            std::ostringstream json;
+            json << "{\n" << json_meta(o) << ",\n  \"datasheets\": [],\n  \"move_off\": {\"criterion\": "
+                 << "\"full throttle towards the goal for 20 s from the settled start; moved if >= 5 m\", "
+                 << "\"starts\": " << starts << ", \"wall_s\": " << num(wall) << ",\n    \"stuck\": ["
+                 << stuck.str() << "],\n    \"tasks\": [\n" << rows.str() << "\n    ]\n  }\n}\n";
+            write_out(out, json.str());
+        } else if (command == "height") {
+            // The world's height at points (a self-check of the loader): --task-dir DIR --worlds N --grade X,Y,...
+            if (task_dir.empty() || worlds.size() != 1 || grades.size() % 2)
+                usage("height wants --task-dir, one --worlds and --grade X,Y[,X,Y...]");
+            World world = World::load(task_dir, (int)worlds[0]);
+            for (size_t i = 0; i < grades.size(); i += 2)
+                std::cout << grades[i] << " " << grades[i + 1] << " " << world.height(grades[i], grades[i + 1])
+                          << std::endl;
         } else if (command == "climb") {
             if (ground == "all" || grades.empty())
                 usage("climb wants one --ground and --grade");

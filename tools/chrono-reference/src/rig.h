@@ -2,7 +2,7 @@
 // 5 ms step, RIGID tyres, AWD with both axle differentials and the central differential locked, SIMPLE_MAP engine,
 // AUTOMATIC_SIMPLE_MAP transmission, primitive chassis collision box), on rigid ground or on SCM with one of the
 // release's three soil sets (0.1 m grid, bulldozing 55 deg / 1 / 5 / 10, one active domain 1.0 x 0.6 x 1.0 m per
-// wheel spindle). The ground is a plane rising along +x at a grade, or flat; variants of the release's
+// wheel spindle), on a scene (scene.h: a plane, or one of the task set's worlds); variants of the release's
 // configuration (SMC contact, another step, no chassis collision, no bulldozing) separate causes (issue 59, item 3).
 #pragma once
 
@@ -13,36 +13,9 @@
 
 #include "chrono/core/ChVector3.h"
 #include "chrono_models/vehicle/hmmwv/HMMWV.h"
-#include "chrono_vehicle/ChTerrain.h"
+#include "scene.h"
 
 namespace vbref {
-
-enum class Soil { Rigid, Snow, Mud, Sand };
-
-Soil soil_from_name(const std::string& name);
-const char* soil_name(Soil soil);
-
-struct Options {
-    Soil soil = Soil::Rigid;
-    // Friction of rigid ground (concrete's mean in the release); the tyre's is 0.9 and NSC combines them as the
-    // minimum.
-    double rigid_friction = 0.85;
-    double dt = 5e-3;
-    bool smc = false;
-    bool chassis_collision = true;
-    bool bulldozing = true;
-    // Also an SCM active domain around the chassis (5 x 3 x 1 m), so the soil meets the chassis box too; the
-    // release's harness has the wheels' only.
-    bool chassis_domain = false;
-    double scm_delta = 0.1;
-    int threads = 1;
-};
-
-// The release's SCM sets (verti_bench envs/terrain.py: Soft = snow, Mid = mud, Hard = sand).
-struct SoilSet {
-    double kphi, kc, n, cohesion, friction_deg, janosi, elastic, damping;
-};
-SoilSet soil_set(Soil soil);
 
 // One wheel at one instant. Forces are the soil's (or rigid ground's) on the wheel, world frame, split along the
 // ground's normal and the wheel's heading in the ground's plane.
@@ -56,21 +29,12 @@ struct WheelSample {
     double moment;   // N m, the soil's moment about the axle (negative resists a forward spin)
 };
 
-// A ground: height z = (x - x_start) tan(grade) for x >= x_start, within [x_start, x_end] x [-half_width,
-// half_width] (flat: grade 0).
-struct Ground {
-    double grade_deg = 0;
-    double x_start = -600;
-    double x_end = 600;
-    double half_width = 60;
-    double height(double x) const;
-    chrono::ChVector3d normal() const;
-};
-
 class Rig {
   public:
-    // Builds the system, the ground and the vehicle at (x, y) facing yaw, resting on the ground; then settles it
+    // Builds the system, the scene and the vehicle at (x, y) facing yaw, resting on the ground; then settles it
     // (settle()).
+    Rig(const Options& options, std::unique_ptr<Scene> scene, double x, double y, double yaw);
+    // On a plane.
     Rig(const Options& options, const Ground& ground, double x, double y, double yaw);
     ~Rig();
 
@@ -98,21 +62,16 @@ class Rig {
     int gear() const;
     double engine_speed() const;  // rad/s
 
-    const Ground& ground() const { return m_ground; }
+    const Scene& scene() const { return *m_scene; }
 
   private:
     double settle();
-    // The soil's (SCM) or the contact container's (rigid) force and torque on `body`, world frame, about its COM.
-    void ground_force(const std::shared_ptr<chrono::ChBody>& body, chrono::ChVector3d& force,
-                      chrono::ChVector3d& torque) const;
     chrono::ChVector3d body_contact_force(const std::shared_ptr<chrono::ChBody>& body) const;
 
     Options m_options;
-    Ground m_ground;
+    std::unique_ptr<Scene> m_scene;
     std::unique_ptr<chrono::ChSystem> m_system;
     std::unique_ptr<chrono::vehicle::hmmwv::HMMWV_Reduced> m_hmmwv;
-    std::unique_ptr<chrono::vehicle::ChTerrain> m_terrain;
-    bool m_scm = false;
     double m_t0 = 0;
     double m_settle_time = 0;
 };

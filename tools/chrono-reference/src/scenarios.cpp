@@ -119,7 +119,7 @@ void sample(const Rig& rig, double grade, std::ostream& out) {
     ChVector3d c = rig.com();
     ChVector3d fc = rig.chassis_contact_force();
     ChVector3d fs = rig.suspension_contact_force();
-    ChVector3d n = rig.ground().normal();
+    ChVector3d n = rig.scene().normal(c.x(), c.y());
     for (int i = 0; i < 4; i++) {
         out << grade << ',' << rig.time() << ',' << Rig::wheel_name(i) << ',' << c.x() << ',' << c.z() << ','
             << rig.speed() << ',' << rig.gear() << ',' << rig.engine_speed() << ',' << w[i].sinkage << ','
@@ -251,7 +251,7 @@ Datasheet datasheet(const Options& o) {
         auto rig = flat_rig(o, 0);
         d.settle_time = rig->settle_time();
         d.static_sinkage = mean_sinkage(*rig);
-        d.ride_height = rig->com().z() - rig->ground().height(rig->com().x());
+        d.ride_height = rig->com().z() - rig->scene().height(rig->com().x(), rig->com().y());
     }
     std::cerr << d.surface << ": settled" << std::endl;
     full_throttle(o, d);
@@ -267,6 +267,29 @@ Datasheet datasheet(const Options& o) {
     d.wall_s = g_clock.wall;
     d.simulated_s = g_clock.simulated;
     return d;
+}
+
+double move_off_distance(const Options& o, const World& world, const WorldTask& task, double* wall_s) {
+    double wall0 = g_clock.wall;
+    double yaw = std::atan2(task.goal[1] - task.start[1], task.goal[0] - task.start[0]);
+    std::unique_ptr<Rig> rig;
+    {
+        Timed timed;
+        rig = std::make_unique<Rig>(o, world_scene(world), task.start[0], task.start[1], yaw);
+    }
+    ChVector3d x0 = rig->com();
+    drive(*rig, 20, [&](const Rig& r, double& s, double& t, double& b) {
+        ChVector3d p = r.com();
+        double bearing = std::atan2(task.goal[1] - p.y(), task.goal[0] - p.x());
+        double error = std::remainder(bearing - r.heading(), 2 * chrono::CH_PI);
+        s = steer(r, error);
+        t = 1;
+        b = 0;
+    });
+    ChVector3d dx = rig->com() - x0;
+    if (wall_s)
+        *wall_s = g_clock.wall - wall0;
+    return std::hypot(dx.x(), dx.y());
 }
 
 }  // namespace vbref

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "rig.h"
+#include "world.h"
 
 namespace vbref {
 
@@ -40,5 +41,10 @@ Datasheet datasheet(const Options& options);
 bool climbs(const Options& options, double grade_deg, Trace* trace = nullptr);
 
 void write_trace_header(std::ostream& out);
+
+// sim-core's move-off check (sim-core/src/move_off.rs): from `task`'s start of `world`, settled facing the goal,
+// full throttle for 20 s with the steering holding the bearing to the goal; how far (m, horizontal) the chassis
+// ends from where it started. `wall_s` gets the wall time of the run.
+double move_off_distance(const Options& options, const World& world, const WorldTask& task, double* wall_s = nullptr);
 
 }  // namespace vbref

@@ -28,6 +28,29 @@ pub enum SimCmd {
         #[arg(long, default_value = "out/sim")]
         out: PathBuf,
     },
+    /// The steepest-grade scenario at the given grades (climbs or not, by the datasheet's criterion), with a
+    /// per-wheel trace in the Chrono reference harness's CSV columns (`chrono-reference climb --trace`); columns
+    /// sim-core does not model (engine speed, the soil's moment, the chassis' and suspension's soil forces) are
+    /// left empty.
+    Climb {
+        #[arg(long, default_value = "hmmwv")]
+        vehicle: String,
+        /// rigid (concrete, mu 0.85), snow, mud or sand.
+        #[arg(long)]
+        surface: String,
+        /// Grades, degrees, comma-separated (0 to 60).
+        #[arg(long, value_delimiter = ',', required = true)]
+        grade: Vec<f64>,
+        /// Physics step, s (default: the vehicle's).
+        #[arg(long)]
+        dt: Option<f64>,
+        /// Write the trace here (CSV, one row per wheel per sample).
+        #[arg(long)]
+        trace: Option<PathBuf>,
+        /// Sample interval of the trace, s.
+        #[arg(long, default_value_t = 0.05)]
+        every: f64,
+    },
     /// List the vehicle catalogue.
     Vehicles,
     /// A vehicle's datasheet: static sinkage and ride height, full-throttle speeds and distance, braking, the
@@ -50,7 +73,9 @@ pub enum SimCmd {
         #[arg(long)]
         task_dir: Option<PathBuf>,
         /// A reference's datasheets (JSON in --json's schema, e.g. the Chrono harness's): prints every figure of
-        /// both with the ratio and whether ours is within tolerance (angles 4 deg, everything else 20%).
+        /// both with the ratio and whether ours is within tolerance (angles 4 deg, everything else 20%). With
+        /// --task-dir and a reference holding the move-off check (the harness's `move-off`): both start by start
+        /// and how often they agree.
         #[arg(long)]
         reference: Option<PathBuf>,
     },
@@ -115,10 +140,21 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
                         .map(|t| (p, t))
                 })
                 .transpose()?;
-            if let Some((p, text)) = &reference {
-                eval::reference::compare(&[], text)
-                    .with_context(|| format!("the reference {}", p.display()))?;
-            }
+            let reference_move_off = match &reference {
+                Some((p, text)) => {
+                    eval::reference::compare(&[], text)
+                        .with_context(|| format!("the reference {}", p.display()))?;
+                    let starts = eval::reference::move_off(text)
+                        .with_context(|| format!("the reference {}", p.display()))?;
+                    anyhow::ensure!(
+                        starts.is_none() || task_dir.is_some(),
+                        "the reference {} holds the move-off check start by start: give --task-dir with the task set it ran on",
+                        p.display()
+                    );
+                    starts
+                }
+                None => None,
+            };
             let spec = sim_core::vehicle::vehicle_by_name(&vehicle)?;
             if let Some(dt) = dt {
                 anyhow::ensure!(
@@ -158,13 +194,18 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
                 }
                 None => None,
             };
+            let agreement = match (&move_off, &reference_move_off) {
+                (Some(ours), Some(theirs)) => Some(eval::move_off::agreement(ours, theirs)),
+                _ => None,
+            };
             if json {
                 println!(
                     "{}",
                     serde_json::to_string_pretty(&serde_json::json!({
                         "datasheets": sheets,
                         "move_off": move_off,
-                        "comparison": comparison
+                        "comparison": comparison,
+                        "move_off_agreement": agreement
                     }))?
                 );
             } else {
@@ -177,20 +218,128 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
                         m.stuck.len(),
                         100.0 * m.stuck_share(),
                         if m.stuck.is_empty() { "" } else { ": " },
-                        m.stuck.join(" ")
+                        m.stuck
+                            .iter()
+                            .map(|t| t.to_string())
+                            .collect::<Vec<_>>()
+                            .join(" ")
                     );
                 }
-                if let (Some(rows), Some((p, _))) = (&comparison, &reference) {
+                let Some((p, _)) = &reference else {
+                    return Ok(());
+                };
+                // (A reference of move-off starts only has no datasheet to compare.)
+                if let Some(rows) = comparison.filter(|r| r.iter().any(|c| c.reference.is_some())) {
                     println!("beside the reference {}:", p.display());
-                    print!("{}", eval::reference::table(rows));
+                    print!("{}", eval::reference::table(&rows));
+                }
+                if let Some(a) = &agreement {
+                    println!(
+                        "move-off start by start beside the reference {} (moved: at least 5 m in 20 s):",
+                        p.display()
+                    );
+                    print!("{}", eval::move_off::agreement_table(a));
                 }
             }
         }
+        SimCmd::Climb {
+            vehicle,
+            surface,
+            grade,
+            dt,
+            trace,
+            every,
+        } => climb(&vehicle, &surface, &grade, dt, trace.as_deref(), every)?,
         SimCmd::Vehicles => {
             for v in sim_core::vehicle::builtin_vehicles() {
                 println!("{:<12} scale {:<8} {}", v.name, v.scale, v.description);
             }
         }
+    }
+    Ok(())
+}
+
+/// The harness's trace header (tools/chrono-reference/src/scenarios.cpp).
+const TRACE_HEADER: &str = "grade_deg,t,wheel,x,z,speed,gear,engine_speed,sinkage,slip,omega,v_fwd,normal,tractive,moment,chassis_normal,chassis_fx,suspension_normal,suspension_fx";
+
+fn climb(
+    vehicle: &str,
+    surface: &str,
+    grades: &[f64],
+    dt: Option<f64>,
+    trace: Option<&std::path::Path>,
+    every: f64,
+) -> anyhow::Result<()> {
+    use anyhow::Context;
+    use sim_core::characterize::{Ground, Setup};
+    use std::io::Write;
+    let spec = sim_core::vehicle::vehicle_by_name(vehicle)?;
+    let ground = Ground::from_name(surface).ok_or_else(|| {
+        anyhow::anyhow!("unknown --surface `{surface}` (rigid, snow, mud or sand)")
+    })?;
+    anyhow::ensure!(
+        grades
+            .iter()
+            .all(|g| g.is_finite() && (0.0..=60.0).contains(g)),
+        "--grade must be degrees in [0, 60]"
+    );
+    anyhow::ensure!(
+        dt.is_none_or(|d| d.is_finite() && d > 0.0 && d <= 0.02),
+        "--dt must be in (0, 0.02] s"
+    );
+    anyhow::ensure!(
+        every.is_finite() && every > 0.0,
+        "--every must be a positive number of seconds"
+    );
+    let mut out = match trace {
+        Some(p) => {
+            let f =
+                std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?;
+            let mut w = std::io::BufWriter::new(f);
+            writeln!(w, "{TRACE_HEADER}")?;
+            Some((p, w))
+        }
+        None => None,
+    };
+    let setup = Setup { ground, dt };
+    for &g in grades {
+        let mut failed = None;
+        let climbed = sim_core::climb_trace::climb_traced(&spec, &setup, g, every, |s| {
+            let Some((_, w)) = out.as_mut() else { return };
+            if failed.is_some() {
+                return;
+            }
+            let name = sim_core::climb_trace::wheel_name(s.wheel, s.wheels);
+            if let Err(e) = writeln!(
+                w,
+                "{g},{:.3},{name},{:.4},{:.4},{:.4},{},,{:.4},{:.4},{:.4},{:.4},{:.1},{:.1},,,,,",
+                s.t,
+                s.x,
+                s.z,
+                s.speed,
+                s.gear,
+                s.sinkage,
+                s.slip,
+                s.omega,
+                s.v_fwd,
+                s.normal,
+                s.tractive
+            ) {
+                failed = Some(e);
+            }
+        });
+        if let (Some(e), Some((p, _))) = (failed, &out) {
+            return Err(e).with_context(|| format!("writing {}", p.display()));
+        }
+        println!(
+            "{surface} {g} deg: {}",
+            if climbed { "climbs" } else { "does not climb" }
+        );
+    }
+    if let Some((p, mut w)) = out {
+        w.flush()
+            .with_context(|| format!("writing {}", p.display()))?;
+        println!("wrote {}", p.display());
     }
     Ok(())
 }
