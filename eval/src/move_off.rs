@@ -10,14 +10,10 @@ use sim_core::vehicle::VehicleSpec;
 use std::sync::Arc;
 use tasks::TaskSet;
 
-/// The check's result over a task set.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+/// The check's result over a task set: how far the vehicle got from every start, in task order. Serialises as
+/// `{"starts": N, "stuck": [ids], "tasks": [{"task", "distance"}]}` (the first two derived from the last).
+#[derive(Clone, Debug, PartialEq)]
 pub struct MoveOff {
-    /// Starts checked (every task of the set).
-    pub starts: usize,
-    /// Ids of the tasks whose start the vehicle cannot move off from, in task order.
-    pub stuck: Vec<TaskId>,
-    /// How far the vehicle got from every start, in task order.
     pub tasks: Vec<StartDistance>,
 }
 
@@ -28,10 +24,40 @@ pub struct StartDistance {
     pub distance: f64,
 }
 
+impl StartDistance {
+    /// Whether the vehicle moved off (at least [`MOVE_OFF_DISTANCE`]).
+    pub fn moved(&self) -> bool {
+        self.distance >= MOVE_OFF_DISTANCE
+    }
+}
+
 impl MoveOff {
+    /// Starts checked (every task of the set).
+    pub fn starts(&self) -> usize {
+        self.tasks.len()
+    }
+    /// Ids of the tasks whose start the vehicle cannot move off from, in task order.
+    pub fn stuck(&self) -> Vec<TaskId> {
+        self.tasks
+            .iter()
+            .filter(|t| !t.moved())
+            .map(|t| t.task)
+            .collect()
+    }
     /// Share of the starts the vehicle cannot move off from, in [0, 1] (0 for an empty set).
     pub fn stuck_share(&self) -> f64 {
-        self.stuck.len() as f64 / self.starts.max(1) as f64
+        self.stuck().len() as f64 / self.starts().max(1) as f64
+    }
+}
+
+impl serde::Serialize for MoveOff {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut m = s.serialize_struct("MoveOff", 3)?;
+        m.serialize_field("starts", &self.starts())?;
+        m.serialize_field("stuck", &self.stuck())?;
+        m.serialize_field("tasks", &self.tasks)?;
+        m.end()
     }
 }
 
@@ -51,15 +77,7 @@ pub fn move_off(set: &TaskSet, spec: &VehicleSpec, dt: Option<f64>) -> Result<Mo
             distance: sim_core::move_off::move_off_distance(world, task, spec, dt) / spec.scale,
         })
         .collect();
-    Ok(MoveOff {
-        starts: jobs.len(),
-        stuck: tasks
-            .iter()
-            .filter(|t| t.distance < MOVE_OFF_DISTANCE)
-            .map(|t| t.task)
-            .collect(),
-        tasks,
-    })
+    Ok(MoveOff { tasks })
 }
 
 /// One start, ours beside the reference's.

@@ -270,8 +270,6 @@ mod tests {
             distance: d,
         };
         let ours = MoveOff {
-            starts: 5,
-            stuck: vec![id("w001-t1"), id("w001-t2")],
             tasks: vec![
                 start("w001-t0", 80.0),
                 start("w001-t1", 1.0),
@@ -286,6 +284,7 @@ mod tests {
         ]}})
         .to_string();
         let reference = move_off(&text).unwrap().unwrap();
+        assert_eq!(ours.stuck(), vec![id("w001-t1"), id("w001-t2")]);
         let a = agreement(&ours, &reference);
         assert_eq!(
             (

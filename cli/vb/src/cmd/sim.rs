@@ -156,12 +156,7 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
                 None => None,
             };
             let spec = sim_core::vehicle::vehicle_by_name(&vehicle)?;
-            if let Some(dt) = dt {
-                anyhow::ensure!(
-                    dt.is_finite() && dt > 0.0 && dt <= 0.02,
-                    "--dt must be in (0, 0.02] s"
-                );
-            }
+            check_dt(dt)?;
             let grounds: Vec<Ground> = if surface == "all" {
                 Ground::ALL.to_vec()
             } else {
@@ -211,14 +206,15 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
             } else {
                 print!("{}", sim_core::characterize::table(&sheets));
                 if let (Some(m), Some(dir)) = (&move_off, &task_dir) {
+                    let stuck = m.stuck();
                     println!(
                         "move-off from the {} starts of {}: stuck (under 5 m in 20 s at full throttle towards the goal) at {} ({:.1}%){}{}",
-                        m.starts,
+                        m.starts(),
                         dir.display(),
-                        m.stuck.len(),
+                        stuck.len(),
                         100.0 * m.stuck_share(),
-                        if m.stuck.is_empty() { "" } else { ": " },
-                        m.stuck
+                        if stuck.is_empty() { "" } else { ": " },
+                        stuck
                             .iter()
                             .map(|t| t.to_string())
                             .collect::<Vec<_>>()
@@ -259,6 +255,15 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `--dt`, when given: a physics step in (0, 0.02] s.
+fn check_dt(dt: Option<f64>) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        dt.is_none_or(|d| d.is_finite() && d > 0.0 && d <= 0.02),
+        "--dt must be in (0, 0.02] s"
+    );
+    Ok(())
+}
+
 /// The harness's trace header (tools/chrono-reference/src/scenarios.cpp).
 const TRACE_HEADER: &str = "grade_deg,t,wheel,x,z,speed,gear,engine_speed,sinkage,slip,omega,v_fwd,normal,tractive,moment,chassis_normal,chassis_fx,suspension_normal,suspension_fx";
 
@@ -283,10 +288,7 @@ fn climb(
             .all(|g| g.is_finite() && (0.0..=60.0).contains(g)),
         "--grade must be degrees in [0, 60]"
     );
-    anyhow::ensure!(
-        dt.is_none_or(|d| d.is_finite() && d > 0.0 && d <= 0.02),
-        "--dt must be in (0, 0.02] s"
-    );
+    check_dt(dt)?;
     anyhow::ensure!(
         every.is_finite() && every > 0.0,
         "--every must be a positive number of seconds"
