@@ -1,12 +1,16 @@
 //! [`Registry`]: the open connections of one server, counted in all and per peer address, and the ones that have
-//! not sent a request yet, oldest first, so that a full server can shed one of those for a new client.
+//! not sent a request yet, per peer and oldest first, so that a full server can shed one of those for a new client.
 //!
 //! The policy is a reverse proxy's: each peer address gets at most [`crate::Limits::max_connections_per_peer`]
 //! (one client cannot hold the whole limit), and when the whole limit is reached a new connection takes the place
-//! of the oldest one that has not sent a request yet (head-less connections from many addresses cannot lock out a
-//! client that means to talk). Only when every open connection has sent a request is a new one refused.
+//! of a head-less one (head-less connections from many addresses cannot lock out a client that means to talk). The
+//! one shed is the oldest head-less connection of the peer that holds the most connections (ties: the peer whose
+//! head-less connection is oldest), so a flood makes way from its own heaviest address and not from a client whose
+//! only connection has yet to send its request. Only when every open connection has sent a request is a new one
+//! refused. Every step is O(log n) in the open connections.
 
-use std::collections::BTreeMap;
+use std::cmp::Reverse;
+use std::collections::{BTreeMap, BTreeSet};
 use std::net::IpAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -61,26 +65,77 @@ pub(crate) enum Refusal {
     Full,
 }
 
+/// A peer's place in the shedding order: its open connections, then the age of its oldest head-less one.
+type LoadKey = (usize, Reverse<u64>, Option<IpAddr>);
+
 #[derive(Debug, Default)]
 struct Inner {
     open: usize,
     per_peer: BTreeMap<IpAddr, usize>,
-    /// Connections that had sent no request when last looked at, by admission order.
-    headless: BTreeMap<u64, (Option<IpAddr>, Arc<ConnState>)>,
+    /// Per peer, its connections that had sent no request when last looked at, by admission order.
+    headless: BTreeMap<Option<IpAddr>, BTreeMap<u64, Arc<ConnState>>>,
+    /// The peers with an entry in `headless`, in shedding order (the last is shed from first).
+    by_load: BTreeSet<LoadKey>,
     next: u64,
 }
 
 impl Inner {
+    fn key(&self, peer: Option<IpAddr>) -> Option<LoadKey> {
+        let oldest = *self.headless.get(&peer)?.keys().next()?;
+        let load = peer.map_or(0, |ip| self.per_peer.get(&ip).copied().unwrap_or(0));
+        Some((load, Reverse(oldest), peer))
+    }
+
+    /// Applies `change`, which may alter `peer`'s load or head-less connections, keeping `by_load` in step.
+    fn rekey<T>(&mut self, peer: Option<IpAddr>, change: impl FnOnce(&mut Inner) -> T) -> T {
+        if let Some(k) = self.key(peer) {
+            self.by_load.remove(&k);
+        }
+        let out = change(self);
+        if self.headless.get(&peer).is_some_and(BTreeMap::is_empty) {
+            self.headless.remove(&peer);
+        }
+        if let Some(k) = self.key(peer) {
+            self.by_load.insert(k);
+        }
+        out
+    }
+
     fn release(&mut self, peer: Option<IpAddr>) {
         self.open = self.open.saturating_sub(1);
-        if let Some(ip) = peer {
-            if let Some(n) = self.per_peer.get_mut(&ip) {
-                *n -= 1;
-                if *n == 0 {
-                    self.per_peer.remove(&ip);
+        self.rekey(peer, |g| {
+            if let Some(ip) = peer {
+                if let Some(n) = g.per_peer.get_mut(&ip) {
+                    *n -= 1;
+                    if *n == 0 {
+                        g.per_peer.remove(&ip);
+                    }
                 }
             }
+        });
+    }
+
+    /// Sheds the oldest head-less connection of the heaviest peer; false if every open connection has sent a
+    /// request. Connections that sent one since they were listed leave the list as they are met.
+    fn shed_one(&mut self) -> bool {
+        while let Some(&k) = self.by_load.last() {
+            self.by_load.remove(&k);
+            let peer = k.2;
+            let popped = self.rekey(peer, |g| {
+                g.headless
+                    .get_mut(&peer)
+                    .and_then(BTreeMap::pop_first)
+                    .map(|(_, s)| s)
+            });
+            let Some(state) = popped else { continue };
+            if state.requested() {
+                continue;
+            }
+            state.shed_now();
+            self.release(peer);
+            return true;
         }
+        false
     }
 }
 
@@ -111,7 +166,7 @@ impl Registry {
         self.lock().open
     }
 
-    /// Admits a connection from `peer`, shedding the oldest head-less one when the server is full. The returned
+    /// Admits a connection from `peer`, shedding a head-less one (see the module's policy) when the server is full. The returned
     /// [`Slot`] releases its place when dropped.
     pub(crate) fn admit(self: &Arc<Self>, peer: Option<IpAddr>) -> Result<(Slot, bool), Refusal> {
         let mut g = self.lock();
@@ -120,31 +175,23 @@ impl Registry {
                 return Err(Refusal::PeerShare);
             }
         }
-        let mut shed = false;
-        if g.open >= self.max {
-            // The oldest connection still without a request makes way; ones that sent a request since leave the
-            // list as they are met.
-            loop {
-                let Some((_, (victim_peer, state))) = g.headless.pop_first() else {
-                    return Err(Refusal::Full);
-                };
-                if state.requested() {
-                    continue;
-                }
-                state.shed_now();
-                g.release(victim_peer);
-                shed = true;
-                break;
-            }
+        let shed = g.open >= self.max;
+        if shed && !g.shed_one() {
+            return Err(Refusal::Full);
         }
         g.open += 1;
-        if let Some(ip) = peer {
-            *g.per_peer.entry(ip).or_insert(0) += 1;
-        }
         let seq = g.next;
         g.next += 1;
         let state = Arc::new(ConnState::default());
-        g.headless.insert(seq, (peer, state.clone()));
+        g.rekey(peer, |g| {
+            if let Some(ip) = peer {
+                *g.per_peer.entry(ip).or_insert(0) += 1;
+            }
+            g.headless
+                .entry(peer)
+                .or_default()
+                .insert(seq, state.clone());
+        });
         Ok((
             Slot {
                 registry: self.clone(),
@@ -169,7 +216,12 @@ pub(crate) struct Slot {
 impl Drop for Slot {
     fn drop(&mut self) {
         let mut g = self.registry.lock();
-        g.headless.remove(&self.seq);
+        let (peer, seq) = (self.peer, self.seq);
+        g.rekey(peer, |g| {
+            if let Some(q) = g.headless.get_mut(&peer) {
+                q.remove(&seq);
+            }
+        });
         // A shed connection's place was handed to the one that shed it.
         if !self.state.is_shed() {
             g.release(self.peer);
@@ -212,6 +264,31 @@ mod tests {
         assert_eq!(r.admit(ip(5)).unwrap_err(), Refusal::Full);
         drop((a2, b1, c1, d1, a3));
         assert_eq!(r.open(), 0);
-        assert!(r.lock().per_peer.is_empty() && r.lock().headless.is_empty());
+        let g = r.lock();
+        assert!(g.per_peer.is_empty() && g.headless.is_empty() && g.by_load.is_empty());
+    }
+
+    #[test]
+    fn a_full_server_sheds_from_the_peer_holding_the_most_connections_before_an_older_lone_client()
+    {
+        let r = Registry::new(4, 3);
+        // A client's one connection, its request not yet arrived, then a flood from one address fills the server.
+        let client = r.admit(ip(2)).unwrap().0;
+        let flood: Vec<Slot> = (0..3).map(|_| r.admit(ip(1)).unwrap().0).collect();
+        // Two more flooding addresses: each new connection sheds the flood's oldest, not the older lone client.
+        let (b, shed) = r.admit(ip(3)).unwrap();
+        assert!(shed && flood[0].state.is_shed() && !client.state.is_shed());
+        let (c, _) = r.admit(ip(4)).unwrap();
+        assert!(flood[1].state.is_shed() && !client.state.is_shed());
+        // Now every peer holds one: the oldest head-less connection goes, which is the client's.
+        client.state.mark_request();
+        let (d, _) = r.admit(ip(5)).unwrap();
+        assert!(!client.state.is_shed(), "it has sent its request");
+        assert!(flood[2].state.is_shed());
+        assert_eq!(r.open(), 4);
+        drop((client, flood, b, c, d));
+        let g = r.lock();
+        assert_eq!(g.open, 0);
+        assert!(g.per_peer.is_empty() && g.headless.is_empty() && g.by_load.is_empty());
     }
 }
