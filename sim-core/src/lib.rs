@@ -48,6 +48,9 @@ pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
 /// part of every node's shear strength (a spinning wheel had half its traction on mud). Revision 9 (issue 29): the
 /// chassis gets the strut force the wheel's implicit update applied (r8 passed it the force from the step's start, a
 /// step late, which pumped the pitch and bounce: snow's 20 s distance was 8.6% short at 4 ms against 1 ms).
-pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r9");
+/// Revision 10 (issue 59): the HMMWV's engine is Chrono's `HMMWV_EngineSimpleMap`, both maps (full load, and the
+/// closed throttle's engine braking) read at the engine speed clamped to 2700 rpm, so its full-load map's negative
+/// tail governs the top speed; other vehicles, without those maps, are unchanged.
+pub const SIM_VERSION: &str = concat!("sim-core ", env!("CARGO_PKG_VERSION"), " r10");
 pub use vehicle::{Action, Simulation, VehicleSpec};
 pub mod world;

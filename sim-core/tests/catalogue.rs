@@ -52,6 +52,27 @@ fn bad_vehicle_files_name_the_file_and_field() {
     .unwrap_err()
     .to_string();
     assert!(e.contains("bogus"), "{e}");
+    // The engine's maps and speed clamp.
+    for (from, to, field) in [
+        ("max_rpm = 2700.0", "max_rpm = -5.0", "powertrain.max_rpm"),
+        ("max_rpm = 2700.0", "max_rpm = nan", "powertrain.max_rpm"),
+        (
+            "zero_throttle_curve = [[-100.0, 0.0], [800.0, -20.0]",
+            "zero_throttle_curve = [[800.0, 0.0], [800.0, -20.0]",
+            "powertrain.zero_throttle_curve",
+        ),
+        (
+            "torque_curve = [[-100.0, 406.7]",
+            "torque_curve = [[-100.0, inf]",
+            "powertrain.torque_curve",
+        ),
+    ] {
+        assert!(text.contains(from), "{from}");
+        let e = VehicleSpec::parse_toml(&text.replacen(from, to, 1), "e.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("e.toml") && e.contains(field), "{to}: {e}");
+    }
 }
 
 #[test]

@@ -77,9 +77,9 @@ fn characterize_rejects_unknown_surfaces_and_vehicles() {
 }
 
 /// `--task-dir`: the move-off check from every start of the release's 10 original worlds (imported as a user would).
-/// Needs `VB_RELEASE_DIR` (CI sets it); skipped otherwise. Under sim-core r9 the HMMWV cannot leave 11 of the 100
-/// starts, on the two high worlds, one medium soft world and one medium mixed world (r8: 9; BENCHMARKS.md,
-/// "Simulator fidelity: sim-core r9"); it leaves every start of the low worlds.
+/// Needs `VB_RELEASE_DIR` (CI sets it); skipped otherwise. Under sim-core r10 the HMMWV cannot leave 12 of the 100
+/// starts, on the two high worlds and three medium ones (r9: 11, r8: 9; BENCHMARKS.md, "Chrono side by side");
+/// it leaves every start of the low worlds.
 #[test]
 fn characterize_counts_the_starts_a_vehicle_cannot_move_off_from() {
     let Some(release) = std::env::var_os("VB_RELEASE_DIR") else {

@@ -45,8 +45,9 @@ pub(super) fn steer(p: &VehicleParams, s: &mut DynamicsState, action: &Action) {
     }
 }
 
-/// Phase 3: the automatic gearbox shifts on the mean wheel speed, the engine's full-load torque at that speed
-/// times the throttle is split over the driven wheels' spin groups. Clears the spin groups' accumulators.
+/// Phase 3: the automatic gearbox shifts on the mean wheel speed; the engine's full-load torque at that speed times
+/// the throttle is split over the driven wheels' spin groups, and its closed-throttle torque times one minus the
+/// throttle's magnitude joins their brake torque. Clears the spin groups' accumulators.
 pub(super) fn drive_torque(
     p: &VehicleParams,
     s: &mut DynamicsState,
@@ -70,8 +71,14 @@ pub(super) fn drive_torque(
             s.gear -= 1;
         }
     }
-    let motor_torque = p.torque_curve(rpm);
-    let wheel_torque_total = motor_torque / ratio;
+    // Chrono's ChEngineSimpleMap: both maps read at the clamped engine speed, blended by the throttle. The
+    // full-load part drives the way the throttle points; the closed-throttle part (engine braking) resists the
+    // wheels' spin, so it joins the brakes' Coulomb torque, which stops a wheel without reversing it.
+    let u = action.throttle;
+    let full_total = pt.full_load(rpm) / ratio;
+    let drag_total = pt
+        .closed_throttle(rpm)
+        .map(|t| (1.0 - u.abs()).max(0.0) * (-t).max(0.0) / ratio);
     for g in 0..p.groups {
         groups.torque[g] = 0.0;
         groups.num[g] = 0.0;
@@ -82,15 +89,19 @@ pub(super) fn drive_torque(
     let n_driven = p.wheels.iter().filter(|w| w.driven).count().max(1) as f64;
     if p.spec.steering.kind == SteeringKind::Skid {
         let st = s.steering;
-        let (ul, ur) = (
-            (action.throttle - st).clamp(-1.0, 1.0),
-            (action.throttle + st).clamp(-1.0, 1.0),
-        );
-        groups.torque[0] = ul * wheel_torque_total / 2.0;
-        groups.torque[1] = ur * wheel_torque_total / 2.0;
+        let (ul, ur) = ((u - st).clamp(-1.0, 1.0), (u + st).clamp(-1.0, 1.0));
+        groups.torque[0] = ul * full_total / 2.0;
+        groups.torque[1] = ur * full_total / 2.0;
+        if let Some(d) = drag_total {
+            groups.brake[0] = d / 2.0;
+            groups.brake[1] = d / 2.0;
+        }
     } else {
         for w in p.wheels.iter().filter(|w| w.driven) {
-            groups.torque[w.group] += action.throttle * wheel_torque_total / n_driven;
+            groups.torque[w.group] += u * full_total / n_driven;
+            if let Some(d) = drag_total {
+                groups.brake[w.group] += d / n_driven;
+            }
         }
     }
 }
@@ -150,21 +161,6 @@ pub(super) fn update_spins(
         }
     }
     power
-}
-
-impl VehicleParams {
-    /// Engine full-load torque at `rpm` (linear in the spec's curve, zero beyond its last point), N m.
-    fn torque_curve(&self, rpm: f64) -> f64 {
-        let c = &self.spec.powertrain.torque_curve;
-        let rpm = rpm.max(0.0);
-        for w in c.windows(2) {
-            if rpm <= w[1][0] {
-                let t = ((rpm - w[0][0]) / (w[1][0] - w[0][0])).clamp(0.0, 1.0);
-                return w[0][1] + (w[1][1] - w[0][1]) * t;
-            }
-        }
-        0.0
-    }
 }
 
 /// The clutches' torques on the groups' free spins `free` (each group's spin before the clutches, its effective

@@ -115,6 +115,15 @@ pub struct Powertrain {
     pub kind: String,
     /// Full-load torque curve: (speed rpm, torque N m) points, linearly interpolated, zero beyond the last.
     pub torque_curve: Vec<[f64; 2]>,
+    /// Zero-throttle (engine braking) torque curve, same form: the engine's torque at a closed throttle, which at
+    /// throttle `u` is blended as Chrono's `ChEngineSimpleMap` does, `u full + (1 - u) zero`; it resists the
+    /// motion. None: no engine braking (a motor that freewheels).
+    #[serde(default)]
+    pub zero_throttle_curve: Option<Vec<[f64; 2]>>,
+    /// Largest engine speed, rpm: the maps are read at `min(speed, max_rpm)` (Chrono's `GetMaxEngineSpeed`
+    /// clamp), so a map that ends in a negative torque governs the speed. None: no clamp.
+    #[serde(default)]
+    pub max_rpm: Option<f64>,
     /// Forward gear ratios (motor speed / output speed is 1 / ratio), lowest first; reverse ratio (negative).
     pub gears: Vec<f64>,
     pub reverse_gear: f64,
@@ -129,6 +138,35 @@ pub struct Powertrain {
     pub locking_limits: Option<LockingLimits>,
     /// Total brake torque capacity of one wheel, N m.
     pub brake_torque: f64,
+}
+
+impl Powertrain {
+    /// The engine's full-load torque at `rpm`, N m: [`Powertrain::torque_curve`] read at the clamped speed.
+    pub fn full_load(&self, rpm: f64) -> f64 {
+        map_at(&self.torque_curve, self.clamped(rpm))
+    }
+
+    /// The engine's closed-throttle torque at `rpm` (negative: engine braking), N m; None without that map.
+    pub fn closed_throttle(&self, rpm: f64) -> Option<f64> {
+        let at = self.clamped(rpm);
+        self.zero_throttle_curve.as_ref().map(|c| map_at(c, at))
+    }
+
+    fn clamped(&self, rpm: f64) -> f64 {
+        self.max_rpm.map_or(rpm, |m| rpm.min(m))
+    }
+}
+
+/// A torque map's value at `rpm` (linear between its points, zero beyond its last), N m.
+fn map_at(c: &[[f64; 2]], rpm: f64) -> f64 {
+    let rpm = rpm.max(0.0);
+    for w in c.windows(2) {
+        if rpm <= w[1][0] {
+            let t = ((rpm - w[0][0]) / (w[1][0] - w[0][0])).clamp(0.0, 1.0);
+            return w[0][1] + (w[1][1] - w[0][1]) * t;
+        }
+    }
+    0.0
 }
 
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -250,11 +288,28 @@ impl VehicleSpec {
             }
             _ => {}
         }
-        if p.torque_curve.len() < 2 || p.torque_curve.windows(2).any(|w| w[1][0] <= w[0][0]) {
-            return bad(
-                "powertrain.torque_curve",
-                "needs at least two points with increasing speed",
-            );
+        let curves = [
+            ("powertrain.torque_curve", Some(&p.torque_curve)),
+            (
+                "powertrain.zero_throttle_curve",
+                p.zero_throttle_curve.as_ref(),
+            ),
+        ];
+        for (field, curve) in curves {
+            if let Some(c) = curve {
+                if c.len() < 2
+                    || c.iter().flatten().any(|v| !v.is_finite())
+                    || c.windows(2).any(|w| w[1][0] <= w[0][0])
+                {
+                    return bad(
+                        field,
+                        "needs at least two finite points with increasing speed",
+                    );
+                }
+            }
+        }
+        if p.max_rpm.is_some_and(|m| !pos(m)) {
+            return bad("powertrain.max_rpm", "must be a positive engine speed");
         }
         if p.gears.is_empty()
             || p.gears.iter().any(|g| !pos(*g))
