@@ -55,6 +55,14 @@ impl PlannerIdentity {
         }
     }
 
+    /// A resolved built-in: its name and, for a learned planner, its weights' version.
+    pub fn of_builtin(b: &registry::Builtin) -> Self {
+        PlannerIdentity {
+            version: b.weights_version(),
+            ..PlannerIdentity::builtin(b.name())
+        }
+    }
+
     /// Whether `other` is the same planner (the parameters themselves are not compared, their hash is).
     pub fn same(&self, other: &PlannerIdentity) -> bool {
         (

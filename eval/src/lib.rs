@@ -12,23 +12,24 @@
 //!   [`charts`], SVG charts of the breakdowns (an auto-escaping template).
 //! - [`compare`]: paired comparison of two evaluations (difference in success rate with a 95% interval, exact
 //!   McNemar test).
-//! - [`builtin`]: the built-in planners by name (classical baselines, learned policies and their weights).
+//! - [`Builtin`]: the built-in planners by name, re-exported from the `registry` crate (the one lookup).
 //! - [`move_off`]: from how many of a task set's starts a vehicle cannot move off at all.
 //! - [`catalog`]: the benchmark as the service tier sees it, built from the physics crates for the binary that wires
 //!   the services.
+//! - [`viz`]: a single episode's `trajectory.csv` and plot (`vb sim run`).
 
-pub mod builtin;
 pub mod identity;
 pub mod move_off;
 pub mod reference;
 pub mod run;
+pub mod viz;
 
 use contracts::Catalog;
 
 // The results' types and files live in the `results` crate (shared with the service); re-exported here so local
 // evaluation reads as one crate.
-pub use builtin::Builtin;
 pub use identity::{PlannerIdentity, PlannerKind, IDENTITY_FILE};
+pub use registry::Builtin;
 pub use results::{charts, compare, parquet_file, report, summary, EpisodeRow, ResultsError};
 pub use run::{
     prepare, run, run_builtin, run_with, EvalConfig, PlannerFactory, Prepared, SIM_VERSION,
@@ -49,6 +50,15 @@ pub enum EvalError {
     Results(#[from] ResultsError),
 }
 
+impl From<registry::RegistryError> for EvalError {
+    fn from(e: registry::RegistryError) -> Self {
+        EvalError::Param {
+            field: "planner".into(),
+            message: e.message,
+        }
+    }
+}
+
 /// The service tier's view of `set` under this build ([`contracts::Catalog`]): its simulator version, the set's
 /// worlds, the built-in vehicles (each with its own scale) and the built-in planners.
 pub fn catalog(set: &tasks::TaskSet) -> Catalog {
@@ -60,7 +70,7 @@ pub fn catalog(set: &tasks::TaskSet) -> Catalog {
             .into_iter()
             .map(|v| (v.name, v.scale))
             .collect(),
-        builtin_planners: builtin::names().iter().map(|n| n.to_string()).collect(),
+        builtin_planners: registry::names().iter().map(|n| n.to_string()).collect(),
     }
 }
 

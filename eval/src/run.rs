@@ -90,7 +90,7 @@ pub fn run_builtin(
         return run_with(cfg, &make, &AtomicBool::new(false), progress);
     }
     let cfg = EvalConfig {
-        identity: Some(builtin.identity()),
+        identity: Some(PlannerIdentity::of_builtin(builtin)),
         ..cfg.clone()
     };
     run_with(&cfg, &make, &AtomicBool::new(false), progress)
@@ -98,7 +98,8 @@ pub fn run_builtin(
 
 /// An error unless `name` is a built-in planner this build can run.
 pub fn check_builtin(name: &str) -> Result<(), EvalError> {
-    Builtin::resolve(name, None).map(|_| ())
+    Builtin::resolve(name, None)?;
+    Ok(())
 }
 
 /// Runs (or resumes) an evaluation of the planners `make` returns (one per episode; the rows are labelled

@@ -15,9 +15,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "vertibench/v1/sim.proto",
     ];
     for f in &files {
-        println!("cargo:rerun-if-changed=../../services/vb-proto/{f}");
+        println!("cargo:rerun-if-changed=../../proto/{f}");
     }
-    let fds = protox::compile(files, ["../../services/vb-proto"])?;
+    let fds = protox::compile(files, ["../../proto"])?;
     std::fs::write(out_dir.join("vertibench.fds"), fds.encode_to_vec())?;
     Ok(())
 }

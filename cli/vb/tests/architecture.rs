@@ -63,7 +63,6 @@ fn sim_core_has_no_io_async_or_service_dependencies() {
         "swae",
         "baselines",
         "eval",
-        "viz",
         "vb",
         "image",
         "chrono",
@@ -192,7 +191,6 @@ fn protobuf_types_stay_at_the_service_edge() {
         "swae",
         "planners/baselines",
         "eval",
-        "viz",
         "services/vb-store",
         "services/vb-leaderboard",
     ] {

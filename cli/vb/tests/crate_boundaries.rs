@@ -147,6 +147,19 @@ fn benchmark_harnesses_stay_out_of_product_crates() {
     assert!(linked("vb", &[]).contains("service-bench"));
 }
 
+/// Issue 60: a worker looks its built-in planners up in `registry` (the one lookup) and links no evaluator; the
+/// learned planners build on `mppi-core`, as the oracle MPPI-6 does, with no edge between the two planner crates.
+#[test]
+fn planners_come_from_the_registry_and_share_mppi_core_without_a_sideways_edge() {
+    assert!(linked("vb-worker", &[]).contains("registry"));
+    assert_links_none("vb-worker", &[], &["eval"]);
+    assert_links_none("learned", &[], &["baselines"]);
+    assert_links_none("baselines", &[], &["learned"]);
+    for p in ["baselines", "learned"] {
+        assert!(linked(p, &[]).contains("mppi-core"), "{p}");
+    }
+}
+
 /// Folder name = crate name, for every member of the workspace.
 #[test]
 fn every_crate_lives_in_a_folder_of_its_name() {

@@ -14,10 +14,13 @@
 //!   (an *oracle* model: the benchmark's own vehicle model; the learned `mppi6` in `planners/learned` rolls out a
 //!   learned model with the same planner, and this is its upper bound).
 
-pub mod hybrid;
 pub mod mppi;
 pub mod mppi6;
 pub mod mppi_release;
+
+/// The MPPI-6 pieces every MPPI planner shares (the `mppi-core` crate).
+pub use mppi_core as hybrid;
+pub use mppi_core::inflated_obstacles;
 
 use sim_core::control::point_ahead;
 use sim_core::planner::{Action, Observation, Planner, PlannerContext, PlannerError};
@@ -219,37 +222,6 @@ impl Planner for ElevationHeuristic {
         }
         Ok(self.t.act(obs, 0.2 * best.2 + 0.8 * path_error))
     }
-}
-
-/// The map grid's obstacle cells (`sim_core::observe::occupancy_grid`) inflated by a disc of `radius` m: the cells
-/// a point vehicle of that half width must not enter. Row-major, `nx * ny`.
-pub fn inflated_obstacles(world: &World, radius: f64) -> Vec<bool> {
-    let h = &world.heightmap;
-    let (nx, ny) = (h.nx, h.ny);
-    let occ = sim_core::observe::occupancy_grid(world);
-    let r = (radius / h.cell).ceil() as i64;
-    let mut blocked = vec![false; nx * ny];
-    for iy in 0..ny as i64 {
-        for ix in 0..nx as i64 {
-            if occ[iy as usize * nx + ix as usize] == 0 {
-                continue;
-            }
-            for dy in -r..=r {
-                for dx in -r..=r {
-                    let (qx, qy) = (ix + dx, iy + dy);
-                    if qx >= 0
-                        && qy >= 0
-                        && qx < nx as i64
-                        && qy < ny as i64
-                        && dx * dx + dy * dy <= r * r
-                    {
-                        blocked[qy as usize * nx + qx as usize] = true;
-                    }
-                }
-            }
-        }
-    }
-    blocked
 }
 
 #[cfg(test)]

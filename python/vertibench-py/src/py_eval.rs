@@ -221,11 +221,11 @@ pub fn evaluate<'py>(
         return Err(PyValueError::new_err("num_threads must be at least 1"));
     }
     let builtin: Option<eval::Builtin> = match planner.extract::<String>() {
-        Ok(n) => Some(eval::Builtin::resolve(&n, None).map_err(py_error)?),
+        Ok(n) => Some(eval::Builtin::resolve(&n, None).map_err(|e| py_error(e.into()))?),
         Err(_) => None,
     };
     let (name, identity) = match &builtin {
-        Some(b) => (b.name().to_string(), b.identity()),
+        Some(b) => (b.name().to_string(), eval::PlannerIdentity::of_builtin(b)),
         None => {
             let id: eval::PlannerIdentity = serde_json::from_str(identity.unwrap_or("null"))
                 .map_err(|e| PyValueError::new_err(format!("invalid planner identity: {e}")))?;

@@ -220,11 +220,10 @@ pub async fn run_episode(
     let log: SharedLog = Arc::new(Mutex::new(PlannerLog::default()));
     let mut process = None;
     let (planner, identity) = match kind {
-        Kind::Builtin(name) => match eval::Builtin::resolve(&name, None) {
+        Kind::Builtin(name) => match registry::Builtin::resolve(&name, None) {
             Ok(b) => {
                 let weights = b
-                    .identity()
-                    .version
+                    .weights_version()
                     .map(|v| format!(", {v}"))
                     .unwrap_or_default();
                 (

@@ -55,7 +55,7 @@ pub fn run(a: EvalArgs) -> anyhow::Result<()> {
     };
     let builtin = eval::Builtin::resolve(&a.planner, a.weights.as_deref())?;
     let cfg = eval::EvalConfig {
-        identity: Some(builtin.identity()),
+        identity: Some(eval::PlannerIdentity::of_builtin(&builtin)),
         planner: a.planner,
         task_dir: a
             .task_dir

@@ -119,7 +119,7 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
                 "task": t.id(), "vehicle": spec.name, "scale": scale, "planner": planner,
                 "outcome": r.outcome.as_str(), "reason": r.reason, "detail": r.detail, "metrics": r.metrics,
             }))?;
-            viz::write_episode(&out, &w, &t, &r, &json)?;
+            eval::viz::write_episode(&out, &w, &t, &r, &json)?;
             println!("{}: {} ({}) after {:.1} s, {:.1} m driven; wrote {}/trajectory.csv, episode.png, result.json", t.id(), r.outcome.as_str(), r.reason, r.metrics.time, r.metrics.path_length, out.display());
         }
         SimCmd::Characterize {

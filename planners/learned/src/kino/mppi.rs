@@ -29,9 +29,7 @@ use super::features::{
     TARGETS,
 };
 use super::{Dynamics, TravNet};
-use baselines::hybrid::{
-    interp, softmin_plan, speed_control, step_cost, CostToGo, KNOTS, ROLLOVER_DEG,
-};
+use mppi_core::{interp, softmin_plan, speed_control, step_cost, CostToGo, KNOTS, ROLLOVER_DEG};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -382,7 +380,7 @@ impl Planner for KinoMppi {
             half: [h.half_x(), h.half_y()],
             goal_radius: 10.0 * scale,
             togo: CostToGo::new(ctx, ctx.task.goal),
-            blocked: baselines::inflated_obstacles(ctx.world, 0.5 * ctx.vehicle.width),
+            blocked: mppi_core::inflated_obstacles(ctx.world, 0.5 * ctx.vehicle.width),
             grid: (h.nx, h.ny, h.cell),
             last_pose: None,
             rng: ChaCha8Rng::seed_from_u64(

@@ -1,4 +1,4 @@
-//! Trajectory files and plots of simulated episodes: `trajectory.csv` and a PNG with the path drawn over the map
+//! Trajectory files and plots of single simulated episodes (`vb sim run`): `trajectory.csv` and a PNG with the path drawn over the map
 //! (left) and roll, pitch and speed over time (right).
 
 use image::{Rgb, RgbImage};

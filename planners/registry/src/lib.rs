@@ -1,11 +1,17 @@
-//! The built-in planners by name, one registry for `vb eval`, the workers, the service's catalogue and Python: the
+//! The built-in planners by name, the one lookup for `vb eval`, the workers, the service's catalogue and Python: the
 //! classical baselines (`planners/baselines`) and the learned planners (`planners/learned`: those whose weights
-//! this build carries, or any weights file given with `--weights`).
+//! this build carries, or any weights file given with `--weights`). A worker links this, not the evaluator.
 
-use crate::{EvalError, PlannerIdentity};
 use learned::LearnedNet;
 use sim_core::planner::Planner;
 use std::path::Path;
+
+/// Why a name (and weights file) makes no planner; the message says what would.
+#[derive(Debug, thiserror::Error)]
+#[error("invalid planner: {message}")]
+pub struct RegistryError {
+    pub message: String,
+}
 
 /// A built-in planner, resolved once and made afresh for every episode by [`Builtin::make`].
 #[derive(Clone, Debug)]
@@ -18,11 +24,8 @@ impl Builtin {
     /// The planner `name`: a classical baseline, or a learned one with its compiled-in weights or, given
     /// `weights`, that file's (then `name` is only the label; a learned name without weights in this build and
     /// without `weights` is an error that says how to train it).
-    pub fn resolve(name: &str, weights: Option<&Path>) -> Result<Builtin, EvalError> {
-        let param = |message: String| EvalError::Param {
-            field: "planner".into(),
-            message,
-        };
+    pub fn resolve(name: &str, weights: Option<&Path>) -> Result<Builtin, RegistryError> {
+        let param = |message: String| RegistryError { message };
         if let Some(path) = weights {
             if baselines::NAMES.contains(&name) {
                 return Err(param(format!(
@@ -68,14 +71,12 @@ impl Builtin {
         }
     }
 
-    /// What `planner.json` records: the name and, for a learned planner, its weights' SHA-256 (a resumed
-    /// evaluation must run the same weights).
-    pub fn identity(&self) -> PlannerIdentity {
-        let mut id = PlannerIdentity::builtin(&self.name);
-        if let Some(net) = &self.learned {
-            id.version = Some(format!("weights sha256:{}", net.sha256()));
-        }
-        id
+    /// A learned planner's version, `weights sha256:HEX` (a resumed evaluation must run the same weights); None
+    /// for a classical baseline.
+    pub fn weights_version(&self) -> Option<String> {
+        self.learned
+            .as_ref()
+            .map(|net| format!("weights sha256:{}", net.sha256()))
     }
 }
 

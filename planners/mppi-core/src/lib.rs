@@ -1,8 +1,10 @@
-//! What the MPPI-6 planners share, whatever model rolls their samples out (our simulator in [`crate::mppi6`], a
-//! learned model in the `learned` crate): the plan's knots and their interpolation, the speed controller the
-//! rollouts and the execution both run, the cost-to-go field and the cost of one rollout step.
+//! What the MPPI-6 planners share, whatever model rolls their samples out (our simulator in `baselines::mppi6`, a
+//! learned model in the `learned` crate), so that neither depends on the other: the plan's knots and their
+//! interpolation, the speed controller the rollouts and the execution both run, the cost-to-go field, the cost of
+//! one rollout step, and the inflated obstacle grid (which the bicycle MPPI and the release's MPPI use too).
 
 use sim_core::planner::{Action, PlannerContext};
+use sim_core::world::World;
 
 /// Control knots over the horizon (the first at the decision time, the last at the horizon).
 pub const KNOTS: usize = 4;
@@ -72,7 +74,7 @@ impl CostToGo {
         use std::collections::BinaryHeap;
         let h = &ctx.world.heightmap;
         let (nx, ny, cell) = (h.nx, h.ny, h.cell);
-        let blocked = crate::inflated_obstacles(ctx.world, 0.5 * ctx.vehicle.width);
+        let blocked = inflated_obstacles(ctx.world, 0.5 * ctx.vehicle.width);
         let (gx, gy) = h.grid_coords(goal[0], goal[1]);
         let g = (gy.round().clamp(0.0, (ny - 1) as f64) as usize) * nx
             + gx.round().clamp(0.0, (nx - 1) as f64) as usize;
@@ -151,4 +153,35 @@ pub fn softmin_plan(costs: &[f64], samples: &[[[f64; 2]; KNOTS]]) -> [[f64; 2]; 
         }
     }
     mean.map(|m| [m[0] / sum, m[1] / sum])
+}
+
+/// The map grid's obstacle cells (`sim_core::observe::occupancy_grid`) inflated by a disc of `radius` m: the cells
+/// a point vehicle of that half width must not enter. Row-major, `nx * ny`.
+pub fn inflated_obstacles(world: &World, radius: f64) -> Vec<bool> {
+    let h = &world.heightmap;
+    let (nx, ny) = (h.nx, h.ny);
+    let occ = sim_core::observe::occupancy_grid(world);
+    let r = (radius / h.cell).ceil() as i64;
+    let mut blocked = vec![false; nx * ny];
+    for iy in 0..ny as i64 {
+        for ix in 0..nx as i64 {
+            if occ[iy as usize * nx + ix as usize] == 0 {
+                continue;
+            }
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    let (qx, qy) = (ix + dx, iy + dy);
+                    if qx >= 0
+                        && qy >= 0
+                        && qx < nx as i64
+                        && qy < ny as i64
+                        && dx * dx + dy * dy <= r * r
+                    {
+                        blocked[qy as usize * nx + qx as usize] = true;
+                    }
+                }
+            }
+        }
+    }
+    blocked
 }
