@@ -16,8 +16,11 @@ use std::sync::Arc;
 const GRADE_DEG: f64 = 8.0;
 const G: f64 = 9.81;
 
-#[test]
-fn braked_stops_hold_the_vehicle_and_coasting_ones_roll_it_back_down_the_grade() -> Result<()> {
+/// Frames (time, forward speed, throttle, brake) of `spec` driving the stop-and-go profile (go 8 s, stop 4 s) up the
+/// test plane from rest, and the profile's stops.
+type Frame = (f64, f64, f32, f32);
+
+fn drive_stops(spec: &sim_core::VehicleSpec) -> (Vec<Frame>, Stops) {
     let tan = GRADE_DEG.to_radians().tan();
     let world = Arc::new(World::uniform(
         Heightmap::from_fn(1.0, |x, _| x * tan),
@@ -44,9 +47,9 @@ fn braked_stops_hold_the_vehicle_and_coasting_ones_roll_it_back_down_the_grade()
         max_time: 36.0,
         ..EpisodeConfig::default()
     };
-    let rec = drive_sinusoid(&world, &vehicle_by_name("hmmwv")?, &at, &rules, 20.0, None);
+    let rec = drive_sinusoid(&world, spec, &at, &rules, 20.0, None);
     // Frames by phase: (time, forward speed, throttle, brake).
-    let frames: Vec<(f64, f64, f32, f32)> = rec
+    let frames: Vec<Frame> = rec
         .frames
         .state
         .iter()
@@ -58,6 +61,25 @@ fn braked_stops_hold_the_vehicle_and_coasting_ones_roll_it_back_down_the_grade()
         "episode ended early: {:?}",
         rec.outcome
     );
+    (frames, stops)
+}
+
+/// The forward speed at the first frame at or after `t`.
+fn speed_at(frames: &[Frame], t: f64) -> f64 {
+    frames
+        .iter()
+        .find(|f| f.0 >= t)
+        .map(|f| f.1)
+        .unwrap_or(f64::NAN)
+}
+
+#[test]
+fn braked_stops_hold_the_vehicle_and_coasting_ones_roll_it_back_down_the_grade() -> Result<()> {
+    // The textbook's free-rolling vehicle: the HMMWV without its engine's closed-throttle map (engine braking, which
+    // `engine_braking_slows_a_coasting_stop_s_roll_back` checks).
+    let mut free = vehicle_by_name("hmmwv")?;
+    free.powertrain.zero_throttle_curve = None;
+    let (frames, stops) = drive_stops(&free);
     let (mut braked, mut coasting) = (0, 0);
     for k in 0..3u32 {
         // Stop k spans [8 + 12 k, 12 + 12 k).
@@ -89,13 +111,7 @@ fn braked_stops_hold_the_vehicle_and_coasting_ones_roll_it_back_down_the_grade()
                 // Textbook (Wong, Theory of Ground Vehicles, 3.1): a free-rolling vehicle accelerates down the grade
                 // at g (sin(grade) - f cos(grade)); a tyre's rolling resistance f on hard ground is 0 to 0.03, so
                 // over the stop's last 2 s it rolls back at 0.78 to 1.0 g sin(grade).
-                let at_t = |t: f64| {
-                    frames
-                        .iter()
-                        .find(|f| f.0 >= t)
-                        .map(|f| f.1)
-                        .unwrap_or(f64::NAN)
-                };
+                let at_t = |t: f64| speed_at(&frames, t);
                 let a = (at_t(t0 + 3.9) - at_t(t0 + 1.9)) / 2.0;
                 let g_sin = G * GRADE_DEG.to_radians().sin();
                 eprintln!("coasting stop {k}: {a:.3} m/s^2 against -{g_sin:.3}");
@@ -106,6 +122,38 @@ fn braked_stops_hold_the_vehicle_and_coasting_ones_roll_it_back_down_the_grade()
         }
     }
     assert_eq!((braked, coasting), (2, 1));
+    Ok(())
+}
+
+/// The HMMWV as it is, with its engine's closed-throttle map (sim-core r10, `sim-core/tests/engine_map.rs`): the
+/// coasting stop still rolls back down the grade, more slowly than the free-rolling vehicle, which the engine's
+/// drag through the gearbox resists.
+#[test]
+fn engine_braking_slows_a_coasting_stop_s_roll_back() -> Result<()> {
+    let mut free = vehicle_by_name("hmmwv")?;
+    free.powertrain.zero_throttle_curve = None;
+    let coast = |spec: &sim_core::VehicleSpec| {
+        let (frames, stops) = drive_stops(spec);
+        let t0 = (0..3u32)
+            .map(|k| 8.0 + 12.0 * f64::from(k))
+            .find(|t| stops.phase(t + 1.0) == Phase::Coast)
+            .expect("a coasting stop");
+        (
+            speed_at(&frames, t0 + 3.9),
+            (speed_at(&frames, t0 + 3.9) - speed_at(&frames, t0 + 1.9)) / 2.0,
+        )
+    };
+    let (v_free, a_free) = coast(&free);
+    let (v_engine, a_engine) = coast(&vehicle_by_name("hmmwv")?);
+    eprintln!("roll-back: free {a_free:.3} m/s^2 ({v_free:.2} m/s), engine-braked {a_engine:.3} ({v_engine:.2})");
+    assert!(
+        v_engine < -0.5,
+        "the coasting stop did not roll back: {v_engine} m/s"
+    );
+    assert!(
+        a_free < a_engine && a_engine < 0.0,
+        "{a_free} against {a_engine}"
+    );
     Ok(())
 }
 
