@@ -277,6 +277,32 @@ pub fn climbs_observed(
     upright && end - start >= 3.0 * spec.scale && end - x >= 1.0 * spec.scale
 }
 
+/// A coasting stop's roll-back (the harness's `roll-back`): settled facing up a `deg` plane of the ground with
+/// the brakes on, then throttle and brakes released for `seconds` (scaled by sqrt(scale)). Time, speed along the
+/// heading (negative: rolling back) and gear (1 = first) every 0.25 s (times sqrt(scale)), from the release.
+pub fn roll_back(
+    spec: &VehicleSpec,
+    setup: &Setup,
+    deg: f64,
+    seconds: f64,
+) -> Vec<(f64, f64, usize)> {
+    let world = test_world(setup.ground, deg, spec.scale);
+    let mut sim = new_sim(&world, spec, setup, -100.0);
+    let every = (0.25 * spec.scale.sqrt() / sim.dt()).round().max(1.0) as usize;
+    let steps = (seconds * spec.scale.sqrt() / sim.dt()).round() as usize;
+    let mut out = Vec::with_capacity(steps / every + 1);
+    for i in 0..=steps {
+        if i % every == 0 {
+            let s = sim.state();
+            out.push((i as f64 * sim.dt(), s.speed, sim.gear() + 1));
+        }
+        if i < steps {
+            sim.step(&act(0.0, 0.0, 0.0));
+        }
+    }
+    out
+}
+
 /// The steepest climbable grade, degrees, by bisection to 0.1 degree between 0 and 60.
 pub fn climb_grade(spec: &VehicleSpec, setup: &Setup) -> f64 {
     let (mut lo, mut hi) = (0.0, 60.0);

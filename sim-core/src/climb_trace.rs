@@ -32,6 +32,8 @@ pub struct ClimbSample {
     /// The ground's force on the wheel along the slope's normal and along the heading, N.
     pub normal: f64,
     pub tractive: f64,
+    /// The soil's moment about the axle, N m (negative resists a forward spin); `None` off soil.
+    pub moment: Option<f64>,
 }
 
 /// Wheel `i`'s name in the harness's trace for a two-axle vehicle (`w<i>` beyond four wheels).
@@ -84,6 +86,7 @@ pub fn climb_traced(
                 v_fwd: sim.velocity().dot(&fwd),
                 normal: f.dot(&n),
                 tractive: f.dot(&fwd),
+                moment: (w.contact && w.soil).then_some(w.soil_torque),
             });
         }
     })

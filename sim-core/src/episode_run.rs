@@ -10,6 +10,7 @@
 use crate::episode::*;
 use crate::planner::{Action, Observation, VehicleState};
 use crate::reward::{is_time_limit, RewardTerms, RewardWeights};
+use crate::stuck::StuckWatch;
 use crate::vehicle::{Simulation, VehicleSpec};
 use crate::world::{Task, World};
 use nalgebra::Vector3;
@@ -62,9 +63,6 @@ pub fn control_every(rate_hz: f64, dt: f64) -> u64 {
     ((1.0 / rate_hz) / dt).round().max(1.0) as u64
 }
 
-/// Stuck bookkeeping: positions sampled every [`STUCK_SAMPLE_DT`] in a ring covering the rule's window.
-const STUCK_SAMPLE_DT: f64 = 0.5;
-
 /// A running episode (see the module documentation). A clone continues bit-identically: cloning a freshly made run
 /// is the cheap way to start the same task again (the start's settling is not repeated).
 #[derive(Clone)]
@@ -84,13 +82,7 @@ pub struct EpisodeRun {
     record_every: Option<u64>,
     trajectory: Vec<TrajectorySample>,
     metrics: EpisodeMetrics,
-    sample_every: u64,
-    window: f64,
-    stuck_distance: f64,
-    stuck_speed: f64,
-    ring: Vec<[f64; 2]>,
-    ring_count: usize,
-    slow_since: f64,
+    stuck: StuckWatch,
     roll: Running,
     roll_abs: Running,
     pitch: Running,
@@ -146,11 +138,6 @@ impl EpisodeRun {
         let capacity = cfg
             .record_hz
             .map_or(0, |hz| (cfg.max_time * hz).ceil() as usize + 2);
-        let (window, stuck_distance, stuck_speed) = match cfg.stuck {
-            StuckRule::Displacement { distance, window } => (window, distance * scale, f64::NAN),
-            StuckRule::Speed { speed, window } => (window, f64::NAN, speed),
-        };
-        let ring_len = (window / STUCK_SAMPLE_DT).round() as usize + 1;
         let last_pos = sim.position();
         let prev_distance = (last_pos.x - task.goal[0]).hypot(last_pos.y - task.goal[1]);
         EpisodeRun {
@@ -161,13 +148,7 @@ impl EpisodeRun {
             record_every,
             trajectory: Vec::with_capacity(capacity),
             metrics: EpisodeMetrics::default(),
-            sample_every: (STUCK_SAMPLE_DT / dt).round().max(1.0) as u64,
-            window,
-            stuck_distance,
-            stuck_speed,
-            ring: vec![[0.0; 2]; ring_len.max(2)],
-            ring_count: 0,
-            slow_since: 0.0,
+            stuck: StuckWatch::new(cfg.stuck, scale, dt),
             roll: Running::default(),
             roll_abs: Running::default(),
             pitch: Running::default(),
@@ -379,28 +360,8 @@ impl EpisodeRun {
         if pos.x.abs() > self.half[0] || pos.y.abs() > self.half[1] {
             return Some(EpisodeEnd::new(OffMap, EndReason::OffMap, ""));
         }
-        if self.step.is_multiple_of(self.sample_every) {
-            let len = self.ring.len();
-            self.ring[self.ring_count % len] = [pos.x, pos.y];
-            self.ring_count += 1;
-            if self.stuck_distance.is_finite() && self.ring_count >= len {
-                let old = self.ring[self.ring_count % len];
-                if (pos.x - old[0]).hypot(pos.y - old[1]) < self.stuck_distance {
-                    let d = format!(
-                        "moved less than {:.2} m in {} s",
-                        self.stuck_distance, self.window
-                    );
-                    return Some(EpisodeEnd::new(Stuck, EndReason::Stuck, d));
-                }
-            }
-        }
-        if self.stuck_speed.is_finite() {
-            if s.speed.abs() >= self.stuck_speed {
-                self.slow_since = s.time;
-            } else if s.time - self.slow_since >= self.window {
-                let d = format!("speed below {} m/s for {} s", self.stuck_speed, self.window);
-                return Some(EpisodeEnd::new(Stuck, EndReason::Stuck, d));
-            }
+        if let Some(d) = self.stuck.check(self.step, s.time, [pos.x, pos.y], s.speed) {
+            return Some(EpisodeEnd::new(Stuck, EndReason::Stuck, d));
         }
         if s.time >= self.cfg.max_time {
             return Some(EpisodeEnd::new(Timeout, EndReason::Timeout, ""));

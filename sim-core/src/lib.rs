@@ -23,6 +23,7 @@ pub mod planner;
 pub mod reward;
 pub mod runner;
 pub mod soil;
+mod stuck;
 pub mod terrain_stats;
 pub use contracts::trajectory;
 pub mod vehicle;

@@ -2,9 +2,7 @@
 //! binary outside the checkout, run from elsewhere, unpacks the set into its versioned cache (every file checked)
 //! and uses it by default; a damaged copy in the cache is replaced.
 
-mod common;
-
-use common::*;
+use integration::*;
 
 fn committed_version() -> String {
     let m: serde_json::Value = serde_json::from_str(

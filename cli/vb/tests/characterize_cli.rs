@@ -1,12 +1,11 @@
 //! `vb sim characterize`: the datasheet command end to end (the binary, its JSON, its errors).
 
-mod common;
 use std::ffi::OsStr;
 use std::process::Command;
 
 /// Runs `vb` with `args`, which must succeed; returns its standard output.
 fn vb_ok<S: AsRef<OsStr>>(args: impl IntoIterator<Item = S>) -> Vec<u8> {
-    let out = Command::new(common::vb()).args(args).output().unwrap();
+    let out = Command::new(integration::vb()).args(args).output().unwrap();
     assert!(
         out.status.success(),
         "{}",
@@ -65,7 +64,7 @@ fn characterize_prints_a_datasheet_whose_braking_is_mu_g() {
 #[test]
 fn characterize_rejects_unknown_surfaces_and_vehicles() {
     for args in [["--surface", "lava"], ["--vehicle", "tank"], ["--dt", "-1"]] {
-        let out = Command::new(common::vb())
+        let out = Command::new(integration::vb())
             .args(["sim", "characterize"])
             .args(args)
             .output()
@@ -86,7 +85,7 @@ fn characterize_counts_the_starts_a_vehicle_cannot_move_off_from() {
         eprintln!("SKIPPED: VB_RELEASE_DIR is not set, so the move-off check was not run on the release's worlds");
         return;
     };
-    let dir = common::temp_dir("move-off");
+    let dir = integration::temp_dir("move-off");
     let tasks = dir.join("orig-tasks");
     let maps = std::path::PathBuf::from(release).join("BenchMaps/sampled_maps");
     vb_ok([
@@ -165,7 +164,7 @@ fn characterize_counts_the_starts_a_vehicle_cannot_move_off_from() {
 /// those two; a file of another schema is refused before anything runs.
 #[test]
 fn characterize_compares_with_a_reference_file() {
-    let dir = common::temp_dir("characterize-reference");
+    let dir = integration::temp_dir("characterize-reference");
     let ours = vb_ok(["sim", "characterize", "--surface", "rigid", "--json"]);
     let mut reference: serde_json::Value = serde_json::from_slice(&ours).unwrap();
     let same = dir.join("same.json");
@@ -220,7 +219,7 @@ fn characterize_compares_with_a_reference_file() {
     assert_eq!(failed, ["distance_20s", "climb_grade_deg"], "{v}");
     let bad = dir.join("bad.json");
     std::fs::write(&bad, "[1, 2]").unwrap();
-    let out = Command::new(common::vb())
+    let out = Command::new(integration::vb())
         .args(["sim", "characterize", "--reference"])
         .arg(&bad)
         .output()
@@ -243,7 +242,7 @@ fn characterize_compares_with_a_reference_file() {
         ),
     ] {
         std::fs::write(&bad, text).unwrap();
-        let out = Command::new(common::vb())
+        let out = Command::new(integration::vb())
             .args(["sim", "characterize", "--reference"])
             .arg(&bad)
             .output()
@@ -259,7 +258,7 @@ fn characterize_compares_with_a_reference_file() {
 /// its verdict is the datasheet's criterion, and bad input is refused before anything runs.
 #[test]
 fn climb_writes_a_per_wheel_trace_in_the_harness_columns() {
-    let dir = common::temp_dir("climb-trace");
+    let dir = integration::temp_dir("climb-trace");
     let trace = dir.join("trace.csv");
     let out = String::from_utf8(vb_ok([
         OsStr::new("sim"),
@@ -299,6 +298,8 @@ fn climb_writes_a_per_wheel_trace_in_the_harness_columns() {
         "two grades, every 1 s for 20 s, four wheels"
     );
     assert!(rows.iter().all(|r| r.len() == 19), "19 columns");
+    // The soil's moment only on soil: empty on rigid ground.
+    assert!(rows.iter().all(|r| r[14].is_empty()), "moment off soil");
     assert_eq!(
         (rows[0][0], rows[0][2], rows[3][2]),
         ("10", "front_left", "rear_right")
@@ -311,7 +312,7 @@ fn climb_writes_a_per_wheel_trace_in_the_harness_columns() {
             "--every",
         ),
     ] {
-        let out = Command::new(common::vb())
+        let out = Command::new(integration::vb())
             .args(["sim", "climb"])
             .args(&args)
             .output()

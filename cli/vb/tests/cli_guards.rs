@@ -1,7 +1,5 @@
 //! `vb` refuses what would destroy data by accident, and stops cleanly when told to.
 
-mod common;
-
 #[test]
 fn tasks_generate_needs_an_output_directory() {
     // Without --out it used to overwrite the benchmark's committed task set.
@@ -123,7 +121,7 @@ fn vb_serve_stops_cleanly_on_sigterm() {
     {
         let dir = std::env::temp_dir().join(format!("vb-sigterm-{}-{k}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let (grpc, http) = (common::free_port(), common::free_port());
+        let (grpc, http) = (integration::free_port(), integration::free_port());
         let db = format!("sqlite://{}/vb.db", dir.display());
         let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_vb"))
             .args(["serve", "--db", &db, "--slots", "1"])
@@ -139,7 +137,7 @@ fn vb_serve_stops_cleanly_on_sigterm() {
             .stderr(std::process::Stdio::null())
             .spawn()
             .unwrap();
-        common::wait_port(http, std::time::Duration::from_secs(60));
+        integration::wait_port(http, std::time::Duration::from_secs(60));
         if !evaluate.is_empty() {
             // Into the evaluation (1000 episodes: far from done).
             std::thread::sleep(std::time::Duration::from_secs(2));

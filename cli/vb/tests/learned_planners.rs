@@ -3,9 +3,7 @@
 //! another layout, a classical baseline with weights and a learned name this build has no weights for are refused
 //! with messages that say what to do.
 
-mod common;
-
-use common::*;
+use integration::*;
 use learned::weights::{layout_metadata, untrained};
 use std::process::Command;
 

@@ -93,6 +93,11 @@ impl Simulation {
                     left: wp.side > 0.0,
                     spin: w.spin,
                     compression: w.compression,
+                    soil_torque: if c.active && c.soil {
+                        c.soil_torque
+                    } else {
+                        0.0
+                    },
                 }
             })
     }

@@ -73,10 +73,11 @@ pub(super) fn drive_torque(
     }
     // Chrono's ChEngineSimpleMap: both maps read at the clamped engine speed, blended by the throttle. The
     // full-load part drives the way the throttle points; the closed-throttle part (engine braking) resists the
-    // wheels' spin, so it joins the brakes' Coulomb torque, which stops a wheel without reversing it. Departure:
-    // the engine speed is the wheels' mean speed's magnitude, as the gearbox has always read it, so a vehicle
-    // rolling against its gear (back down a grade in a forward gear) is engine-braked; Chrono clamps that negative
-    // speed to 0, where its maps give 419 N m of drive and 2 N m of drag (issue 59 keeps this open).
+    // wheels' spin, so it joins the brakes' Coulomb torque, which stops a wheel without reversing it. Departure,
+    // kept: Chrono's transmission also gives the engine |driveshaft speed| / ratio, but hands the driveline the
+    // map's signed torque, so a vehicle rolling back against a forward gear is pushed down the grade by the
+    // closed-throttle drag (the harness's `roll-back`: 1.7-1.8 m/s^2 on 8 deg, free rolling 1.37), where this
+    // brakes it: a drag that does positive work is an artefact of the map, not an engine.
     let u = action.throttle;
     let full_total = pt.full_load(rpm) / ratio;
     let drag_total = pt

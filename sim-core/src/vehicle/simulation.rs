@@ -110,6 +110,8 @@ pub struct WheelReport {
     /// Spin, rad/s; suspension compression from full droop, m.
     pub spin: f64,
     pub compression: f64,
+    /// The soil's torque on the wheel about its axle, N m (positive along a forward spin); 0 off soil.
+    pub soil_torque: f64,
 }
 
 /// Options of [`Simulation::with_options`].

@@ -4,6 +4,7 @@
 //   chrono-reference datasheet [--ground rigid|snow|mud|sand|all] [VARIANT...] [--out FILE]
 //   chrono-reference climb --ground G --grade DEG[,DEG...] [VARIANT...] [--trace FILE.csv]
 //   chrono-reference move-off --task-dir DIR [--worlds ID[,ID...]] [VARIANT...] [--out FILE]
+//   chrono-reference roll-back --grade DEG [--seconds S] [VARIANT...]
 //
 // VARIANT: --dt S (default 0.005), --smc (SMC contact instead of NSC), --no-chassis-collision,
 // --no-bulldozing, --chassis-domain (an SCM domain around the chassis too), --threads N (default 1).
@@ -103,6 +104,7 @@ void write_out(const std::string& path, const std::string& text) {
               << "\nusage: chrono-reference datasheet [--ground G|all] [--out FILE] [VARIANT...]\n"
                  "       chrono-reference climb --ground G --grade DEG[,DEG...] [--trace FILE.csv] [VARIANT...]\n"
                  "       chrono-reference move-off --task-dir DIR [--worlds ID[,ID...]] [--out FILE] [VARIANT...]\n"
+                 "       chrono-reference roll-back --grade DEG [--seconds S] [VARIANT...]\n"
                  "VARIANT: --dt S, --smc, --no-chassis-collision, --no-bulldozing, --chassis-domain, --threads N\n";
     std::exit(2);
 }
@@ -127,6 +129,7 @@ int main(int argc, char* argv[]) {
     Options o;
     std::string ground = "all", out, trace, task_dir;
     std::vector<double> grades, worlds;
+    double seconds = 4;
     for (int i = 2; i < argc; i++) {
         std::string a = argv[i];
         auto value = [&]() -> std::string {
@@ -152,6 +155,8 @@ int main(int argc, char* argv[]) {
             o.bulldozing = false;
         else if (a == "--chassis-domain")
             o.chassis_domain = true;
+        else if (a == "--seconds")
+            seconds = parse_number(a, value());
         else if (a == "--task-dir")
             task_dir = value();
         else if (a == "--grade" || a == "--worlds") {
@@ -242,6 +247,14 @@ int main(int argc, char* argv[]) {
                 bool ok = climbs(o, g, trace.empty() ? nullptr : &t);
                 std::cout << ground << " " << g << " deg: " << (ok ? "climbs" : "does not climb") << std::endl;
             }
+        } else if (command == "roll-back") {
+            if (grades.size() != 1 || !(seconds > 0 && seconds <= 60))
+                usage("roll-back wants one --grade and --seconds in (0, 60]");
+            o.soil = Soil::Rigid;
+            std::cout << "t,speed,engine_speed,engine_torque,gear\n";
+            for (const RollBackSample& r : roll_back(o, grades[0], seconds))
+                std::cout << num(r.t) << ',' << num(r.speed) << ',' << num(r.engine_speed) << ','
+                          << num(r.engine_torque) << ',' << r.gear << '\n';
         } else {
             usage("unknown command '" + command + "'");
         }

@@ -224,4 +224,8 @@ double Rig::engine_speed() const {
     return m_hmmwv->GetVehicle().GetEngine()->GetMotorSpeed();
 }
 
+double Rig::engine_torque() const {
+    return m_hmmwv->GetVehicle().GetEngine()->GetOutputMotorshaftTorque();
+}
+
 }  // namespace vbref

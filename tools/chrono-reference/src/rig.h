@@ -61,6 +61,7 @@ class Rig {
     chrono::ChVector3d suspension_contact_force() const;
     int gear() const;
     double engine_speed() const;  // rad/s
+    double engine_torque() const; // N m at the motorshaft (negative: the closed-throttle map's drag)
 
     const Scene& scene() const { return *m_scene; }
 

@@ -292,4 +292,32 @@ double move_off_distance(const Options& o, const World& world, const WorldTask& 
     return std::hypot(dx.x(), dx.y());
 }
 
+std::vector<RollBackSample> roll_back(const Options& o, double deg, double seconds) {
+    Ground slope;
+    slope.grade_deg = deg;
+    slope.x_start = -300;
+    slope.x_end = 300;
+    slope.half_width = 15;
+    auto rig = make_rig(o, slope, -200);
+    std::vector<RollBackSample> out;
+    double next = 0;
+    auto record = [&](const Rig& r) {
+        if (r.time() + 1e-9 >= next) {
+            out.push_back({r.time(), r.speed(), r.engine_speed(), r.engine_torque(), r.gear()});
+            next += 0.25;
+        }
+        return false;
+    };
+    record(*rig);
+    drive(
+        *rig, seconds,
+        [](const Rig&, double& s, double& t, double& b) {
+            s = 0;
+            t = 0;
+            b = 0;
+        },
+        record);
+    return out;
+}
+
 }  // namespace vbref

@@ -6,6 +6,7 @@
 #include <optional>
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include "rig.h"
 #include "world.h"
@@ -46,5 +47,15 @@ void write_trace_header(std::ostream& out);
 // full throttle for 20 s with the steering holding the bearing to the goal; how far (m, horizontal) the chassis
 // ends from where it started. `wall_s` gets the wall time of the run.
 double move_off_distance(const Options& options, const World& world, const WorldTask& task, double* wall_s = nullptr);
+
+// A coasting stop's roll-back (issue 59): settled with the brakes on facing up a rigid `grade_deg` plane, in
+// first gear, then throttle and brakes released for `seconds`; one sample every 0.25 s. Chrono's transmission gives
+// the engine |driveshaft speed| / gear ratio and the driveline the engine's signed torque / gear ratio, so the
+// closed-throttle map's drag, always negative in a forward gear, pushes a vehicle rolling backwards.
+struct RollBackSample {
+    double t, speed, engine_speed, engine_torque;
+    int gear;
+};
+std::vector<RollBackSample> roll_back(const Options& options, double grade_deg, double seconds);
 
 }  // namespace vbref

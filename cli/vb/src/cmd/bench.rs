@@ -1,4 +1,5 @@
-//! `vb bench sim`: real-time factors of every vehicle on rigid and soft ground; `vb bench planner`, `vb bench
+//! `vb bench sim`: real-time factors of every vehicle on rigid and soft ground; `vb bench move-off`: the HMMWV's
+//! move-off check beside the Chrono harness's on the same starts; `vb bench planner`, `vb bench
 //! leaderboard` and `vb bench service` ([`super::bench_service`]): the service's costs.
 
 use clap::Subcommand;
@@ -13,6 +14,20 @@ pub enum BenchCmd {
         seconds: f64,
         #[arg(long)]
         task_dir: Option<PathBuf>,
+    },
+    /// The HMMWV's move-off check (sim_core::move_off: settled at a task's start, full throttle towards the goal for
+    /// 20 s) from every start of the chosen worlds, one after the other on one thread: wall time per start and
+    /// simulated seconds per wall-clock second; with --reference, the Chrono harness's `move-off` of the same starts
+    /// (`chrono-reference move-off --task-dir DIR --worlds IDS --out FILE`) beside it, and how many times faster.
+    MoveOff {
+        #[arg(long)]
+        task_dir: Option<PathBuf>,
+        /// World ids, comma-separated (default: the first rigid and the first deformable world, as `vb bench sim`).
+        #[arg(long)]
+        worlds: Option<String>,
+        /// The harness's JSON for the same starts (its `move_off.wall_s` over its `move_off.tasks`).
+        #[arg(long)]
+        reference: Option<PathBuf>,
     },
     /// Round-trip overhead of a remote planner per control step (observation out, action back), through the worker's
     /// own code path: `vb bench planner -- PLANNER_COMMAND...` (it must serve on $VB_PLANNER_ADDR).
@@ -63,6 +78,24 @@ pub enum BenchCmd {
         #[arg(long, default_value_t = std::thread::available_parallelism().map_or(2, |n| n.get()))]
         slots: usize,
     },
+}
+
+/// The first rigid and the first deformable world of `set`.
+pub(super) fn first_rigid_and_deformable(set: &tasks::TaskSet) -> anyhow::Result<(u32, u32)> {
+    let pick = |kind: sim_core::world::SemanticsKind| -> anyhow::Result<u32> {
+        set.world_ids()
+            .into_iter()
+            .find(|id| {
+                set.world_meta(*id)
+                    .map(|m| m.semantics == kind)
+                    .unwrap_or(false)
+            })
+            .ok_or_else(|| anyhow::anyhow!("no {} world in the task set", kind.as_str()))
+    };
+    Ok((
+        pick(sim_core::world::SemanticsKind::Rigid)?,
+        pick(sim_core::world::SemanticsKind::Deformable)?,
+    ))
 }
 
 fn percentile(sorted: &[f64], q: f64) -> f64 {
@@ -216,25 +249,22 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
             task_dir.unwrap_or_else(tasks::embedded::default_dir),
             command,
         ),
+        BenchCmd::MoveOff {
+            task_dir,
+            worlds,
+            reference,
+        } => super::bench_move_off::run(
+            &task_dir.unwrap_or_else(tasks::embedded::default_dir),
+            worlds.as_deref(),
+            reference.as_deref(),
+        ),
         BenchCmd::Sim { seconds, task_dir } => {
             anyhow::ensure!(
                 seconds.is_finite() && seconds > 0.0,
                 "--seconds must be positive"
             );
             let set = tasks::TaskSet::load(&task_dir.unwrap_or_else(tasks::embedded::default_dir))?;
-            // The first rigid and the first deformable world of the set.
-            let pick = |kind: sim_core::world::SemanticsKind| -> anyhow::Result<u32> {
-                set.world_ids()
-                    .into_iter()
-                    .find(|id| {
-                        set.world_meta(*id)
-                            .map(|m| m.semantics == kind)
-                            .unwrap_or(false)
-                    })
-                    .ok_or_else(|| anyhow::anyhow!("no {} world in the task set", kind.as_str()))
-            };
-            let rigid = pick(sim_core::world::SemanticsKind::Rigid)?;
-            let soft = pick(sim_core::world::SemanticsKind::Deformable)?;
+            let (rigid, soft) = first_rigid_and_deformable(&set)?;
             println!("vehicle       ground      world  steps/s     us/step  real-time factor");
             for spec in sim_core::vehicle::builtin_vehicles() {
                 for (label, id) in [("rigid", rigid), ("deformable", soft)] {

@@ -1,6 +1,7 @@
 //! One module per subcommand group. Each parses its arguments and calls a library.
 
 pub mod bench;
+pub mod bench_move_off;
 pub mod bench_service;
 pub mod compare;
 pub mod dataset;

@@ -30,8 +30,8 @@ pub enum SimCmd {
     },
     /// The steepest-grade scenario at the given grades (climbs or not, by the datasheet's criterion), with a
     /// per-wheel trace in the Chrono reference harness's CSV columns (`chrono-reference climb --trace`); columns
-    /// sim-core does not model (engine speed, the soil's moment, the chassis' and suspension's soil forces) are
-    /// left empty.
+    /// sim-core does not model (engine speed, the chassis' and suspension's soil forces) are left empty, and the
+    /// soil's moment off soil.
     Climb {
         #[arg(long, default_value = "hmmwv")]
         vehicle: String,
@@ -53,6 +53,25 @@ pub enum SimCmd {
     },
     /// List the vehicle catalogue.
     Vehicles,
+    /// A coasting stop's roll-back, as the Chrono harness's `roll-back`: settled facing up a plane of the grade with
+    /// the brakes on, then throttle and brakes released; CSV in the harness's columns (t, speed, engine_speed,
+    /// engine_torque, gear), the engine's left empty.
+    RollBack {
+        #[arg(long, default_value = "hmmwv")]
+        vehicle: String,
+        /// rigid (concrete, mu 0.85), snow, mud or sand.
+        #[arg(long, default_value = "rigid")]
+        surface: String,
+        /// Grade, degrees (0 to 60).
+        #[arg(long)]
+        grade: f64,
+        /// Seconds after the release (0 to 60).
+        #[arg(long, default_value_t = 4.0)]
+        seconds: f64,
+        /// Physics step, s (default: the vehicle's).
+        #[arg(long)]
+        dt: Option<f64>,
+    },
     /// A vehicle's datasheet: static sinkage and ride height, full-throttle speeds and distance, braking, the
     /// steepest climbable grade, tilt-table slide and tip angles, turning radii (sim_core::characterize).
     Characterize {
@@ -246,6 +265,30 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
             trace,
             every,
         } => climb(&vehicle, &surface, &grade, dt, trace.as_deref(), every)?,
+        SimCmd::RollBack {
+            vehicle,
+            surface,
+            grade,
+            seconds,
+            dt,
+        } => {
+            let spec = sim_core::vehicle::vehicle_by_name(&vehicle)?;
+            let ground = ground_named(&surface)?;
+            anyhow::ensure!(
+                grade.is_finite() && (0.0..=60.0).contains(&grade),
+                "--grade must be degrees in [0, 60]"
+            );
+            anyhow::ensure!(
+                seconds.is_finite() && seconds > 0.0 && seconds <= 60.0,
+                "--seconds must be in (0, 60]"
+            );
+            check_dt(dt)?;
+            let setup = sim_core::characterize::Setup { ground, dt };
+            println!("t,speed,engine_speed,engine_torque,gear");
+            for (t, v, gear) in sim_core::characterize::roll_back(&spec, &setup, grade, seconds) {
+                println!("{t:.3},{v:.6},,,{gear}");
+            }
+        }
         SimCmd::Vehicles => {
             for v in sim_core::vehicle::builtin_vehicles() {
                 println!("{:<12} scale {:<8} {}", v.name, v.scale, v.description);
@@ -253,6 +296,12 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// `--surface`: one ground of the datasheet.
+fn ground_named(surface: &str) -> anyhow::Result<sim_core::characterize::Ground> {
+    sim_core::characterize::Ground::from_name(surface)
+        .ok_or_else(|| anyhow::anyhow!("unknown --surface `{surface}` (rigid, snow, mud or sand)"))
 }
 
 /// `--dt`, when given: a physics step in (0, 0.02] s.
@@ -276,12 +325,10 @@ fn climb(
     every: f64,
 ) -> anyhow::Result<()> {
     use anyhow::Context;
-    use sim_core::characterize::{Ground, Setup};
+    use sim_core::characterize::Setup;
     use std::io::Write;
     let spec = sim_core::vehicle::vehicle_by_name(vehicle)?;
-    let ground = Ground::from_name(surface).ok_or_else(|| {
-        anyhow::anyhow!("unknown --surface `{surface}` (rigid, snow, mud or sand)")
-    })?;
+    let ground = ground_named(surface)?;
     anyhow::ensure!(
         grades
             .iter()
@@ -314,7 +361,7 @@ fn climb(
             let name = sim_core::climb_trace::wheel_name(s.wheel, s.wheels);
             if let Err(e) = writeln!(
                 w,
-                "{g},{:.3},{name},{:.4},{:.4},{:.4},{},,{:.4},{:.4},{:.4},{:.4},{:.1},{:.1},,,,,",
+                "{g},{:.3},{name},{:.4},{:.4},{:.4},{},,{:.4},{:.4},{:.4},{:.4},{:.1},{:.1},{},,,,",
                 s.t,
                 s.x,
                 s.z,
@@ -325,7 +372,8 @@ fn climb(
                 s.omega,
                 s.v_fwd,
                 s.normal,
-                s.tractive
+                s.tractive,
+                s.moment.map_or(String::new(), |m| format!("{m:.1}"))
             ) {
                 failed = Some(e);
             }

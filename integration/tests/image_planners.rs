@@ -1,9 +1,7 @@
 //! Issue 35 over real processes and the real Docker daemon: an image planner's container and private directory go
 //! when its worker dies by SIGKILL, and a worker's start removes what dead workers left, never a live one's.
 
-mod common;
-
-use common::*;
+use integration::*;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};

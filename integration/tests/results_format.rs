@@ -2,9 +2,7 @@
 //! the same planner on the same tasks (apart from wall times), so `vb compare` and `vb leaderboard-static` take
 //! service and local runs alike. Real processes: `vb coordinator`, `vb worker`, the `vb-submit` and `vb` CLIs.
 
-mod common;
-
-use common::*;
+use integration::*;
 use std::path::Path;
 use std::process::Command;
 use std::time::Duration;

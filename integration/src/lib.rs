@@ -1,19 +1,44 @@
-//! Helpers of the service tests: real processes (`vb coordinator`, `vb worker`, `vb leaderboard`, the example
-//! planner), real gRPC, a real database.
+//! Helpers of the end-to-end tests: real processes (`vb coordinator`, `vb worker`, `vb leaderboard`, the example
+//! planner), real gRPC, a real database. The tests are this crate's `tests/`; `cli/vb`'s own CLI tests use the
+//! helpers too.
 
 #![allow(dead_code)]
 
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant, SystemTime};
 
+/// The `vb` binary.
 pub fn vb() -> PathBuf {
-    PathBuf::from(env!("CARGO_BIN_EXE_vb"))
+    static FRESH: OnceLock<PathBuf> = OnceLock::new();
+    FRESH
+        .get_or_init(|| workspace_bin("vb", &["-p", "vb", "--bin", "vb"]))
+        .clone()
 }
 
-/// The example planner's binary (another package's: `cargo test` leaves it missing, or stale after a change, so it
-/// is brought up to date once per test process; nothing else writes it).
+/// The `vb-submit` binary, with the `validate` feature (which `vb` turns on in the workspace's build).
+pub fn vb_submit_bin() -> PathBuf {
+    static FRESH: OnceLock<PathBuf> = OnceLock::new();
+    FRESH
+        .get_or_init(|| {
+            workspace_bin(
+                "vb-submit",
+                &[
+                    "-p",
+                    "vb-submit",
+                    "--bin",
+                    "vb-submit",
+                    "--features",
+                    "validate",
+                ],
+            )
+        })
+        .clone()
+}
+
+/// The example planner's binary (nothing else builds it, so it is brought up to date once per test process).
 pub fn example_planner() -> PathBuf {
     static BUILT: std::sync::Once = std::sync::Once::new();
     let path = target_dir().join("example-planner");
@@ -21,21 +46,44 @@ pub fn example_planner() -> PathBuf {
     path
 }
 
-/// The `vb-submit` binary. `cargo test --workspace` builds it with the `validate` feature (which `vb` turns on);
-/// built the same way here only when missing, so this never replaces it with another feature set.
-pub fn vb_submit_bin() -> PathBuf {
-    let path = target_dir().join("vb-submit");
-    if !path.exists() {
-        cargo_build(&[
-            "-p",
-            "vb-submit",
-            "--bin",
-            "vb-submit",
-            "--features",
-            "validate",
-        ]);
+/// A binary of this workspace at this test's profile. `cargo test --workspace` (the README's command) builds `vb`
+/// and `vb-submit` fresh for their packages' own CLI tests before any test runs; run on its own (`cargo test -p
+/// integration`), a binary that is missing, or older than a source file its dep-info (`NAME.d`, which cargo
+/// writes beside it) lists, is built first with `cargo build ARGS`, so no test runs a stale binary.
+fn workspace_bin(name: &str, build: &[&str]) -> PathBuf {
+    let path = target_dir().join(name);
+    if !is_fresh(&path) {
+        cargo_build(build);
     }
+    assert!(
+        is_fresh(&path),
+        "cargo build {build:?} left {} stale",
+        path.display()
+    );
     path
+}
+
+fn is_fresh(binary: &Path) -> bool {
+    let built = match std::fs::metadata(binary).and_then(|m| m.modified()) {
+        Ok(t) => t,
+        Err(_) => return false,
+    };
+    let Ok(deps) = std::fs::read_to_string(binary.with_extension("d")) else {
+        return false;
+    };
+    // "TARGET: SOURCE SOURCE ...", spaces in paths escaped with a backslash.
+    let Some((_, sources)) = deps.split_once(": ") else {
+        return false;
+    };
+    let mut newest = SystemTime::UNIX_EPOCH;
+    for source in sources.replace("\\ ", "\u{0}").split_whitespace() {
+        let source = source.replace('\u{0}', " ");
+        match std::fs::metadata(&source).and_then(|m| m.modified()) {
+            Ok(t) => newest = newest.max(t),
+            Err(_) => return false,
+        }
+    }
+    newest <= built
 }
 
 /// The directory of this test's profile (`target/debug`).

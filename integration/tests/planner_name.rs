@@ -3,9 +3,7 @@
 //! naming the field and the code point, over real processes (a worker, a coordinator, the example planner serving on
 //! its own as an endpoint or started by the worker).
 
-mod common;
-
-use common::*;
+use integration::*;
 use std::time::Duration;
 use vb_proto::v1 as pb;
 

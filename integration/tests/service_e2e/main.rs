@@ -6,14 +6,12 @@
 //! `requests` (bad input from users and workers, ownership, cancel, endpoints; the worker API in `worker_api`)
 //! and `stores` (PostgreSQL; workers that lease and drop).
 
-#[path = "../common/mod.rs"]
-mod common;
 mod requests;
 mod resilience;
 mod stores;
 mod worker_api;
 
-use common::*;
+use integration::*;
 use vb_proto::v1 as pb;
 
 fn exec_request(name: &str, tasks: &[&str], args: &[&str], deadline: f64) -> pb::SubmitRequest {

@@ -2,7 +2,7 @@
 //! request, peers that answer no ping, quiet live connections, the connection limit, a submission under tight limits.
 
 use crate::clients::*;
-use crate::common::*;
+use integration::*;
 use std::io::Write;
 use std::path::Path;
 use std::time::{Duration, Instant};

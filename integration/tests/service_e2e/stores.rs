@@ -1,7 +1,7 @@
 //! The service on PostgreSQL, and workers that lease and drop.
 
-use crate::common::*;
 use crate::done;
+use integration::*;
 use std::time::Duration;
 use vb_proto::v1 as pb;
 

@@ -1,7 +1,7 @@
 //! The leaderboard (`vb leaderboard`): slow headers, silent connections, the connection limit.
 
 use crate::clients::*;
-use crate::common::*;
+use integration::*;
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::path::Path;

@@ -2,9 +2,7 @@
 //! `builtin mppi6` are accepted by the coordinator's catalogue, run by a `vb worker` process from its compiled-in
 //! weights, and give exactly the episodes `vb eval` gives for the same tasks (same outcome, time and path length).
 
-mod common;
-
-use common::*;
+use integration::*;
 use std::time::Duration;
 use vb_proto::v1 as pb;
 

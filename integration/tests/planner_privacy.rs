@@ -3,9 +3,7 @@
 //! planner whose command lives below `/tmp` (a virtual environment, a binary named inside `sh -c`) sees the files
 //! it needs.
 
-mod common;
-
-use common::*;
+use integration::*;
 use std::time::Duration;
 use vb_proto::v1 as pb;
 use vb_proto::ProtoEnum;

@@ -1,9 +1,7 @@
 //! Issue 35 over real processes: no server dies of a peer that closes its connection, and a planner and everything
 //! it starts die with its episode and with its worker, without seeing the worker's token.
 
-mod common;
-
-use common::*;
+use integration::*;
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};

@@ -4,9 +4,7 @@
 //! repeated task selections are accepted once each; a planner that announces a bad control rate fails its episode as
 //! a protocol error that says so.
 
-mod common;
-
-use common::*;
+use integration::*;
 use std::time::Duration;
 use vb_proto::v1 as pb;
 

@@ -2,9 +2,7 @@
 //! cluster's CA run an evaluation through it; a plaintext client and a client that does not trust the CA get
 //! nothing. The certificates are made with the `openssl` command for the test (skipped, and said so, without it).
 
-mod common;
-
-use common::*;
+use integration::*;
 use std::time::{Duration, Instant};
 use vb_proto::v1 as pb;
 

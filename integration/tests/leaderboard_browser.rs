@@ -2,9 +2,7 @@
 //! through the gRPC path, and the screenshots must show what the pages promise (bars of the breakdown charts, the
 //! driven trajectory over the map). Skipped, and said so, when Chromium is not installed (`.ci/run` installs it).
 
-mod common;
-
-use common::*;
+use integration::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};

@@ -8,13 +8,11 @@
 //! `clients` holds the raw clients; `leaderboard` the leaderboard's tests, `grpc` the coordinator's and the Sim API's.
 
 mod clients;
-#[path = "../common/mod.rs"]
-mod common;
 mod grpc;
 mod leaderboard;
 
 use clients::*;
-use common::*;
+use integration::*;
 use std::io::Write;
 use std::time::Duration;
 

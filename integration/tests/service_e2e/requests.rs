@@ -1,8 +1,8 @@
 //! Bad requests get clear errors; another user's token sees nothing; cancel keeps what ran; endpoints the user
 //! runs, and one that is not there.
 
-use crate::common::*;
 use crate::{done, exec_request};
+use integration::*;
 use std::time::Duration;
 use vb_proto::v1 as pb;
 

@@ -1,7 +1,7 @@
 //! Workers that die, restart or stop, and planners that misbehave: every task still gets exactly one result.
 
-use crate::common::*;
 use crate::{done, exec_request, STEP_S};
+use integration::*;
 use std::collections::BTreeMap;
 use std::time::Duration;
 use vb_proto::v1 as pb;

@@ -1,7 +1,7 @@
 //! Raw clients of the slow-client tests: TCP connections that stall, trickle or answer nothing, and HTTP/2 clients
 //! that answer pings.
 
-use crate::common::create_token;
+use integration::create_token;
 use std::io::{ErrorKind, Read, Write};
 use std::net::TcpStream;
 use std::path::Path;

@@ -1,8 +1,8 @@
 //! The worker API: a worker token on every call, the simulator version checked, and no result taken that no lease
 //! covers.
 
-use crate::common::*;
 use crate::exec_request;
+use integration::*;
 use vb_proto::v1 as pb;
 
 /// Registers, leases and reports as an intruder would; returns the submission it tried to forge a result for
