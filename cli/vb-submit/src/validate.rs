@@ -39,11 +39,9 @@ pub async fn validate(
         .map_err(SubmitError::Usage)?;
     let set =
         Arc::new(tasks::TaskSet::load(task_dir).map_err(|e| SubmitError::Usage(e.to_string()))?);
-    if vb_worker::parse_task_id(task_id).is_none() {
-        return Err(SubmitError::Usage(format!(
-            "bad task id `{task_id}` (like w001-t0)"
-        )));
-    }
+    let task_id: contracts::TaskId = task_id
+        .parse()
+        .map_err(|_| SubmitError::Usage(format!("bad task id `{task_id}` (like w001-t0)")))?;
     // The planner is the user's own, run on their machine: without namespaces here it still runs, and says so.
     let (containment, unisolated) = match vb_worker::sandbox::Containment::probe(planner_user).await
     {
@@ -57,7 +55,7 @@ pub async fn validate(
         ),
     };
     let spec = vb_worker::EpisodeSpec {
-        task_id: task_id.into(),
+        task_id,
         planner,
         vehicle: "hmmwv".into(),
         scale: 1.0,

@@ -28,7 +28,7 @@ pub fn lease(l: &Lease) -> pb::EpisodeLease {
     pb::EpisodeLease {
         lease_id: l.lease_id.clone(),
         submission_id: s.id.clone(),
-        task_id: l.task_id.clone(),
+        task_id: l.task_id.to_string(),
         planner: Some(planner_ref_from_parts(s.planner_kind, &s.planner_spec)),
         vehicle: s.vehicle.clone(),
         scale: s.scale,
@@ -128,10 +128,14 @@ pub fn report(
         contracts::trajectory::from_csv(&trajectory)
             .map_err(|e| Status::invalid_argument(e.to_string()))?;
     }
+    let task_id = r
+        .task_id
+        .parse()
+        .map_err(|e: contracts::TaskIdError| Status::invalid_argument(e.to_string()))?;
     Ok(EpisodeResultIn {
         lease_id: r.lease_id.clone(),
         submission_id: r.submission_id.clone(),
-        task_id: r.task_id.clone(),
+        task_id,
         outcome,
         reason,
         detail: truncate(&r.detail, 16 << 10),

@@ -68,9 +68,7 @@ async fn hidden_characters_in_stored_names_are_shown_escaped_on_every_page() -> 
         sim_version: "s".into(),
     };
     let episode = NewEpisode {
-        task_id: "w001-t0".into(),
-        world_id: 1,
-        task_index: 0,
+        task_id: contracts::TaskId::new(1, 0),
         level: contracts::ElevationLevel::Low,
         semantics: contracts::SemanticsKind::Rigid,
         density: contracts::ObstacleDensity::Sparse,
@@ -81,7 +79,7 @@ async fn hidden_characters_in_stored_names_are_shown_escaped_on_every_page() -> 
     let r = EpisodeResultIn {
         lease_id: lease.lease_id.clone(),
         submission_id: id.clone(),
-        task_id: "w001-t0".into(),
+        task_id: contracts::TaskId::new(1, 0),
         outcome: contracts::RecordedOutcome::Episode(contracts::Outcome::PlannerFailure),
         reason: contracts::EndReason::PlannerCrash,
         detail: DETAIL.into(),

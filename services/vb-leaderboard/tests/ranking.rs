@@ -29,9 +29,7 @@ async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
             .flat_map(|&w| (0..10).map(move |t| (w, t)))
             .take(tasks)
             .map(|(w, t)| NewEpisode {
-                task_id: format!("w{w:03}-t{t}"),
-                world_id: w,
-                task_index: t,
+                task_id: contracts::TaskId::new(w, t),
                 level: contracts::ElevationLevel::Low,
                 semantics: contracts::SemanticsKind::Rigid,
                 density: contracts::ObstacleDensity::Sparse,
@@ -68,7 +66,7 @@ async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
                 let r = EpisodeResultIn {
                     lease_id: l.lease_id.clone(),
                     submission_id: l.submission.id.clone(),
-                    task_id: l.task_id.clone(),
+                    task_id: l.task_id,
                     outcome: contracts::RecordedOutcome::Episode(outcome),
                     reason: contracts::RecordedOutcome::Episode(outcome).plain_reason(),
                     detail: String::new(),

@@ -26,7 +26,7 @@ impl Store {
             "SELECT state, lease_id, worker_id FROM episodes WHERE submission_id = $1 AND task_id = $2",
         )
         .bind(&r.submission_id)
-        .bind(&r.task_id)
+        .bind(r.task_id.to_string())
         .fetch_optional(&self.pool)
         .await?;
         let Some(row) = row else {
@@ -59,7 +59,7 @@ impl Store {
         .bind(r.wall_time_s)
         .bind(now)
         .bind(&r.submission_id)
-        .bind(&r.task_id)
+        .bind(r.task_id.to_string())
         .bind(&r.lease_id)
         .execute(&mut *tx)
         .await?
@@ -67,7 +67,7 @@ impl Store {
         if n == 0 {
             return Ok(ReportOutcome::Duplicate);
         }
-        crate::blobs::insert(&mut tx, &r.submission_id, &r.task_id, &blobs).await?;
+        crate::blobs::insert(&mut tx, &r.submission_id, &r.task_id.to_string(), &blobs).await?;
         if !r.planner_identity.is_empty() {
             sqlx::query("UPDATE submissions SET planner_identity = $1 WHERE id = $2")
                 .bind(&r.planner_identity)

@@ -49,10 +49,10 @@ impl Store {
                  state, attempts) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, 'queued', 0)",
             )
             .bind(&id)
-            .bind(&e.task_id)
+            .bind(e.task_id.to_string())
             .bind(i as i64)
-            .bind(e.world_id as i64)
-            .bind(e.task_index as i64)
+            .bind(i64::from(e.task_id.world))
+            .bind(i64::from(e.task_id.index))
             .bind(e.level.as_str())
             .bind(e.semantics.as_str())
             .bind(e.density.as_str())
@@ -201,6 +201,9 @@ impl Store {
         for r in &rows {
             let submission_id: String = r.try_get("submission_id")?;
             let task_id: String = r.try_get("task_id")?;
+            let task: contracts::TaskId = task_id
+                .parse()
+                .map_err(|e| StoreError::Corrupt(format!("episode of {submission_id}: {e}")))?;
             let attempts: i64 = r.try_get("attempts")?;
             let lease_id = format!("ls-{}", random_hex(8)?);
             let n = sqlx::query(
@@ -222,7 +225,7 @@ impl Store {
                 .bind(&submission_id)
                 .execute(&mut *tx)
                 .await?;
-                out.push((lease_id, submission_id, task_id, attempts + 1));
+                out.push((lease_id, submission_id, task, attempts + 1));
             }
         }
         tx.commit().await?;

@@ -79,9 +79,7 @@ pub struct NewSubmission {
 /// One task of a new submission, with the factors the leaderboard breaks results down by.
 #[derive(Clone, Debug)]
 pub struct NewEpisode {
-    pub task_id: String,
-    pub world_id: u32,
-    pub task_index: u32,
+    pub task_id: TaskId,
     pub level: ElevationLevel,
     pub semantics: SemanticsKind,
     pub density: ObstacleDensity,
@@ -92,9 +90,7 @@ impl NewEpisode {
     pub fn of(catalog: &contracts::Catalog, id: contracts::TaskId) -> Option<NewEpisode> {
         let facts = catalog.worlds.get(&id.world)?;
         Some(NewEpisode {
-            task_id: id.to_string(),
-            world_id: id.world,
-            task_index: id.index,
+            task_id: id,
             level: facts.level,
             semantics: facts.semantics,
             density: facts.density,
@@ -160,7 +156,7 @@ pub struct Lease {
     /// The worker holding it.
     pub worker_id: String,
     pub submission: Submission,
-    pub task_id: String,
+    pub task_id: TaskId,
     pub attempt: i64,
 }
 
@@ -169,7 +165,7 @@ pub struct Lease {
 pub struct EpisodeResultIn {
     pub lease_id: String,
     pub submission_id: String,
-    pub task_id: String,
+    pub task_id: TaskId,
     pub outcome: RecordedOutcome,
     pub reason: EndReason,
     pub detail: String,

@@ -64,7 +64,7 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
         // Oldest submission first, in task order.
         let l1 = store.lease(&w1, 2, 30.0, true, 20.0).await?;
         assert_eq!(
-            l1.iter().map(|l| l.task_id.as_str()).collect::<Vec<_>>(),
+            l1.iter().map(|l| l.task_id.to_string()).collect::<Vec<_>>(),
             ["w001-t0", "w001-t1"]
         );
         assert!(l1.iter().all(|l| l.submission.id == a && l.attempt == 1));
@@ -100,7 +100,10 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
         assert_eq!(store.expire_leases(40.0).await?, 0, "not expired yet");
         assert_eq!(store.expire_leases(51.0).await?, 1);
         let l2 = store.lease(&w2, 1, 30.0, true, 52.0).await?;
-        assert_eq!((l2[0].task_id.as_str(), l2[0].attempt), ("w001-t1", 2));
+        assert_eq!(
+            (l2[0].task_id.to_string().as_str(), l2[0].attempt),
+            ("w001-t1", 2)
+        );
         // Worker 1 was only slow: its late report comes under a lease it no longer holds and is rejected;
         // worker 2 holds the episode now (its lease renews) and its report counts.
         assert_eq!(
@@ -135,7 +138,7 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
         );
         // Finishing the last episode finishes the submission.
         let l3 = store.lease(&w2, 1, 30.0, true, 56.0).await?;
-        assert_eq!(l3[0].task_id, "w001-t2");
+        assert_eq!(l3[0].task_id, contracts::TaskId::new(1, 2));
         store
             .report(&l3[0].worker_id, &result(&l3[0], "success"), 57.0)
             .await?;

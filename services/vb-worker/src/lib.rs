@@ -74,12 +74,6 @@ pub struct WorkerConfig {
     pub drain: Duration,
 }
 
-/// Parses `wNNN-tK` ([`contracts::TaskId`]'s one spelling) into (world, task index).
-pub fn parse_task_id(id: &str) -> Option<(u32, u32)> {
-    let t: contracts::TaskId = id.parse().ok()?;
-    Some((t.world, t.index))
-}
-
 enum AnyPlanner {
     Builtin(Box<dyn Planner>),
     Remote(Box<RemotePlanner>),
@@ -122,7 +116,7 @@ pub fn trajectory_gzip(r: &EpisodeResult) -> Vec<u8> {
 /// Everything needed to run one episode, independent of where it came from (a lease, `vb-submit validate`).
 #[derive(Clone, Debug)]
 pub struct EpisodeSpec {
-    pub task_id: String,
+    pub task_id: contracts::TaskId,
     pub planner: pb::PlannerRef,
     pub vehicle: String,
     pub scale: f64,
@@ -193,8 +187,7 @@ pub async fn run_episode(
     planner_startup: Duration,
 ) -> Result<FinishedEpisode, EpisodeError> {
     let t0 = Instant::now();
-    let (w, t) =
-        parse_task_id(&spec.task_id).ok_or_else(|| format!("bad task id `{}`", spec.task_id))?;
+    let (w, t) = (spec.task_id.world, spec.task_id.index);
     let vehicle = sim_core::vehicle::vehicle_by_name(&spec.vehicle).map_err(|e| e.to_string())?;
     let task = set
         .tasks(w, spec.scale)

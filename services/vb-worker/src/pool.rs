@@ -442,8 +442,12 @@ async fn run_lease(
     }
     let set_version = set.version().to_string();
     let set_version = set_version.as_str();
+    let task_id = match lease.task_id.parse::<contracts::TaskId>() {
+        Ok(t) => t,
+        Err(e) => return Some(infra(e.to_string())),
+    };
     let spec = EpisodeSpec {
-        task_id: lease.task_id.clone(),
+        task_id,
         planner: lease.planner.clone().unwrap_or_default(),
         vehicle: lease.vehicle.clone(),
         scale: lease.scale,

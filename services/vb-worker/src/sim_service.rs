@@ -170,8 +170,11 @@ impl pb::sim_server::Sim for SimService {
         let client = self.access.client(&req)?;
         let r = req.into_inner();
         let bad = Status::invalid_argument;
-        let (w, t) = crate::parse_task_id(&r.task_id)
-            .ok_or_else(|| bad(format!("task_id `{}` is not like w017-t3", r.task_id)))?;
+        let id: contracts::TaskId = r
+            .task_id
+            .parse()
+            .map_err(|_| bad(format!("task_id `{}` is not like w017-t3", r.task_id)))?;
+        let (w, t) = (id.world, id.index);
         let vname = if r.vehicle.is_empty() {
             "hmmwv"
         } else {

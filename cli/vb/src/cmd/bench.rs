@@ -112,9 +112,9 @@ fn bench_planner(tasks_spec: &str, task_dir: PathBuf, command: Vec<String>) -> a
     let mut trips = Vec::new();
     let (mut steps, mut remote_wall, mut local_wall) = (0usize, 0.0, 0.0);
     for (w, t) in &selected {
-        let task_id = contracts::TaskId::new(*w, *t).to_string();
+        let task_id = contracts::TaskId::new(*w, *t);
         let spec = vb_worker::EpisodeSpec {
-            task_id: task_id.clone(),
+            task_id,
             planner: vb_proto::v1::PlannerRef {
                 kind: Some(vb_proto::v1::planner_ref::Kind::Exec(
                     vb_proto::v1::ExecPlanner {

@@ -53,9 +53,7 @@ pub fn new_submission(name: &str) -> NewSubmission {
 pub fn episodes(n: u32) -> Vec<NewEpisode> {
     (0..n)
         .map(|i| NewEpisode {
-            task_id: format!("w001-t{i}"),
-            world_id: 1,
-            task_index: i,
+            task_id: contracts::TaskId::new(1, i),
             level: contracts::ElevationLevel::Low,
             semantics: contracts::SemanticsKind::Rigid,
             density: contracts::ObstacleDensity::Sparse,
@@ -77,7 +75,7 @@ pub fn result(lease: &Lease, outcome: &str) -> EpisodeResultIn {
     EpisodeResultIn {
         lease_id: lease.lease_id.clone(),
         submission_id: lease.submission.id.clone(),
-        task_id: lease.task_id.clone(),
+        task_id: lease.task_id,
         outcome: RecordedOutcome::parse(outcome).expect("an outcome"),
         reason: contracts::EndReason::parse(outcome).expect("a reason"),
         detail: String::new(),
