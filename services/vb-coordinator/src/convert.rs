@@ -187,6 +187,7 @@ mod tests {
     fn a_report_is_taken_typed_and_read_back_the_same() {
         let m = metrics();
         let r = pb::EpisodeReport {
+            task_id: "w001-t2".into(),
             outcome: pb::Outcome::Timeout.into(),
             reason: pb::EndReason::Timeout.into(),
             metrics: Some((&m).into()),
@@ -269,5 +270,15 @@ mod tests {
             assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e}");
             assert!(e.message().contains(says), "{e}");
         }
+        // A task id that is not one (`TaskId` parses it at the edge).
+        let r = pb::EpisodeReport {
+            task_id: "w1-x".into(),
+            outcome: pb::Outcome::Success as i32,
+            reason: pb::EndReason::Success as i32,
+            ..Default::default()
+        };
+        let e = report(&r, 1024, 1024).unwrap_err();
+        assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e}");
+        assert!(e.message().contains("not a task id"), "{e}");
     }
 }
