@@ -12,7 +12,7 @@ use anyhow::{bail, Context, Result};
 use datasets::generate::{
     failures_spec, run, spec, EpisodeSink, GenerateConfig, Resume, SinkError,
 };
-use datasets::{DatasetKind, DatasetWriter, EpisodeRecord, Variant};
+use datasets::{DatasetKind, DatasetWriter, RecordedEpisode, Variant};
 use std::time::Instant;
 
 #[derive(Default)]
@@ -24,7 +24,7 @@ struct Count {
 }
 
 impl EpisodeSink for Count {
-    fn append(&mut self, rec: &EpisodeRecord) -> Result<(), SinkError> {
+    fn append(&mut self, rec: &RecordedEpisode) -> Result<(), SinkError> {
         self.episodes += 1;
         self.frames += rec.frames.len() as u64;
         let m = &rec.meta;

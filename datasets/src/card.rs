@@ -2,7 +2,7 @@
 //! semantics and density) and its pictures in `card/` (driven paths over a few worlds, histograms of speed, roll
 //! and pitch). No clock: the same dataset gives the same bytes.
 
-use crate::episodes::EpisodeRow;
+use crate::episodes::EpisodeMetaRow;
 use crate::error::DatasetError;
 use crate::layout::{write_atomic, CARD, CARD_DIR};
 use crate::meta::{Layout, Totals, CODEBASE_VERSION, FORMAT};
@@ -20,7 +20,7 @@ pub struct CardInput<'a> {
     pub command: &'a str,
     pub layout: &'a Layout,
     pub totals: &'a Totals,
-    pub episodes: &'a [EpisodeRow],
+    pub episodes: &'a [EpisodeMetaRow],
     pub tasks: &'a [String],
     pub data: &'a CardData,
     /// The task set the episodes ran on: the paths are drawn over its maps (over a blank ground without it).
@@ -113,8 +113,8 @@ fn pct(n: u64, of: u64) -> String {
 fn outcome_table(
     out: &mut String,
     title: &str,
-    episodes: &[EpisodeRow],
-    key: &dyn Fn(&EpisodeRow) -> (usize, String),
+    episodes: &[EpisodeMetaRow],
+    key: &dyn Fn(&EpisodeMetaRow) -> (usize, String),
 ) {
     let outcomes: Vec<Outcome> = Outcome::ALL
         .iter()
@@ -143,26 +143,12 @@ fn outcome_table(
     }
 }
 
-fn readme(input: &CardInput, paths: bool) -> String {
-    let (spec, t) = (input.spec, input.totals);
-    let kind = serde_json::to_value(spec.kind)
-        .ok()
-        .and_then(|v| v.as_str().map(str::to_string))
-        .unwrap_or_default();
-    let variant = match spec.variant {
-        Variant::Lite => "lite",
-        Variant::Full => "full",
-    };
-    let mut s = String::from("---\ntags:\n- LeRobot\n- vertibench\n- off-road\n- robotics\nconfigs:\n- config_name: default\n  data_files: data/*/*.parquet\n---\n\n");
-    let _ = writeln!(
-        s,
-        "# vertibench {kind} dataset ({variant})\n\n{}",
-        describe(spec.kind)
-    );
+/// The speed profile's and the analysis-only flag's notes.
+fn profile_notes(s: &mut String, spec: &DatasetSpec) {
     match spec.speed_profile {
         SpeedProfile::Constant => {}
         SpeedProfile::StopAndGo => {
-            s += "\nStop-and-go speed profile: the commanded speed stops periodically, alternately braked and coasting \
+            *s += "\nStop-and-go speed profile: the commanded speed stops periodically, alternately braked and coasting \
                   (policy parameters `stop_go`, `stop_duration`, `stop_offset`).\n";
         }
         SpeedProfile::Fast => {
@@ -175,21 +161,14 @@ fn readme(input: &CardInput, paths: bool) -> String {
         }
     }
     if spec.analysis_only {
-        s += "\n**For analysis only.** Made from the benchmark's own tasks (`--allow-benchmark-tasks`): never train a \
+        *s += "\n**For analysis only.** Made from the benchmark's own tasks (`--allow-benchmark-tasks`): never train a \
               system that is evaluated on the benchmark with it.\n";
     }
-    let _ = writeln!(
-        s,
-        "\nLeRobot {CODEBASE_VERSION} layout ({FORMAT}): frames in `data/`, one row per control step; episodes in \
-         `meta/episodes/`; features, dtypes and shapes in `meta/info.json`; normalisation statistics in \
-         `meta/stats.json`.\n\n## Counts\n\n| episodes | frames | simulated hours | data files | tasks |\n\
-         |---:|---:|---:|---:|---:|\n| {} | {} | {:.2} | {} | {} |",
-        t.episodes,
-        t.frames,
-        t.simulated_hours,
-        t.data_files,
-        input.tasks.len()
-    );
+}
+
+/// The provenance table and the command that made the dataset.
+fn provenance(s: &mut String, input: &CardInput, kind: &str, variant: &str) {
+    let spec = input.spec;
     let crop = match spec.variant {
         Variant::Full => format!(
             "{0} x {0} cells of {1} m, stored (float16)",
@@ -221,6 +200,71 @@ fn readme(input: &CardInput, paths: bool) -> String {
         input.layout.chunks_size,
         input.command
     );
+}
+
+/// The driven paths' figure and its legend.
+fn driven_paths(s: &mut String, input: &CardInput) {
+    let worlds: Vec<String> = input
+        .data
+        .worlds
+        .iter()
+        .map(|(w, l)| format!("world {w} ({} episodes)", l.len()))
+        .collect();
+    let legend: Vec<String> = Outcome::ALL
+        .iter()
+        .filter(|o| {
+            input
+                .data
+                .worlds
+                .iter()
+                .any(|(_, l)| l.iter().any(|p| p.outcome == **o))
+        })
+        .map(|o| format!("{} {}", outcome_colour(*o).1, o))
+        .collect();
+    let ground = if input.task_set.is_some() {
+        "over the world's map"
+    } else {
+        "(no task set given: no map)"
+    };
+    let _ = writeln!(
+        s,
+        "\n## Driven paths\n\n![Driven paths](card/paths.png)\n\nThe first episodes of {}, {ground}; starts \
+         white with a black centre, goals yellow; paths by outcome: {}.",
+        worlds.join(", "),
+        legend.join(", ")
+    );
+}
+
+fn readme(input: &CardInput, paths: bool) -> String {
+    let (spec, t) = (input.spec, input.totals);
+    let kind = serde_json::to_value(spec.kind)
+        .ok()
+        .and_then(|v| v.as_str().map(str::to_string))
+        .unwrap_or_default();
+    let variant = match spec.variant {
+        Variant::Lite => "lite",
+        Variant::Full => "full",
+    };
+    let mut s = String::from("---\ntags:\n- LeRobot\n- vertibench\n- off-road\n- robotics\nconfigs:\n- config_name: default\n  data_files: data/*/*.parquet\n---\n\n");
+    let _ = writeln!(
+        s,
+        "# vertibench {kind} dataset ({variant})\n\n{}",
+        describe(spec.kind)
+    );
+    profile_notes(&mut s, spec);
+    let _ = writeln!(
+        s,
+        "\nLeRobot {CODEBASE_VERSION} layout ({FORMAT}): frames in `data/`, one row per control step; episodes in \
+         `meta/episodes/`; features, dtypes and shapes in `meta/info.json`; normalisation statistics in \
+         `meta/stats.json`.\n\n## Counts\n\n| episodes | frames | simulated hours | data files | tasks |\n\
+         |---:|---:|---:|---:|---:|\n| {} | {} | {:.2} | {} | {} |",
+        t.episodes,
+        t.frames,
+        t.simulated_hours,
+        t.data_files,
+        input.tasks.len()
+    );
+    provenance(&mut s, input, &kind, variant);
     s += "\n## Outcomes\n";
     let eps = input.episodes;
     outcome_table(&mut s, "elevation level", eps, &|e| {
@@ -238,35 +282,7 @@ fn readme(input: &CardInput, paths: bool) -> String {
         let _ = writeln!(s, "| {i} | {task} | {n} |");
     }
     if paths {
-        let worlds: Vec<String> = input
-            .data
-            .worlds
-            .iter()
-            .map(|(w, l)| format!("world {w} ({} episodes)", l.len()))
-            .collect();
-        let legend: Vec<String> = Outcome::ALL
-            .iter()
-            .filter(|o| {
-                input
-                    .data
-                    .worlds
-                    .iter()
-                    .any(|(_, l)| l.iter().any(|p| p.outcome == **o))
-            })
-            .map(|o| format!("{} {}", outcome_colour(*o).1, o))
-            .collect();
-        let ground = if input.task_set.is_some() {
-            "over the world's map"
-        } else {
-            "(no task set given: no map)"
-        };
-        let _ = writeln!(
-            s,
-            "\n## Driven paths\n\n![Driven paths](card/paths.png)\n\nThe first episodes of {}, {ground}; starts \
-             white with a black centre, goals yellow; paths by outcome: {}.",
-            worlds.join(", "),
-            legend.join(", ")
-        );
+        driven_paths(&mut s, input);
     }
     s += "\n## Speed, roll and pitch\n\n![Forward speed](card/speed.svg)\n![Roll](card/roll.svg)\n\
           ![Pitch](card/pitch.svg)\n";

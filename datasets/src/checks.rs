@@ -1,6 +1,6 @@
 //! The checks `validate` runs on one file or field, collecting problems ([`Checker`]).
 
-use crate::episodes::EpisodeRow;
+use crate::episodes::EpisodeMetaRow;
 use crate::error::DatasetError;
 use crate::frames::{timestamp, FrameColumns};
 use crate::layout::{DATA_PATH_TEMPLATE, INFO, STATS, TASKS};
@@ -48,7 +48,7 @@ pub(crate) fn check_frames(
     c: &mut Checker,
     rel: &str,
     f: &FrameColumns,
-    rows: &[EpisodeRow],
+    rows: &[EpisodeMetaRow],
     next: (u64, u64),
     fps: f64,
     tasks: Option<&[String]>,
@@ -92,62 +92,76 @@ pub(crate) fn check_frames(
             _ => None,
         };
         for (j, r) in range.clone().enumerate() {
-            if f.index[r] as u64 != index {
-                c.add(
-                    rel,
-                    Some("index"),
-                    format!("row {r}: {}, expected {index}", f.index[r]),
-                );
-            }
-            if f.frame_index[r] != j as i64 {
-                c.add(
-                    rel,
-                    Some("frame_index"),
-                    format!("row {r}: {}, expected {j}", f.frame_index[r]),
-                );
-            }
-            let t = timestamp(j as u64, fps);
-            if (f.timestamp[r] - t).abs() > 1e-4 {
-                c.add(
-                    rel,
-                    Some("timestamp"),
-                    format!(
-                        "row {r}: {}, expected frame_index / fps = {t}",
-                        f.timestamp[r]
-                    ),
-                );
-            }
-            match task {
-                None => {}
-                Some(Some(t)) if f.task_index[r] == t as i64 => {}
-                Some(_) => c.add(
-                    rel,
-                    Some("task_index"),
-                    format!(
-                        "row {r}: {}, not the index of the episode's task in {TASKS}",
-                        f.task_index[r]
-                    ),
-                ),
-            }
-            if f.done[r] != (f.terminated[r] || f.truncated[r]) {
-                c.add(
-                    rel,
-                    Some("next.done"),
-                    format!("row {r}: not next.terminated or next.truncated"),
-                );
-            }
-            let terms = &f.reward_terms[4 * r..4 * r + 4];
-            let sum = terms[0] + terms[1] + terms[2] + terms[3];
-            if (f.reward[r] - sum).abs() > 1e-5 * sum.abs().max(1.0) {
-                c.add(
-                    rel,
-                    Some("next.reward"),
-                    format!("row {r}: {}, its terms sum to {sum}", f.reward[r]),
-                );
-            }
+            check_frame(c, rel, f, r, (j, index), fps, task);
             index += 1;
         }
         episode = *e as u64 + 1;
+    }
+}
+
+/// Row `r` of the data file: frame `j` of its episode and dataset frame `index`, whose task has `task`'s index
+/// (`None`: not checked; `Some(None)`: not in the task table).
+fn check_frame(
+    c: &mut Checker,
+    rel: &str,
+    f: &FrameColumns,
+    r: usize,
+    (j, index): (usize, u64),
+    fps: f64,
+    task: Option<Option<usize>>,
+) {
+    if f.index[r] as u64 != index {
+        c.add(
+            rel,
+            Some("index"),
+            format!("row {r}: {}, expected {index}", f.index[r]),
+        );
+    }
+    if f.frame_index[r] != j as i64 {
+        c.add(
+            rel,
+            Some("frame_index"),
+            format!("row {r}: {}, expected {j}", f.frame_index[r]),
+        );
+    }
+    let t = timestamp(j as u64, fps);
+    if (f.timestamp[r] - t).abs() > 1e-4 {
+        c.add(
+            rel,
+            Some("timestamp"),
+            format!(
+                "row {r}: {}, expected frame_index / fps = {t}",
+                f.timestamp[r]
+            ),
+        );
+    }
+    match task {
+        None => {}
+        Some(Some(t)) if f.task_index[r] == t as i64 => {}
+        Some(_) => c.add(
+            rel,
+            Some("task_index"),
+            format!(
+                "row {r}: {}, not the index of the episode's task in {TASKS}",
+                f.task_index[r]
+            ),
+        ),
+    }
+    if f.done[r] != (f.terminated[r] || f.truncated[r]) {
+        c.add(
+            rel,
+            Some("next.done"),
+            format!("row {r}: not next.terminated or next.truncated"),
+        );
+    }
+    let terms = &f.reward_terms[4 * r..4 * r + 4];
+    let sum = terms[0] + terms[1] + terms[2] + terms[3];
+    if (f.reward[r] - sum).abs() > 1e-5 * sum.abs().max(1.0) {
+        c.add(
+            rel,
+            Some("next.reward"),
+            format!("row {r}: {}, its terms sum to {sum}", f.reward[r]),
+        );
     }
 }
 

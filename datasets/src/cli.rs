@@ -2,8 +2,8 @@
 //! them and finishes them (meta files and card), so the binary only parses options.
 
 use crate::generate::{failures_spec, run, spec, EpisodeSink, GenerateConfig, GenerateError};
-use crate::generate::{GenerateSummary, Progress, Resume};
-use crate::{DatasetKind, DatasetWriter, Summary, WriterOptions};
+use crate::generate::{GenerateProgress, GenerateSummary, Resume};
+use crate::{DatasetKind, DatasetWriter, WriterOptions, WrittenDataset};
 use std::path::Path;
 
 /// What `vb dataset generate` did.
@@ -11,8 +11,8 @@ use std::path::Path;
 pub struct Generated {
     pub run: GenerateSummary,
     /// The main dataset, and the failure windows' dataset when one was asked for.
-    pub main: Summary,
-    pub failures: Option<Summary>,
+    pub main: WrittenDataset,
+    pub failures: Option<WrittenDataset>,
 }
 
 fn options(cfg: &GenerateConfig) -> Result<WriterOptions, GenerateError> {
@@ -29,7 +29,7 @@ pub fn generate(
     out: &Path,
     failures_out: Option<&Path>,
     command: &str,
-    progress: &dyn Fn(&Progress),
+    progress: &dyn Fn(&GenerateProgress),
 ) -> Result<Generated, GenerateError> {
     if cfg.kind == DatasetKind::Failures && failures_out.is_some() {
         return Err(GenerateError::Param {

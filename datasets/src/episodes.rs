@@ -12,7 +12,7 @@ use std::path::Path;
 
 /// One episode as the metadata table holds it.
 #[derive(Clone, Debug, PartialEq)]
-pub struct EpisodeRow {
+pub struct EpisodeMetaRow {
     pub index: u64,
     pub meta: EpisodeMeta,
     pub length: u64,
@@ -99,13 +99,13 @@ fn enum_str<T: serde::Serialize>(v: &T) -> String {
 pub fn write_episodes(
     path: &Path,
     spec: &DatasetSpec,
-    rows: &[EpisodeRow],
+    rows: &[EpisodeMetaRow],
     metadata: &[(String, String)],
 ) -> Result<Vec<u8>, DatasetError> {
-    let i64s = |f: &dyn Fn(&EpisodeRow) -> i64| Data::I64(rows.iter().map(f).collect());
-    let f64s = |f: &dyn Fn(&EpisodeRow) -> f64| Data::F64(rows.iter().map(f).collect());
-    let strs = |f: &dyn Fn(&EpisodeRow) -> String| Data::Str(rows.iter().map(f).collect());
-    let fail = |r: &EpisodeRow| r.meta.failure.clone();
+    let i64s = |f: &dyn Fn(&EpisodeMetaRow) -> i64| Data::I64(rows.iter().map(f).collect());
+    let f64s = |f: &dyn Fn(&EpisodeMetaRow) -> f64| Data::F64(rows.iter().map(f).collect());
+    let strs = |f: &dyn Fn(&EpisodeMetaRow) -> String| Data::Str(rows.iter().map(f).collect());
+    let fail = |r: &EpisodeMetaRow| r.meta.failure.clone();
     let mut params = Vec::with_capacity(rows.len());
     for r in rows {
         params.push(
@@ -230,7 +230,7 @@ fn unsigned(path: &Path, row: usize, field: &str, v: i64) -> Result<u64, Dataset
 }
 
 /// Reads an episode metadata file written for `spec`.
-pub fn read_episodes(path: &Path, spec: &DatasetSpec) -> Result<Vec<EpisodeRow>, DatasetError> {
+pub fn read_episodes(path: &Path, spec: &DatasetSpec) -> Result<Vec<EpisodeMetaRow>, DatasetError> {
     let table = read_table(path, &columns())?;
     let (rows, c) = (table.rows, Cols(table.columns));
     let mut out = Vec::with_capacity(rows);
@@ -298,7 +298,7 @@ pub fn read_episodes(path: &Path, spec: &DatasetSpec) -> Result<Vec<EpisodeRow>,
             chunk: unsigned(path, r, "data/chunk_index", c.i64(3, r))?,
             file: unsigned(path, r, "data/file_index", c.i64(4, r))?,
         };
-        out.push(EpisodeRow {
+        out.push(EpisodeMetaRow {
             index: unsigned(path, r, "episode_index", c.i64(0, r))?,
             meta,
             length: unsigned(path, r, "length", c.i64(2, r))?,

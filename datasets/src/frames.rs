@@ -4,7 +4,7 @@
 use crate::error::DatasetError;
 use crate::parquet_io::{Data, Kind};
 use crate::parquet_read::Table;
-use crate::record::EpisodeRecord;
+use crate::record::RecordedEpisode;
 use crate::spec::{DatasetSpec, Variant};
 
 /// Largest finite float16 value: crops beyond it cannot be stored.
@@ -121,7 +121,7 @@ fn same_len(episode: u64, field: &str, len: usize, want: usize) -> Result<(), Da
 
 /// Checks an episode against itself and the spec before anything of it is written.
 pub fn check_record(
-    rec: &EpisodeRecord,
+    rec: &RecordedEpisode,
     spec: &DatasetSpec,
     episode: u64,
 ) -> Result<(), DatasetError> {
@@ -218,7 +218,7 @@ impl FrameColumns {
     }
 
     /// Appends a checked episode ([`check_record`]) as episode `episode`, its first frame global index `first`.
-    pub fn push(&mut self, rec: &EpisodeRecord, episode: u64, first: u64, task: u64, fps: f64) {
+    pub fn push(&mut self, rec: &RecordedEpisode, episode: u64, first: u64, task: u64, fps: f64) {
         let f = &rec.frames;
         self.state.extend(f.state.iter().flatten());
         self.goal.extend(f.goal.iter().flatten());

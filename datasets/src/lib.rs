@@ -34,8 +34,8 @@ pub mod validate;
 pub mod writer;
 
 pub use error::DatasetError;
-pub use record::{DatasetKind, EpisodeMeta, EpisodeRecord, FailureClass, FailureWindow, Frames};
+pub use record::{DatasetKind, EpisodeMeta, FailureClass, FailureWindow, Frames, RecordedEpisode};
 pub use spec::{CropSpec, DatasetSpec, SpeedProfile, Variant};
 pub use summary::info;
 pub use validate::{validate, Problem, Report};
-pub use writer::{DatasetWriter, ResumePoint, Summary, WriterOptions};
+pub use writer::{DatasetWriter, ResumePoint, WriterOptions, WrittenDataset};

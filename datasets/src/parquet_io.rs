@@ -15,7 +15,7 @@ use parquet::data_type::{
 use parquet::errors::ParquetError;
 use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
-use parquet::file::writer::SerializedFileWriter;
+use parquet::file::writer::{SerializedColumnWriter, SerializedFileWriter};
 use parquet::schema::types::Type;
 use std::path::Path;
 use std::sync::Arc;
@@ -279,88 +279,9 @@ pub fn write_table(
                 format!("schema has no column `{name}`"),
             ));
         };
-        match (data, &kind) {
-            (Data::F32(v), _) => col
-                .typed::<FloatType>()
-                .write_batch(&v, None, None)
-                .map(drop),
-            (Data::F64(v), _) => col
-                .typed::<DoubleType>()
-                .write_batch(&v, None, None)
-                .map(drop),
-            (Data::I64(v), _) => col
-                .typed::<Int64Type>()
-                .write_batch(&v, None, None)
-                .map(drop),
-            (Data::U64(v), _) => {
-                let v: Vec<i64> = v.iter().map(|&x| x as i64).collect();
-                col.typed::<Int64Type>()
-                    .write_batch(&v, None, None)
-                    .map(drop)
-            }
-            (Data::Bool(v), _) => col
-                .typed::<BoolType>()
-                .write_batch(&v, None, None)
-                .map(drop),
-            (Data::Str(v), _) => {
-                let v: Vec<ByteArray> = v.iter().map(|s| ByteArray::from(s.as_str())).collect();
-                col.typed::<ByteArrayType>()
-                    .write_batch(&v, None, None)
-                    .map(drop)
-            }
-            (Data::OptStr(v), _) => {
-                let (p, def) = opt_levels(&v);
-                let p: Vec<ByteArray> = p.iter().map(|s| ByteArray::from(s.as_str())).collect();
-                col.typed::<ByteArrayType>()
-                    .write_batch(&p, Some(&def), None)
-                    .map(drop)
-            }
-            (Data::OptF64(v), _) => {
-                let (p, def) = opt_levels(&v);
-                col.typed::<DoubleType>()
-                    .write_batch(&p, Some(&def), None)
-                    .map(drop)
-            }
-            (Data::OptU64(v), _) => {
-                let (p, def) = opt_levels(&v);
-                let p: Vec<i64> = p.iter().map(|&x| x as i64).collect();
-                col.typed::<Int64Type>()
-                    .write_batch(&p, Some(&def), None)
-                    .map(drop)
-            }
-            (Data::OptBool(v), _) => {
-                let (p, def) = opt_levels(&v);
-                col.typed::<BoolType>()
-                    .write_batch(&p, Some(&def), None)
-                    .map(drop)
-            }
-            (Data::ListStr(v), _) => {
-                let (mut vals, mut def, mut rep) = (Vec::new(), Vec::new(), Vec::new());
-                for row in &v {
-                    if row.is_empty() {
-                        def.push(0);
-                        rep.push(0);
-                    }
-                    for (i, s) in row.iter().enumerate() {
-                        vals.push(ByteArray::from(s.as_str()));
-                        def.push(1);
-                        rep.push(i16::from(i > 0));
-                    }
-                }
-                col.typed::<ByteArrayType>()
-                    .write_batch(&vals, Some(&def), Some(&rep))
-                    .map(drop)
-            }
-            (Data::ListF32(v), Kind::ListF32(shape)) => {
-                write_fixed(col.typed::<FloatType>(), &v, shape, <[f32]>::to_vec)
-            }
-            (Data::ListF64(v), Kind::ListF64(shape)) => {
-                write_fixed(col.typed::<DoubleType>(), &v, shape, <[f64]>::to_vec)
-            }
-            (Data::ListF16(v), Kind::ListF16(shape)) => {
-                write_fixed(col.typed::<FixedLenByteArrayType>(), &v, shape, f16_values)
-            }
-            _ => {
+        match write_column(&mut col, data, &kind) {
+            Some(written) => written,
+            None => {
                 return Err(DatasetError::parquet(
                     path,
                     format!("column `{name}`: values do not fit its type"),
@@ -372,6 +293,104 @@ pub fn write_table(
     }
     group.close().map_err(&err)?;
     writer.into_inner().map_err(&err)
+}
+
+/// Writes one column's values; `None` when they do not fit its kind.
+fn write_column(
+    col: &mut SerializedColumnWriter<'_>,
+    data: Data,
+    kind: &Kind,
+) -> Option<Result<(), ParquetError>> {
+    Some(match (data, kind) {
+        (Data::F32(v), _) => col
+            .typed::<FloatType>()
+            .write_batch(&v, None, None)
+            .map(drop),
+        (Data::F64(v), _) => col
+            .typed::<DoubleType>()
+            .write_batch(&v, None, None)
+            .map(drop),
+        (Data::I64(v), _) => col
+            .typed::<Int64Type>()
+            .write_batch(&v, None, None)
+            .map(drop),
+        (Data::U64(v), _) => {
+            let v: Vec<i64> = v.iter().map(|&x| x as i64).collect();
+            col.typed::<Int64Type>()
+                .write_batch(&v, None, None)
+                .map(drop)
+        }
+        (Data::Bool(v), _) => col
+            .typed::<BoolType>()
+            .write_batch(&v, None, None)
+            .map(drop),
+        (Data::Str(v), _) => {
+            let v: Vec<ByteArray> = v.iter().map(|s| ByteArray::from(s.as_str())).collect();
+            col.typed::<ByteArrayType>()
+                .write_batch(&v, None, None)
+                .map(drop)
+        }
+        (Data::OptStr(v), _) => {
+            let (p, def) = opt_levels(&v);
+            let p: Vec<ByteArray> = p.iter().map(|s| ByteArray::from(s.as_str())).collect();
+            col.typed::<ByteArrayType>()
+                .write_batch(&p, Some(&def), None)
+                .map(drop)
+        }
+        (Data::OptF64(v), _) => {
+            let (p, def) = opt_levels(&v);
+            col.typed::<DoubleType>()
+                .write_batch(&p, Some(&def), None)
+                .map(drop)
+        }
+        (Data::OptU64(v), _) => {
+            let (p, def) = opt_levels(&v);
+            let p: Vec<i64> = p.iter().map(|&x| x as i64).collect();
+            col.typed::<Int64Type>()
+                .write_batch(&p, Some(&def), None)
+                .map(drop)
+        }
+        (Data::OptBool(v), _) => {
+            let (p, def) = opt_levels(&v);
+            col.typed::<BoolType>()
+                .write_batch(&p, Some(&def), None)
+                .map(drop)
+        }
+        (Data::ListStr(v), _) => {
+            let (vals, def, rep) = list_levels(&v);
+            col.typed::<ByteArrayType>()
+                .write_batch(&vals, Some(&def), Some(&rep))
+                .map(drop)
+        }
+        (Data::ListF32(v), Kind::ListF32(shape)) => {
+            write_fixed(col.typed::<FloatType>(), &v, shape, <[f32]>::to_vec)
+        }
+        (Data::ListF64(v), Kind::ListF64(shape)) => {
+            write_fixed(col.typed::<DoubleType>(), &v, shape, <[f64]>::to_vec)
+        }
+        (Data::ListF16(v), Kind::ListF16(shape)) => {
+            write_fixed(col.typed::<FixedLenByteArrayType>(), &v, shape, f16_values)
+        }
+        _ => return None,
+    })
+}
+
+/// A list-of-strings column's values with their definition and repetition levels (an empty list: one undefined
+/// value).
+fn list_levels(rows: &[Vec<String>]) -> (Vec<ByteArray>, Vec<i16>, Vec<i16>) {
+    let (mut vals, mut def, mut rep) = (Vec::new(), Vec::new(), Vec::new());
+    for row in rows {
+        if row.is_empty() {
+            def.push(0);
+            rep.push(0);
+        }
+        for (i, s) in row.iter().enumerate() {
+            vals.push(ByteArray::from(s.as_str()));
+            def.push(1);
+            rep.push(i16::from(i > 0));
+        }
+    }
+    (vals, def, rep)
 }
 
 impl Data {

@@ -2,7 +2,7 @@
 //! histograms of speed, roll and pitch (SVG). What they need is gathered file by file as the dataset is written or
 //! resumed ([`CardData`]); drawing uses no clock or randomness, so the same frames give the same bytes.
 
-use crate::episodes::EpisodeRow;
+use crate::episodes::EpisodeMetaRow;
 use crate::frames::FrameColumns;
 use contracts::Outcome;
 use image::{Rgb, RgbImage};
@@ -79,7 +79,7 @@ impl Default for CardData {
 
 impl CardData {
     /// Adds a data file's frames; `rows` are its episodes, in order.
-    pub fn add(&mut self, frames: &FrameColumns, rows: &[EpisodeRow]) {
+    pub fn add(&mut self, frames: &FrameColumns, rows: &[EpisodeMetaRow]) {
         let s = &frames.state;
         for r in 0..frames.rows.min(s.len() / 15) {
             self.speed.add(s[r * 15 + 12]);

@@ -1,6 +1,6 @@
 //! What one recorded episode is, before it is written: its metadata ([`EpisodeMeta`]) and its frames, one per
 //! control step, stored column-wise ([`Frames`]) so recording allocates once per episode, not per step.
-//! Generators ([`crate::generate`]) make [`EpisodeRecord`]s; the writer ([`crate::writer`]) writes them.
+//! Generators ([`crate::generate`]) make [`RecordedEpisode`]s; the writer ([`crate::writer`]) writes them.
 
 use contracts::{ElevationLevel, EndReason, ObstacleDensity, Outcome, SemanticsKind, TaskId};
 use serde::{Deserialize, Serialize};
@@ -114,7 +114,7 @@ impl Frames {
 
 /// One episode, ready to write.
 #[derive(Clone, Debug, PartialEq)]
-pub struct EpisodeRecord {
+pub struct RecordedEpisode {
     pub meta: EpisodeMeta,
     pub frames: Frames,
 }

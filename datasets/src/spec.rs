@@ -36,12 +36,8 @@ impl SpeedProfile {
     }
 }
 
-/// Heading-aligned map crops: `size x size` cells of `resolution` m.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct CropSpec {
-    pub size: usize,
-    pub resolution: f64,
-}
+/// Heading-aligned map crops: `size x size` cells of `resolution` m (the simulator's own crop shape).
+pub use sim_core::observe::CropSpec;
 
 /// What every episode of a dataset shares.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

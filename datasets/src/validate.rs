@@ -9,11 +9,11 @@
 //! (truncated files, garbage JSON) is a problem in the report, never a panic.
 
 use crate::checks::{check_checksum, check_frames, check_info, check_stats, Checker};
-use crate::episodes::{read_episodes, read_tasks};
+use crate::episodes::{read_episodes, read_tasks, EpisodeMetaRow};
 use crate::error::DatasetError;
 use crate::frames::{columns, FrameColumns};
-use crate::layout::{scan, FileId, CARD, INFO, STATS, TASKS};
-use crate::meta::read_info;
+use crate::layout::{scan, FileId, Scan, CARD, INFO, STATS, TASKS};
+use crate::meta::{read_info, InfoIn};
 use crate::parquet_read::read_table;
 use crate::resume::{KEY_LAYOUT, KEY_SPEC};
 use crate::spec::DatasetSpec;
@@ -93,17 +93,7 @@ pub fn validate(dir: &Path) -> Result<Report, DatasetError> {
     let mut c = Checker {
         problems: Vec::new(),
     };
-    for u in &s.unknown {
-        c.add(u, None, "not part of a dataset");
-    }
-    for t in &s.temps {
-        let rel = t.strip_prefix(dir).unwrap_or(t).display().to_string();
-        c.add(
-            &rel,
-            None,
-            "temporary file left by an interrupted write: resume the run",
-        );
-    }
+    stray_files(&mut c, dir, &s);
     let info = match read_info(&dir.join(INFO)) {
         Ok(i) => Some(i),
         Err(e) => {
@@ -126,13 +116,9 @@ pub fn validate(dir: &Path) -> Result<Report, DatasetError> {
     if let Some(i) = &info {
         check_info(&mut c, i, &spec);
     }
-    let tasks = match read_tasks(&dir.join(TASKS)) {
-        Ok(t) => Some(t),
-        Err(e) => {
-            c.error(TASKS, &e);
-            None
-        }
-    };
+    let tasks = read_tasks(&dir.join(TASKS))
+        .map_err(|e| c.error(TASKS, &e))
+        .ok();
     let n = s.data.len().max(s.episodes.len());
     let mut stats = Stats::new(&spec);
     let mut stats_ok = true;
@@ -141,61 +127,13 @@ pub fn validate(dir: &Path) -> Result<Report, DatasetError> {
         let id = FileId::nth(k, chunks);
         let (drel, erel) = (id.data(), id.episodes());
         let has = (s.data.contains(&id), s.episodes.contains(&id));
-        if !has.0 {
-            c.add(&drel, None, "missing (the files are numbered without gaps)");
-        }
-        if !has.1 {
-            c.add(
-                &erel,
-                None,
-                format!("missing: the metadata of the episodes in {drel}"),
-            );
-        }
+        missing(&mut c, has, &drel, &erel);
         let rows = if has.1 {
-            match read_episodes(&dir.join(&erel), &spec) {
-                Ok(r) => r,
-                Err(e) => {
-                    c.error(&erel, &e);
-                    Vec::new()
-                }
-            }
+            read_rows(&mut c, dir, &erel, &spec)
         } else {
             Vec::new()
         };
-        for r in &rows {
-            for (field, v) in [
-                ("final_state", &r.meta.final_state[..]),
-                ("final_goal", &r.meta.final_goal[..]),
-            ] {
-                if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-                    c.add(
-                        &erel,
-                        Some(field),
-                        format!(
-                            "episode {}: value {i} is {} (values must be finite)",
-                            r.index, v[i]
-                        ),
-                    );
-                }
-            }
-            if r.file != id {
-                c.add(
-                    &erel,
-                    Some("data/file_index"),
-                    format!("episode {} names {}, not {drel}", r.index, r.file.data()),
-                );
-            }
-            if r.to != r.from + r.length {
-                c.add(
-                    &erel,
-                    Some("dataset_to_index"),
-                    format!(
-                        "episode {}: from {} + length {} != {}",
-                        r.index, r.from, r.length, r.to
-                    ),
-                );
-            }
-        }
+        check_rows(&mut c, &erel, &drel, id, &rows);
         for (rel, present) in [(&drel, has.0), (&erel, has.1)] {
             if present {
                 check_checksum(&mut c, dir, rel, info.as_ref());
@@ -224,26 +162,7 @@ pub fn validate(dir: &Path) -> Result<Report, DatasetError> {
         }
     }
     if let Some(i) = &info {
-        for (field, there, here) in [
-            ("total_frames", i.total_frames, frames),
-            ("total_episodes", i.total_episodes, episodes),
-            (
-                "total_tasks",
-                i.total_tasks,
-                tasks.as_ref().map_or(i.total_tasks, |t| t.len() as u64),
-            ),
-        ] {
-            if there != here {
-                c.add(INFO, Some(field), format!("{there}, the files hold {here}"));
-            }
-        }
-        if i.splits.get("train") != Some(&format!("0:{episodes}")) {
-            c.add(
-                INFO,
-                Some("splits"),
-                format!("expected {{\"train\": \"0:{episodes}\"}}"),
-            );
-        }
+        check_totals(&mut c, i, episodes, frames, tasks.as_deref());
     }
     check_stats(&mut c, dir, &stats, stats_ok);
     for rel in [TASKS, STATS] {
@@ -251,7 +170,29 @@ pub fn validate(dir: &Path) -> Result<Report, DatasetError> {
             check_checksum(&mut c, dir, rel, info.as_ref());
         }
     }
-    let finished = info.as_ref().is_some_and(|i| i.vertibench.complete);
+    let finished = check_finished(&mut c, dir, info.as_ref());
+    let complete = finished && s.temps.is_empty();
+    Ok(report(dir, complete, episodes, frames, n as u64, c))
+}
+
+/// Files that are no part of a dataset, and temporary files an interrupted write left.
+fn stray_files(c: &mut Checker, dir: &Path, s: &Scan) {
+    for u in &s.unknown {
+        c.add(u, None, "not part of a dataset");
+    }
+    for t in &s.temps {
+        let rel = t.strip_prefix(dir).unwrap_or(t).display().to_string();
+        c.add(
+            &rel,
+            None,
+            "temporary file left by an interrupted write: resume the run",
+        );
+    }
+}
+
+/// Whether the run that wrote the dataset finished (a problem if not), and its card when it did.
+fn check_finished(c: &mut Checker, dir: &Path, info: Option<&InfoIn>) -> bool {
+    let finished = info.is_some_and(|i| i.vertibench.complete);
     if info.is_some() && !finished {
         c.add(
             INFO,
@@ -262,8 +203,88 @@ pub fn validate(dir: &Path) -> Result<Report, DatasetError> {
     if finished && !dir.join(CARD).is_file() {
         c.add(CARD, None, "missing: the dataset card");
     }
-    let complete = finished && s.temps.is_empty();
-    Ok(report(dir, complete, episodes, frames, n as u64, c))
+    finished
+}
+
+/// Data file `drel` or its metadata `erel` missing (`has`: whether each is there).
+fn missing(c: &mut Checker, has: (bool, bool), drel: &str, erel: &str) {
+    if !has.0 {
+        c.add(drel, None, "missing (the files are numbered without gaps)");
+    }
+    if !has.1 {
+        let msg = format!("missing: the metadata of the episodes in {drel}");
+        c.add(erel, None, msg);
+    }
+}
+
+/// The episode metadata in `erel` (none if it cannot be read: a problem then).
+fn read_rows(c: &mut Checker, dir: &Path, erel: &str, spec: &DatasetSpec) -> Vec<EpisodeMetaRow> {
+    read_episodes(&dir.join(erel), spec).unwrap_or_else(|e| {
+        c.error(erel, &e);
+        Vec::new()
+    })
+}
+
+/// The episode metadata of data file `drel` (`erel`): finite final values, the file each names, its index range.
+fn check_rows(c: &mut Checker, erel: &str, drel: &str, id: FileId, rows: &[EpisodeMetaRow]) {
+    for r in rows {
+        for (field, v) in [
+            ("final_state", &r.meta.final_state[..]),
+            ("final_goal", &r.meta.final_goal[..]),
+        ] {
+            if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                c.add(
+                    erel,
+                    Some(field),
+                    format!(
+                        "episode {}: value {i} is {} (values must be finite)",
+                        r.index, v[i]
+                    ),
+                );
+            }
+        }
+        if r.file != id {
+            c.add(
+                erel,
+                Some("data/file_index"),
+                format!("episode {} names {}, not {drel}", r.index, r.file.data()),
+            );
+        }
+        if r.to != r.from + r.length {
+            c.add(
+                erel,
+                Some("dataset_to_index"),
+                format!(
+                    "episode {}: from {} + length {} != {}",
+                    r.index, r.from, r.length, r.to
+                ),
+            );
+        }
+    }
+}
+
+/// `meta/info.json`'s totals and split against what the files hold.
+fn check_totals(c: &mut Checker, i: &InfoIn, episodes: u64, frames: u64, tasks: Option<&[String]>) {
+    for (field, there, here) in [
+        ("total_frames", i.total_frames, frames),
+        ("total_episodes", i.total_episodes, episodes),
+        (
+            "total_tasks",
+            i.total_tasks,
+            tasks.map_or(i.total_tasks, |t| t.len() as u64),
+        ),
+    ] {
+        if there != here {
+            c.add(INFO, Some(field), format!("{there}, the files hold {here}"));
+        }
+    }
+    if i.splits.get("train") != Some(&format!("0:{episodes}")) {
+        c.add(
+            INFO,
+            Some("splits"),
+            format!("expected {{\"train\": \"0:{episodes}\"}}"),
+        );
+    }
 }
 
 fn report(

@@ -8,14 +8,14 @@
 //! the same bytes as an uninterrupted one.
 
 use crate::card::{write_card, CardInput};
-use crate::episodes::{task_string, write_episodes, write_tasks, EpisodeRow};
+use crate::episodes::{task_string, write_episodes, write_tasks, EpisodeMetaRow};
 use crate::error::DatasetError;
 use crate::frames::{check_record, row_bytes, FrameColumns};
 use crate::layout::{write_atomic, FileId, INFO, STATS, TASKS};
 use crate::meta::{checksum, info, Layout, Totals, VertibenchInfo, FORMAT};
 use crate::parquet_io::write_table;
 use crate::plot::CardData;
-use crate::record::EpisodeRecord;
+use crate::record::RecordedEpisode;
 use crate::resume::{load, KEY_COMMAND, KEY_LAYOUT, KEY_SPEC};
 use crate::spec::{DatasetSpec, Variant};
 use crate::stats::Stats;
@@ -55,7 +55,7 @@ pub struct ResumePoint {
 
 /// What a finished dataset holds.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Summary {
+pub struct WrittenDataset {
     pub dir: PathBuf,
     pub episodes: u64,
     pub frames: u64,
@@ -75,13 +75,13 @@ pub struct DatasetWriter {
     layout: Layout,
     task_set: Option<tasks::TaskSet>,
     command: String,
-    episodes: Vec<EpisodeRow>,
+    episodes: Vec<EpisodeMetaRow>,
     files: u64,
     tasks: Vec<String>,
     stats: Stats,
     card: CardData,
     pending: FrameColumns,
-    pending_rows: Vec<EpisodeRow>,
+    pending_rows: Vec<EpisodeMetaRow>,
     /// [`crate::meta::VertibenchInfo::checksums`] of the completed files.
     checksums: BTreeMap<String, String>,
     /// `info.json` on disk says complete (a finished dataset reopened).
@@ -218,7 +218,7 @@ impl DatasetWriter {
     /// Appends the next episode (index [`ResumePoint::episodes`] plus the episodes appended since). A record
     /// inconsistent with itself or the spec is refused with [`DatasetError::Record`] and nothing of it is kept;
     /// a failed write leaves the directory resumable and the writer refusing further calls.
-    pub fn append(&mut self, rec: &EpisodeRecord) -> Result<(), DatasetError> {
+    pub fn append(&mut self, rec: &RecordedEpisode) -> Result<(), DatasetError> {
         self.usable()?;
         let index = (self.episodes.len() + self.pending_rows.len()) as u64;
         check_record(rec, &self.spec, index)?;
@@ -238,7 +238,7 @@ impl DatasetWriter {
         let length = rec.frames.len() as u64;
         self.pending
             .push(rec, index, from, task_index, self.spec.control_rate_hz);
-        self.pending_rows.push(EpisodeRow {
+        self.pending_rows.push(EpisodeMetaRow {
             index,
             meta: rec.meta.clone(),
             length,
@@ -351,7 +351,7 @@ impl DatasetWriter {
     }
 
     /// Writes the last data file, the metadata and the card, and marks the dataset complete.
-    pub fn finish(mut self) -> Result<Summary, DatasetError> {
+    pub fn finish(mut self) -> Result<WrittenDataset, DatasetError> {
         self.usable()?;
         self.commit()?;
         let totals = self.totals();
@@ -381,7 +381,7 @@ impl DatasetWriter {
                 outcomes.insert(o.as_str().to_string(), n);
             }
         }
-        Ok(Summary {
+        Ok(WrittenDataset {
             dir: self.root.clone(),
             episodes: totals.episodes,
             frames: totals.frames,

@@ -6,7 +6,7 @@ use anyhow::Result;
 use datasets::generate::failures::{failure_window, window_frames};
 use datasets::generate::random::{drive_sinusoid, RandomStart, Sinusoid};
 use datasets::generate::*;
-use datasets::{DatasetKind, EpisodeRecord, FailureClass, Variant};
+use datasets::{DatasetKind, FailureClass, RecordedEpisode, Variant};
 use sim_core::episode::{EpisodeConfig, Outcome};
 use sim_core::observe::{goal_vector, relative_elevation_crop, state_vector, CropSpec};
 use sim_core::vehicle::vehicle_by_name;
@@ -22,8 +22,8 @@ use gen_support::{config, training_set};
 const PERIOD: f64 = gen_support::PERIOD;
 
 struct Out {
-    main: Vec<EpisodeRecord>,
-    failures: Vec<EpisodeRecord>,
+    main: Vec<RecordedEpisode>,
+    failures: Vec<RecordedEpisode>,
     summary: GenerateSummary,
 }
 
@@ -38,7 +38,7 @@ fn generate(cfg: &GenerateConfig, resume: &Resume, with_failures: bool) -> Resul
     })
 }
 
-fn frames(recs: &[EpisodeRecord]) -> u64 {
+fn frames(recs: &[RecordedEpisode]) -> u64 {
     recs.iter().map(|r| r.frames.len() as u64).sum()
 }
 
@@ -93,7 +93,7 @@ fn random_is_the_same_at_any_thread_count_cut_at_the_hours_and_resumable() -> Re
         failures_next: 2,
     };
     let again = generate(&cfg, &resume, true)?;
-    let later: Vec<EpisodeRecord> = one
+    let later: Vec<RecordedEpisode> = one
         .failures
         .iter()
         .filter(|w| {
@@ -191,7 +191,7 @@ fn failure_windows_are_the_last_10_s_or_the_whole_short_episode() -> Result<()> 
     assert_eq!(n, 192);
     assert!((n as f64 * PERIOD - 10.0).abs() <= PERIOD / 2.0);
     // Every rollover and stuck of the run gave a window, labelled as it ended.
-    let failed: Vec<(usize, &EpisodeRecord)> = out
+    let failed: Vec<(usize, &RecordedEpisode)> = out
         .main
         .iter()
         .enumerate()
@@ -350,7 +350,7 @@ fn failures_scans_the_evaluation_runs() -> Result<()> {
 
 /// Replays an expert episode with a fresh planner and compares every frame's state and goal with the SDK's.
 fn check_with_planner(
-    rec: &EpisodeRecord,
+    rec: &RecordedEpisode,
     world: &World,
     task: &sim_core::world::Task,
     vehicle: &sim_core::VehicleSpec,

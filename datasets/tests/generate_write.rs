@@ -3,7 +3,7 @@
 
 use anyhow::Result;
 use datasets::generate::*;
-use datasets::{DatasetKind, DatasetWriter, EpisodeRecord, WriterOptions};
+use datasets::{DatasetKind, DatasetWriter, RecordedEpisode, WriterOptions};
 use std::path::Path;
 
 mod common;
@@ -18,7 +18,7 @@ struct Crash<'a> {
 }
 
 impl EpisodeSink for Crash<'_> {
-    fn append(&mut self, rec: &EpisodeRecord) -> Result<(), SinkError> {
+    fn append(&mut self, rec: &RecordedEpisode) -> Result<(), SinkError> {
         if self.left == 0 {
             return Err("interrupted".into());
         }

@@ -15,7 +15,7 @@ pub const IDENTITY_FILE: &str = "planner.json";
 /// Where a planner comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum PlannerKind {
+pub enum PlannerSource {
     /// A built-in planner (`planners/baselines`), known by its name.
     Builtin,
     /// A Python planner run in-process (`vertibench.evaluate`).
@@ -25,7 +25,7 @@ pub enum PlannerKind {
 /// A planner's identity: two evaluations may share an output directory only when these are equal.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct PlannerIdentity {
-    pub kind: PlannerKind,
+    pub kind: PlannerSource,
     /// The built-in's name, or the Python planner's `name` (the rows' `planner` label).
     pub name: String,
     /// A Python planner's class, `module.qualname`.
@@ -46,7 +46,7 @@ impl PlannerIdentity {
     /// The built-in planner `name`.
     pub fn builtin(name: &str) -> Self {
         PlannerIdentity {
-            kind: PlannerKind::Builtin,
+            kind: PlannerSource::Builtin,
             name: name.to_string(),
             class: None,
             version: None,
@@ -110,8 +110,8 @@ impl PlannerIdentity {
     /// A one-line description for messages: `built-in pid`, `python planner m.Cls "name" version 2`.
     pub fn describe(&self) -> String {
         let mut s = match self.kind {
-            PlannerKind::Builtin => format!("built-in {}", self.name),
-            PlannerKind::Python => format!("python planner \"{}\"", self.name),
+            PlannerSource::Builtin => format!("built-in {}", self.name),
+            PlannerSource::Python => format!("python planner \"{}\"", self.name),
         };
         if let Some(c) = &self.class {
             s += &format!(" of class {c}");

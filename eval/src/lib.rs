@@ -18,6 +18,8 @@
 //!   the services.
 //! - [`viz`]: a single episode's `trajectory.csv` and plot (`vb sim run`).
 
+pub mod beside;
+pub mod external;
 pub mod identity;
 pub mod move_off;
 pub mod reference;
@@ -28,7 +30,7 @@ use contracts::Catalog;
 
 // The results' types and files live in the `results` crate (shared with the service); re-exported here so local
 // evaluation reads as one crate.
-pub use identity::{PlannerIdentity, PlannerKind, IDENTITY_FILE};
+pub use identity::{PlannerIdentity, PlannerSource, IDENTITY_FILE};
 pub use registry::Builtin;
 pub use results::{charts, compare, parquet_file, report, summary, EpisodeRow, ResultsError};
 pub use run::{

@@ -67,13 +67,13 @@ pub fn read_results(path: &Path) -> Result<Vec<EpisodeRow>, EvalError> {
 }
 
 /// Progress callback: (done, total, seconds elapsed).
-pub type Progress<'a> = &'a (dyn Fn(usize, usize, f64) + Sync);
+pub type ProgressFn<'a> = &'a (dyn Fn(usize, usize, f64) + Sync);
 
 /// Makes a fresh planner for one episode.
 pub type PlannerFactory<'a> = &'a (dyn Fn() -> Box<dyn Planner> + Sync);
 
 /// Runs (or resumes) an evaluation of the built-in planner `cfg.planner` and returns every row of it.
-pub fn run(cfg: &EvalConfig, progress: Progress<'_>) -> Result<Vec<EpisodeRow>, EvalError> {
+pub fn run(cfg: &EvalConfig, progress: ProgressFn<'_>) -> Result<Vec<EpisodeRow>, EvalError> {
     let builtin = Builtin::resolve(&cfg.planner, None)?;
     run_builtin(cfg, &builtin, progress)
 }
@@ -83,7 +83,7 @@ pub fn run(cfg: &EvalConfig, progress: Progress<'_>) -> Result<Vec<EpisodeRow>, 
 pub fn run_builtin(
     cfg: &EvalConfig,
     builtin: &Builtin,
-    progress: Progress<'_>,
+    progress: ProgressFn<'_>,
 ) -> Result<Vec<EpisodeRow>, EvalError> {
     let make = || builtin.make();
     if cfg.identity.is_some() {
@@ -108,7 +108,7 @@ pub fn run_with(
     cfg: &EvalConfig,
     make: PlannerFactory<'_>,
     cancel: &AtomicBool,
-    progress: Progress<'_>,
+    progress: ProgressFn<'_>,
 ) -> Result<Vec<EpisodeRow>, EvalError> {
     prepare(cfg)?.run(make, cancel, progress)
 }
@@ -246,7 +246,7 @@ impl Prepared<'_> {
         self,
         make: PlannerFactory<'_>,
         cancel: &AtomicBool,
-        progress: Progress<'_>,
+        progress: ProgressFn<'_>,
     ) -> Result<Vec<EpisodeRow>, EvalError> {
         let Prepared {
             cfg,

@@ -1,7 +1,7 @@
 //! An evaluation resumes only with the planner that wrote its results (`planner.json`); a cancelled evaluation
 //! stops its running episodes and keeps what finished.
 
-use eval::{prepare, run, EvalConfig, PlannerIdentity, PlannerKind, IDENTITY_FILE};
+use eval::{prepare, run, EvalConfig, PlannerIdentity, PlannerSource, IDENTITY_FILE};
 use sim_core::episode::EpisodeConfig;
 use sim_core::planner::{Action, Observation, Planner, PlannerContext, PlannerError};
 use std::path::{Path, PathBuf};
@@ -32,7 +32,7 @@ fn fresh(name: &str) -> PathBuf {
 
 fn python(name: &str, params: &str) -> PlannerIdentity {
     PlannerIdentity {
-        kind: PlannerKind::Python,
+        kind: PlannerSource::Python,
         name: name.into(),
         class: Some("my_planners.Follow".into()),
         version: None,

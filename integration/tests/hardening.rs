@@ -305,7 +305,8 @@ async fn a_planner_finds_no_token_in_proc_and_its_log_is_its_owner_s() -> anyhow
     .await;
     let _ = decoy.kill();
     let _ = decoy.wait();
-    let log = vb_submit::episode_log(&mut c, &sub.submission_id, "w001-t0").await?;
+    let log =
+        vb_submit::episode_log(&mut c, &sub.submission_id, contracts::TaskId::new(1, 0)).await?;
     assert!(log.contains("FOUND: 0"), "{log}");
     let procs: usize = log
         .lines()
@@ -337,7 +338,7 @@ async fn a_planner_finds_no_token_in_proc_and_its_log_is_its_owner_s() -> anyhow
     // Another user may not read it.
     let other = create_token_with_role(&db, "mallory", "user");
     let mut m = client(port, &other).await;
-    let err = vb_submit::episode_log(&mut m, &sub.submission_id, "w001-t0")
+    let err = vb_submit::episode_log(&mut m, &sub.submission_id, contracts::TaskId::new(1, 0))
         .await
         .expect_err("another user read the log");
     assert!(err.to_string().contains("no submission"), "{err}");

@@ -66,7 +66,7 @@ async fn a_planner_that_prints_the_worker_s_token_file_shows_the_public_nothing(
     })
     .await;
     // The owner sees what happened: the planner's output (with an empty token file) and the worker's account.
-    let log = vb_submit::episode_log(&mut c, &id, "w001-t0").await?;
+    let log = vb_submit::episode_log(&mut c, &id, contracts::TaskId::new(1, 0)).await?;
     assert!(
         log.contains("READ: 0"),
         "the planner read the token file: {log}"
@@ -144,7 +144,8 @@ async fn a_planner_below_tmp_sees_its_environment_and_binaries_named_inside_sh_c
     .await;
     let r = vb_submit::results(&mut c, &sub.submission_id).await?;
     let e = &r.episodes[0];
-    let log = vb_submit::episode_log(&mut c, &sub.submission_id, "w001-t0").await?;
+    let log =
+        vb_submit::episode_log(&mut c, &sub.submission_id, contracts::TaskId::new(1, 0)).await?;
     let _ = std::fs::remove_dir_all(&env);
     assert!(
         log.contains("loaded"),

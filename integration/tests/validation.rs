@@ -81,7 +81,7 @@ async fn a_token_that_leases_and_hands_back_in_a_loop_is_throttled() -> anyhow::
                         lease_id: l.lease_id.clone(),
                         submission_id: l.submission_id.clone(),
                         task_id: l.task_id.clone(),
-                        handed_back: true,
+                        unscored: Some(pb::episode_report::Unscored::HandedBack(true)),
                         ..Default::default()
                     };
                     w.report_result(authed(back, &rogue)).await?;
@@ -141,7 +141,7 @@ async fn a_token_that_leases_and_hands_back_in_a_loop_is_throttled() -> anyhow::
                         lease_id: l.lease_id.clone(),
                         submission_id: l.submission_id.clone(),
                         task_id: l.task_id.clone(),
-                        cannot_run: true,
+                        unscored: Some(pb::episode_report::Unscored::CannotRun(true)),
                         detail: "no such image".into(),
                         ..Default::default()
                     };
@@ -199,7 +199,7 @@ async fn roles_are_kept_apart_on_both_apis() -> anyhow::Result<()> {
         .report_result(authed(
             pb::EpisodeReport {
                 worker_id: reg.worker_id.clone(),
-                handed_back: true,
+                unscored: Some(pb::episode_report::Unscored::HandedBack(true)),
                 ..Default::default()
             },
             &admin,

@@ -2,10 +2,9 @@
 //! obstacle density. Rendered by the template `web/templates/charts.svg`, which escapes every value (the planner's
 //! name is user-controlled on the service).
 
-use crate::report::{in_order, DENSITIES, LEVELS, SEMANTICS};
+use crate::summary::named;
 use crate::summary::{Aggregate, Summary};
 use askama::Template;
-use std::collections::BTreeMap;
 
 /// Output of one of our templates: markup already escaped where it had to be, which a page embeds as it is.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -65,10 +64,10 @@ struct Charts<'a> {
 
 /// SVG bar charts of the success rate (with its interval) by elevation, semantics and obstacle density.
 pub fn charts_svg(s: &Summary) -> Markup {
-    let groups: [(&str, &BTreeMap<String, Aggregate>, [&str; 3]); 3] = [
-        ("elevation level", &s.by_level, LEVELS),
-        ("terrain semantics", &s.by_semantics, SEMANTICS),
-        ("obstacle density", &s.by_density, DENSITIES),
+    let groups: [(&str, Vec<(&str, &Aggregate)>); 3] = [
+        ("elevation level", named(&s.by_level)),
+        ("terrain semantics", named(&s.by_semantics)),
+        ("obstacle density", named(&s.by_density)),
     ];
     let (w, h, pad) = (900.0, 320.0, 40.0);
     let panel_w = (w - pad) / 3.0;
@@ -78,11 +77,11 @@ pub fn charts_svg(s: &Summary) -> Markup {
     let panels = groups
         .iter()
         .enumerate()
-        .map(|(gi, (title, map, order))| {
+        .map(|(gi, (title, map))| {
             let x0 = pad / 2.0 + gi as f64 * panel_w;
             let bw = (panel_w - 40.0) / map.len().max(1) as f64;
-            let bars = in_order(map, order)
-                .into_iter()
+            let bars = map
+                .iter()
                 .enumerate()
                 .map(|(k, (name, a))| {
                     let bx = x0 + 20.0 + k as f64 * bw;
@@ -96,7 +95,7 @@ pub fn charts_svg(s: &Summary) -> Markup {
                         ci_lo: f1(y(a.success_ci95.0)),
                         ci_hi: f1(y(a.success_ci95.1)),
                         name_y: f1(h - 30.0),
-                        name: name.clone(),
+                        name: name.to_string(),
                         pct_y: f1(y(a.success_rate) - 4.0),
                         pct: format!("{:.0}%", 100.0 * a.success_rate),
                     }

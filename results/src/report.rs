@@ -1,12 +1,10 @@
 //! Files of an evaluation: `episodes.csv` (and `episodes.parquet`, [`crate::parquet_file`]), `summary.json`,
 //! `summary.txt` and `charts.svg` ([`crate::charts`]).
 
-use crate::summary::{Aggregate, Summary};
+use crate::summary::{named, Aggregate, Summary};
 use crate::EpisodeRow;
 #[cfg(feature = "parquet")]
 use crate::{io_err, ResultsError};
-use contracts::{ElevationLevel, ObstacleDensity, SemanticsKind};
-use std::collections::BTreeMap;
 use std::fmt::Write as _;
 #[cfg(feature = "parquet")]
 use std::path::Path;
@@ -183,13 +181,13 @@ pub fn summary_text(s: &Summary) -> String {
     t += "(time: traversal time of successes, s, mean and variance; roll, pitch: per-episode mean |angle|, deg, mean and variance over episodes)\n";
     t += "group          tasks success  [95% CI]      time  time_var   roll roll_var  pitch pitch_var rollover  stuck  timeout  other\n";
     t += &line("overall", &s.overall);
-    for (title, map, order) in [
-        ("elevation", &s.by_level, LEVELS),
-        ("semantics", &s.by_semantics, SEMANTICS),
-        ("obstacles", &s.by_density, DENSITIES),
+    for (title, entries) in [
+        ("elevation", named(&s.by_level)),
+        ("semantics", named(&s.by_semantics)),
+        ("obstacles", named(&s.by_density)),
     ] {
         t += &format!("-- {title}\n");
-        for (k, a) in in_order(map, &order) {
+        for (k, a) in entries {
             t += &line(k, a);
         }
     }
@@ -219,29 +217,6 @@ pub fn summary_text(s: &Summary) -> String {
         }
     }
     t
-}
-
-/// The levels of each factor in their natural order (tables and charts list them so, not alphabetically).
-/// The factors' values in the order reports list them (their declaration order in `contracts`).
-pub const LEVELS: [&str; 3] = {
-    use ElevationLevel::*;
-    [Low.as_str(), Medium.as_str(), High.as_str()]
-};
-pub const SEMANTICS: [&str; 3] = {
-    use SemanticsKind::*;
-    [Rigid.as_str(), Deformable.as_str(), Mixed.as_str()]
-};
-pub const DENSITIES: [&str; 3] = {
-    use ObstacleDensity::*;
-    [Sparse.as_str(), Medium.as_str(), Dense.as_str()]
-};
-
-/// The entries of `map` in `order`, then any others alphabetically.
-pub fn in_order<'a, V>(map: &'a BTreeMap<String, V>, order: &[&str]) -> Vec<(&'a String, &'a V)> {
-    let rank = |k: &str| order.iter().position(|o| *o == k).unwrap_or(order.len());
-    let mut v: Vec<_> = map.iter().collect();
-    v.sort_by(|a, b| rank(a.0).cmp(&rank(b.0)).then(a.0.cmp(b.0)));
-    v
 }
 
 /// Writes every file of an evaluation into `dir`.

@@ -2,7 +2,7 @@
 
 use crate::compare::{paired, Comparison};
 use crate::EpisodeRow;
-use contracts::{Outcome, RecordedOutcome};
+use contracts::{ElevationLevel, ObstacleDensity, Outcome, RecordedOutcome, SemanticsKind};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -115,17 +115,22 @@ pub struct DensityContrast {
 
 /// Per semantics kind, the mean over the levels of the evaluation of its per-level success rate (a kind missing at
 /// some level of the evaluation is left out).
-pub fn semantics_level_adjusted(rows: &[EpisodeRow]) -> BTreeMap<String, f64> {
-    let mut cells: BTreeMap<(&str, &str), (usize, usize)> = BTreeMap::new();
+pub fn semantics_level_adjusted(rows: &[EpisodeRow]) -> BTreeMap<SemanticsKind, f64> {
+    let mut cells: BTreeMap<(SemanticsKind, ElevationLevel), (usize, usize)> = BTreeMap::new();
     for r in rows {
-        let c = cells
-            .entry((r.semantics.as_str(), r.level.as_str()))
-            .or_default();
+        let c = cells.entry((r.semantics, r.level)).or_default();
         c.0 += usize::from(r.is_success());
         c.1 += 1;
     }
-    let levels: BTreeSet<&str> = rows.iter().map(|r| r.level.as_str()).collect();
-    let kinds: BTreeSet<&str> = rows.iter().map(|r| r.semantics.as_str()).collect();
+    // The levels' rates are summed in their names' order (as the summaries always have been, to the last bit).
+    let mut levels: Vec<ElevationLevel> = rows
+        .iter()
+        .map(|r| r.level)
+        .collect::<BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    levels.sort_by_key(|l| l.as_str());
+    let kinds: BTreeSet<SemanticsKind> = rows.iter().map(|r| r.semantics).collect();
     kinds
         .into_iter()
         .filter_map(|k| {
@@ -133,7 +138,7 @@ pub fn semantics_level_adjusted(rows: &[EpisodeRow]) -> BTreeMap<String, f64> {
                 .iter()
                 .map(|l| cells.get(&(k, *l)).map(|&(s, n)| s as f64 / n as f64))
                 .collect();
-            rates.map(|r| (k.to_string(), r.iter().sum::<f64>() / r.len() as f64))
+            rates.map(|r| (k, r.iter().sum::<f64>() / r.len() as f64))
         })
         .collect()
 }
@@ -180,15 +185,17 @@ pub struct Summary {
     #[serde(default)]
     pub rules: contracts::Rules,
     pub overall: Aggregate,
-    pub by_level: BTreeMap<String, Aggregate>,
-    pub by_semantics: BTreeMap<String, Aggregate>,
-    pub by_density: BTreeMap<String, Aggregate>,
+    /// Each breakdown is keyed by the vocabulary's values, in their canonical order (low, medium, high; rigid,
+    /// deformable, mixed; sparse, medium, dense).
+    pub by_level: BTreeMap<ElevationLevel, Aggregate>,
+    pub by_semantics: BTreeMap<SemanticsKind, Aggregate>,
+    pub by_density: BTreeMap<ObstacleDensity, Aggregate>,
     /// Success rate of each semantics kind standardised over elevation levels: the mean of its per-level success
     /// rates over the levels present in the evaluation. The 100 worlds cannot balance semantics within every level
     /// (each level has 11 terrain triples, split 4 / 4 / 3 between the kinds), and level dominates success, so raw
     /// per-kind rates carry the design's imbalance; these do not.
     #[serde(default)]
-    pub semantics_level_adjusted: BTreeMap<String, f64>,
+    pub semantics_level_adjusted: BTreeMap<SemanticsKind, f64>,
     /// Density contrasts on matched tasks: the same terrain group and start/goal pair at two densities.
     #[serde(default)]
     pub density_matched: Vec<DensityContrast>,
@@ -196,6 +203,42 @@ pub struct Summary {
     /// the CPU time spent in episodes, on a loaded one it is more). Read from older files as `episode_cpu_s`.
     #[serde(alias = "episode_cpu_s")]
     pub episode_wall_s: f64,
+}
+
+/// A factor of the task set whose values key a summary's breakdowns.
+pub trait Factor: Copy + Ord + 'static {
+    /// Every value, in the canonical order.
+    const ALL: &'static [Self];
+    /// The value's one string form.
+    fn name(self) -> &'static str;
+}
+
+macro_rules! factor {
+    ($($t:ty),+) => {$(
+        impl Factor for $t {
+            const ALL: &'static [$t] = <$t>::ALL;
+            fn name(self) -> &'static str {
+                self.as_str()
+            }
+        }
+    )+};
+}
+factor!(ElevationLevel, SemanticsKind, ObstacleDensity);
+
+/// A breakdown's entries by name, in the factor's canonical order.
+pub fn named<K: Factor, V>(map: &BTreeMap<K, V>) -> Vec<(&'static str, &V)> {
+    map.iter().map(|(k, v)| (k.name(), v)).collect()
+}
+
+/// The aggregate of the rows of each value of `key` that occurs.
+fn breakdown<K: Ord + Copy>(
+    rows: &[EpisodeRow],
+    key: fn(&EpisodeRow) -> K,
+) -> BTreeMap<K, Aggregate> {
+    let keys: BTreeSet<K> = rows.iter().map(key).collect();
+    keys.into_iter()
+        .map(|k| (k, aggregate(rows.iter().filter(|r| key(r) == k))))
+        .collect()
 }
 
 /// Summarises the rows of one evaluation, in task order whatever order they come in (a service gets them in the
@@ -209,19 +252,6 @@ pub fn summarise(rows: &[EpisodeRow]) -> Summary {
         sorted.sort_by(ordered);
         return summarise(&sorted);
     }
-    let by = |key: fn(&EpisodeRow) -> &str| {
-        let mut keys: Vec<&str> = rows.iter().map(key).collect();
-        keys.sort_unstable();
-        keys.dedup();
-        keys.into_iter()
-            .map(|k| {
-                (
-                    k.to_string(),
-                    aggregate(rows.iter().filter(|r| key(r) == k)),
-                )
-            })
-            .collect()
-    };
     let first = rows.first();
     Summary {
         planner: first.map(|r| r.planner.clone()).unwrap_or_default(),
@@ -233,9 +263,9 @@ pub fn summarise(rows: &[EpisodeRow]) -> Summary {
         sim_version: first.map(|r| r.sim_version.clone()).unwrap_or_default(),
         rules: first.map(|r| r.rules).unwrap_or_default(),
         overall: aggregate(rows),
-        by_level: by(|r| r.level.as_str()),
-        by_semantics: by(|r| r.semantics.as_str()),
-        by_density: by(|r| r.density.as_str()),
+        by_level: breakdown(rows, |r| r.level),
+        by_semantics: breakdown(rows, |r| r.semantics),
+        by_density: breakdown(rows, |r| r.density),
         semantics_level_adjusted: semantics_level_adjusted(rows),
         density_matched: density_matched(rows),
         episode_wall_s: rows.iter().map(|r| r.wall_time_s).sum(),
@@ -279,10 +309,10 @@ mod tests {
         assert_eq!(s.overall.success_rate, 0.5);
         assert_eq!(s.overall.traversal_time_mean, 25.0);
         assert_eq!(s.overall.stuck_pct, 25.0);
-        assert_eq!(s.by_level["low"].success_rate, 1.0);
-        assert_eq!(s.by_level["high"].rollover_pct, 50.0);
+        assert_eq!(s.by_level[&ElevationLevel::Low].success_rate, 1.0);
+        assert_eq!(s.by_level[&ElevationLevel::High].rollover_pct, 50.0);
         // Rigid (the only kind): low 2/2, high 0/2: standardised over the two levels, 50%.
-        assert_eq!(s.semantics_level_adjusted["rigid"], 0.5);
+        assert_eq!(s.semantics_level_adjusted[&SemanticsKind::Rigid], 0.5);
         // A kind with more low (easy) worlds is not favoured: 3 of 3 low and 1 of 4 high against 1 of 1 low and
         // 1 of 4 high give the same adjusted rate, (1 + 1/4) / 2.
         let mut rows = Vec::new();
@@ -299,8 +329,8 @@ mod tests {
             }
         }
         let adj = semantics_level_adjusted(&rows);
-        assert_eq!(adj["rigid"], 0.625);
-        assert_eq!(adj["mixed"], 0.625);
+        assert_eq!(adj[&SemanticsKind::Rigid], 0.625);
+        assert_eq!(adj[&SemanticsKind::Mixed], 0.625);
     }
 
     #[test]

@@ -9,31 +9,13 @@
 
 use crate::episode::*;
 use crate::planner::{Action, Observation, VehicleState};
+pub use crate::referee::EpisodeEnd;
+use crate::referee::Referee;
 use crate::reward::{is_time_limit, RewardTerms, RewardWeights};
-use crate::stuck::StuckWatch;
 use crate::vehicle::{Simulation, VehicleSpec};
 use crate::world::{Task, World};
 use nalgebra::Vector3;
 use std::sync::Arc;
-
-/// How an episode ended, before the rollover rule classified a failed trial (`reason` is machine-readable, e.g.
-/// `timeout`, `off_map`, `invalid_action`).
-#[derive(Clone, Debug, PartialEq)]
-pub struct EpisodeEnd {
-    pub outcome: Outcome,
-    pub reason: EndReason,
-    pub detail: String,
-}
-
-impl EpisodeEnd {
-    fn new(outcome: Outcome, reason: EndReason, detail: impl Into<String>) -> EpisodeEnd {
-        EpisodeEnd {
-            outcome,
-            reason,
-            detail: detail.into(),
-        }
-    }
-}
 
 /// What one control period ([`EpisodeRun::advance`]) produced, in gymnasium's terms: the reward's terms under the
 /// run's [`RewardWeights`] ([`crate::reward`]), and whether the episode ended on it, `truncated` at the time limit
@@ -70,19 +52,18 @@ pub struct EpisodeRun {
     sim: Simulation,
     cfg: EpisodeConfig,
     goal: [f64; 2],
-    goal_radius: f64,
+    /// The termination and rollover rules.
+    referee: Referee,
     /// The world's scale (the reward's progress is in metres at full scale).
     scale: f64,
     /// The weights of [`Transition::reward`] ([`EpisodeRun::set_reward_weights`]).
     weights: RewardWeights,
     /// Goal distance at the end of the last control period (or at the start), m.
     prev_distance: f64,
-    half: [f64; 2],
     control_every: u64,
     record_every: Option<u64>,
     trajectory: Vec<TrajectorySample>,
     metrics: EpisodeMetrics,
-    stuck: StuckWatch,
     roll: Running,
     roll_abs: Running,
     pitch: Running,
@@ -148,7 +129,7 @@ impl EpisodeRun {
             record_every,
             trajectory: Vec::with_capacity(capacity),
             metrics: EpisodeMetrics::default(),
-            stuck: StuckWatch::new(cfg.stuck, scale, dt),
+            referee: Referee::new(world, task, cfg, dt),
             roll: Running::default(),
             roll_abs: Running::default(),
             pitch: Running::default(),
@@ -162,8 +143,6 @@ impl EpisodeRun {
             step: 0,
             end: None,
             goal: task.goal,
-            goal_radius: cfg.goal_radius * scale,
-            half: [world.heightmap.half_x(), world.heightmap.half_y()],
             cfg: cfg.clone(),
             sim,
         }
@@ -268,7 +247,7 @@ impl EpisodeRun {
         self.prev_distance = after;
         let s = self.sim.state();
         let end = self.end.as_ref().map(|e| {
-            let outcome = if self.rolled_over(e.outcome) {
+            let outcome = if self.referee.rolled_over(e.outcome, s.roll) {
                 Outcome::Rollover
             } else {
                 e.outcome
@@ -330,43 +309,7 @@ impl EpisodeRun {
         let pos = self.sim.position();
         self.metrics.path_length += (pos - self.last_pos).xy().norm();
         self.last_pos = pos;
-        self.end = self.check(&s, pos, r, p);
-    }
-
-    /// The termination rules, in order, after a physics step.
-    fn check(&mut self, s: &VehicleState, pos: Vector3<f64>, r: f64, p: f64) -> Option<EpisodeEnd> {
-        use Outcome::*;
-        if !(pos.x.is_finite() && pos.y.is_finite() && pos.z.is_finite()) {
-            return Some(EpisodeEnd::new(
-                Rollover,
-                EndReason::NumericalFailure,
-                "the simulation diverged",
-            ));
-        }
-        if (pos.x - self.goal[0]).hypot(pos.y - self.goal[1]) < self.goal_radius {
-            return Some(EpisodeEnd::new(Success, EndReason::Success, ""));
-        }
-        if self.cfg.rollover == RolloverRule::Immediate && r.abs() > self.cfg.rollover_deg {
-            let d = format!("|roll| = {:.1} deg", r.abs());
-            return Some(EpisodeEnd::new(Rollover, EndReason::Rollover, d));
-        }
-        // Body z-axis in the world (R = Rz(yaw) Ry(pitch) Rx(roll)): its vertical component is cos(pitch) cos(roll).
-        let up_z = s.pitch.cos() * s.roll.cos();
-        if up_z < 0.0 {
-            let tilt = up_z.acos().to_degrees();
-            let d = format!("overturned: chassis tilted {tilt:.0} deg (roll {r:.0}, pitch {p:.0})");
-            return Some(EpisodeEnd::new(Rollover, EndReason::Rollover, d));
-        }
-        if pos.x.abs() > self.half[0] || pos.y.abs() > self.half[1] {
-            return Some(EpisodeEnd::new(OffMap, EndReason::OffMap, ""));
-        }
-        if let Some(d) = self.stuck.check(self.step, s.time, [pos.x, pos.y], s.speed) {
-            return Some(EpisodeEnd::new(Stuck, EndReason::Stuck, d));
-        }
-        if s.time >= self.cfg.max_time {
-            return Some(EpisodeEnd::new(Timeout, EndReason::Timeout, ""));
-        }
-        None
+        self.end = self.referee.check(self.step, &s);
     }
 
     /// The episode's result: its end classified by the rollover rule, its metrics and trajectory (moved out). An
@@ -379,7 +322,7 @@ impl EpisodeRun {
                 "cancelled by the caller",
             )
         });
-        let (outcome, reason, detail) = self.classify(end);
+        let (outcome, reason, detail) = self.referee.classify(end, self.sim.state().roll);
         let m = &mut self.metrics;
         let pos = self.sim.position();
         m.time = self.sim.time();
@@ -401,47 +344,5 @@ impl EpisodeRun {
             metrics: m.clone(),
             trajectory: std::mem::take(&mut self.trajectory),
         }
-    }
-
-    /// Applies the rollover rule to a failed trial: a stuck or timed-out episode whose roll (final, or maximum roll
-    /// or pitch under the release's rule) exceeds the threshold is a rollover; everything else is unchanged.
-    fn classify(&self, end: EpisodeEnd) -> (Outcome, EndReason, String) {
-        let EpisodeEnd {
-            outcome,
-            reason,
-            detail,
-        } = end;
-        if !self.rolled_over(outcome) {
-            return (outcome, reason, detail);
-        }
-        let what = if detail.is_empty() {
-            reason.to_string()
-        } else {
-            format!("{reason}: {detail}")
-        };
-        let detail = if self.cfg.rollover == RolloverRule::AtFailure {
-            let end_roll = self.sim.state().roll.to_degrees().abs();
-            format!("|roll| = {end_roll:.1} deg at the end of a failed trial ({what})")
-        } else {
-            let (roll_max, pitch_max) = (self.roll_abs.max, self.pitch_abs.max);
-            format!(
-                "max |roll| {roll_max:.1} deg, max |pitch| {pitch_max:.1} deg during a failed trial ({what})"
-            )
-        };
-        (Outcome::Rollover, EndReason::Rollover, detail)
-    }
-
-    /// Whether the rollover rule makes an end of `outcome` for `reason` a rollover: a failed trial (stuck or timed
-    /// out, not cancelled) whose final roll (or maximum roll or pitch, under the release's rule) exceeds the
-    /// threshold.
-    fn rolled_over(&self, outcome: Outcome) -> bool {
-        let failed = matches!(outcome, Outcome::Stuck | Outcome::Timeout);
-        let thr = self.cfg.rollover_deg;
-        failed
-            && match self.cfg.rollover {
-                RolloverRule::AtFailure => self.sim.state().roll.to_degrees().abs() > thr,
-                RolloverRule::MaxDuringFailure => self.roll_abs.max.max(self.pitch_abs.max) > thr,
-                RolloverRule::Immediate => false,
-            }
     }
 }

@@ -20,6 +20,7 @@ pub mod episode_run;
 pub mod move_off;
 pub mod observe;
 pub mod planner;
+pub mod referee;
 pub mod reward;
 pub mod runner;
 pub mod soil;

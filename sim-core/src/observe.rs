@@ -12,8 +12,8 @@ use crate::planner::VehicleState;
 use crate::world::{Surface, World};
 use nalgebra::Vector3;
 
-/// Shape of a crop.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Shape of a crop: `size x size` cells of `resolution` m, aligned with the heading (datasets record it as is).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CropSpec {
     pub size: usize,
     /// Metres per cell.

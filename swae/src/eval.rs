@@ -236,6 +236,60 @@ pub fn means_and_samples(source: &SwaeSource, n: usize) -> Result<(Maps, Maps), 
     Ok(pairs.into_iter().unzip())
 }
 
+/// One model's row of the reconstruction table: its errors in normalised units and in metres at each level.
+fn reconstruction_row(name: &str, val: &[Crop], pred: &[Vec<f64>], fs: f64) -> String {
+    let (rmse, mae) = errors(val, pred);
+    let m = |e: f64| {
+        ElevationLevel::ALL
+            .iter()
+            .map(|l| format!("{:.3}", e * metres_per_unit(fs, *l)))
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
+    format!(
+        "| {name} | {rmse:.4} | {mae:.4} | {} | {} |",
+        m(rmse),
+        m(mae)
+    )
+}
+
+/// One set's row of the generated-maps table against the reference set `r` (dashes for the reference itself).
+fn map_set_row(s: &MapSet, r: &MapSet, fs: f64) -> String {
+    let same = std::ptr::eq(s, r);
+    let w = |a: &[f64], b: &[f64], digits: usize| {
+        if same {
+            "-".to_string()
+        } else {
+            format!("{:.*}", digits, wasserstein1(a, b))
+        }
+    };
+    let hi = |a: &[f64], b: &[f64], lo: f64, hi: f64| {
+        if same {
+            "-".to_string()
+        } else {
+            format!("{:.3}", histogram_intersection(a, b, lo, hi, 60))
+        }
+    };
+    format!(
+            "| {} | {:.2} / {:.2} | {} | {} | {:.1} / {:.1} | {} | {} | {:.2} ({}) | {:.1} ({}) | {:.3} ({}) |",
+            s.name,
+            mean(&s.heights),
+            p95(&s.heights),
+            w(&s.heights, &r.heights, 3),
+            hi(&s.heights, &r.heights, 0.0, fs),
+            mean(&s.slopes),
+            p95(&s.slopes),
+            w(&s.slopes, &r.slopes, 2),
+            hi(&s.slopes, &r.slopes, 0.0, 90.0),
+            mean(&s.relief),
+            w(&s.relief, &r.relief, 2),
+            mean(&s.slope_p95),
+            w(&s.slope_p95, &r.slope_p95, 2),
+            mean(&s.roughness),
+            w(&s.roughness, &r.roughness, 4),
+        )
+}
+
 /// Everything `vb terrain eval` prints, as Markdown tables.
 pub fn report(
     model: &Swae,
@@ -269,20 +323,7 @@ pub fn report(
         ("PCA, 64 components", &pca_rec),
         ("mean crop", &mean_rec),
     ] {
-        let (rmse, mae) = errors(val, pred);
-        let m = |e: f64| {
-            ElevationLevel::ALL
-                .iter()
-                .map(|l| format!("{:.3}", e * metres_per_unit(fs, *l)))
-                .collect::<Vec<_>>()
-                .join(" / ")
-        };
-        let _ = writeln!(
-            out,
-            "| {name} | {rmse:.4} | {mae:.4} | {} | {} |",
-            m(rmse),
-            m(mae)
-        );
+        let _ = writeln!(out, "{}", reconstruction_row(name, val, pred, fs));
     }
     let train_maps: Vec<Vec<f64>> = train
         .iter()
@@ -325,41 +366,7 @@ pub fn report(
         "| set | height mean / p95, m | height W1, m | height hist. ∩ | slope mean / p95, deg | slope W1, deg | slope hist. ∩ | relief mean, m (W1) | slope p95 per map, deg (W1) | roughness mean, m (W1) |"
     );
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|---|---|");
-    let row = |s: &MapSet, r: &MapSet| -> String {
-        let same = std::ptr::eq(s, r);
-        let w = |a: &[f64], b: &[f64], digits: usize| {
-            if same {
-                "-".to_string()
-            } else {
-                format!("{:.*}", digits, wasserstein1(a, b))
-            }
-        };
-        let hi = |a: &[f64], b: &[f64], lo: f64, hi: f64| {
-            if same {
-                "-".to_string()
-            } else {
-                format!("{:.3}", histogram_intersection(a, b, lo, hi, 60))
-            }
-        };
-        format!(
-            "| {} | {:.2} / {:.2} | {} | {} | {:.1} / {:.1} | {} | {} | {:.2} ({}) | {:.1} ({}) | {:.3} ({}) |",
-            s.name,
-            mean(&s.heights),
-            p95(&s.heights),
-            w(&s.heights, &r.heights, 3),
-            hi(&s.heights, &r.heights, 0.0, fs),
-            mean(&s.slopes),
-            p95(&s.slopes),
-            w(&s.slopes, &r.slopes, 2),
-            hi(&s.slopes, &r.slopes, 0.0, 90.0),
-            mean(&s.relief),
-            w(&s.relief, &r.relief, 2),
-            mean(&s.slope_p95),
-            w(&s.slope_p95, &r.slope_p95, 2),
-            mean(&s.roughness),
-            w(&s.roughness, &r.roughness, 4),
-        )
-    };
+    let row = |s: &MapSet, r: &MapSet| map_set_row(s, r, fs);
     let _ = writeln!(out, "{}", row(&reference, &reference));
     for s in &sets {
         let _ = writeln!(out, "{}", row(s, &reference));

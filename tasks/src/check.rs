@@ -23,6 +23,16 @@ pub const MAX_PATH_POINTS: usize = 100_000;
 
 /// Checks every number of a world file against its physical range; the error names the file and the field.
 pub fn world_spec(spec: &WorldSpec, path: &Path) -> Result<(), TasksError> {
+    grid(spec, path)?;
+    patches(spec, path)?;
+    // The map's half extents, as `Heightmap::contains` sees them once the PNG (MAP_PX square) is loaded.
+    let half = (MAP_PX - 1) as f64 * spec.cell * 0.5;
+    obstacles(spec, path, half)?;
+    tasks(spec, path, half)
+}
+
+/// The sample spacing and the height range.
+fn grid(spec: &WorldSpec, path: &Path) -> Result<(), TasksError> {
     let bad = |field: String, msg: String| Err(TasksError::field(path, field, msg));
     let (lo, hi) = CELL_RANGE;
     if !(spec.cell.is_finite() && (lo..=hi).contains(&spec.cell)) {
@@ -51,6 +61,12 @@ pub fn world_spec(spec: &WorldSpec, path: &Path) -> Result<(), TasksError> {
             ),
         );
     }
+    Ok(())
+}
+
+/// 16 x 16 patches, a friction for each rigid class and none for a deformable one.
+fn patches(spec: &WorldSpec, path: &Path) -> Result<(), TasksError> {
+    let bad = |field: String, msg: String| Err(TasksError::field(path, field, msg));
     if spec.patches.len() != PATCHES * PATCHES {
         return bad(
             "patches".into(),
@@ -83,9 +99,12 @@ pub fn world_spec(spec: &WorldSpec, path: &Path) -> Result<(), TasksError> {
             _ => {}
         }
     }
-    // The map's half extents, as `Heightmap::contains` sees them once the PNG (MAP_PX square) is loaded.
-    let half = (MAP_PX - 1) as f64 * spec.cell * 0.5;
-    let inside = |x: f64, y: f64| x.abs() <= half && y.abs() <= half;
+    Ok(())
+}
+
+/// Obstacles on the map (half extents `half`), at a height, with a yaw and a size.
+fn obstacles(spec: &WorldSpec, path: &Path, half: f64) -> Result<(), TasksError> {
+    let bad = |field: String, msg: String| Err(TasksError::field(path, field, msg));
     for (k, o) in spec.obstacles.iter().enumerate() {
         let field = |name: &str| format!("obstacles[{k}].{name}");
         for (name, v) in [("x", o.x), ("y", o.y)] {
@@ -120,6 +139,13 @@ pub fn world_spec(spec: &WorldSpec, path: &Path) -> Result<(), TasksError> {
             }
         }
     }
+    Ok(())
+}
+
+/// Starts, goals and paths on the map (half extents `half`).
+fn tasks(spec: &WorldSpec, path: &Path, half: f64) -> Result<(), TasksError> {
+    let bad = |field: String, msg: String| Err(TasksError::field(path, field, msg));
+    let inside = |x: f64, y: f64| x.abs() <= half && y.abs() <= half;
     for (k, t) in spec.tasks.iter().enumerate() {
         let field = |name: &str| format!("tasks[{k}].{name}");
         for (name, p) in [("start", t.start), ("goal", t.goal)] {

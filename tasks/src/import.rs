@@ -14,8 +14,8 @@ use crate::path::{occupancy, plan_on_grid, DEFAULT_INFLATION};
 use crate::{heightmap_io, TasksError};
 use serde::Deserialize;
 use sim_core::world::{
-    ElevationLevel, Obstacle, ObstacleDensity, ObstacleKind, Patch, Semantic, SemanticsKind,
-    Surface, Task, World, MAP_PX, PATCHES,
+    ElevationLevel, Heightmap, Obstacle, ObstacleDensity, ObstacleKind, Patch, Semantic,
+    SemanticsKind, Surface, Task, World, MAP_PX, PATCHES,
 };
 use std::path::{Path, PathBuf};
 
@@ -148,42 +148,70 @@ pub fn import_world(w: &ReleaseWorld) -> Result<WorldRecord, TasksError> {
         path: path.clone(),
         message: e.to_string(),
     })?;
-    let bad = |field: &str, msg: String| TasksError::field(path, field, msg);
+    let (level, semantics, density) = factors(&cfg, path)?;
+    let heightmap = heights(w, &cfg, path)?;
+    let patches = patches(&cfg, path)?;
+    let obstacles = obstacles(&cfg, &heightmap, path)?;
+    let world = World {
+        id: w.id,
+        scale: 1.0,
+        level,
+        semantics,
+        density,
+        heightmap,
+        patches,
+        obstacles,
+    };
+    let tasks = tasks(&cfg, &world, path)?;
+    Ok(WorldRecord {
+        world,
+        tasks,
+        terrain: None,
+    })
+}
+
+/// An error in field `field` of the world config at `path`.
+fn bad(path: &Path, field: &str, msg: String) -> TasksError {
+    TasksError::field(path, field, msg)
+}
+
+/// The world's elevation level, semantics kind and obstacle density.
+fn factors(
+    cfg: &Config,
+    path: &Path,
+) -> Result<(ElevationLevel, SemanticsKind, ObstacleDensity), TasksError> {
     let level = match cfg.terrain.difficulty.as_str() {
         "low" => ElevationLevel::Low,
         "mid" | "medium" => ElevationLevel::Medium,
         "high" => ElevationLevel::High,
         other => {
-            return Err(bad(
-                "terrain.difficulty",
-                format!("unknown level `{other}`"),
-            ))
+            let msg = format!("unknown level `{other}`");
+            return Err(bad(path, "terrain.difficulty", msg));
         }
     };
     let semantics = SemanticsKind::parse(&cfg.terrain_type).map_err(|_| {
-        bad(
-            "terrain_type",
-            format!("unknown kind `{}`", cfg.terrain_type),
-        )
+        let msg = format!("unknown kind `{}`", cfg.terrain_type);
+        bad(path, "terrain_type", msg)
     })?;
     let density = match cfg.obstacle_density.as_str() {
         "sparse" => ObstacleDensity::Sparse,
         "medium" => ObstacleDensity::Medium,
         "dense" => ObstacleDensity::Dense,
         other => {
-            return Err(bad(
-                "obstacle_density",
-                format!("unknown density `{other}`"),
-            ))
+            let msg = format!("unknown density `{other}`");
+            return Err(bad(path, "obstacle_density", msg));
         }
     };
+    Ok((level, semantics, density))
+}
+
+/// The heightmap of `Worlds/N.bmp` in the config's height range, and the label image's check when it has one.
+fn heights(w: &ReleaseWorld, cfg: &Config, path: &Path) -> Result<Heightmap, TasksError> {
     let (lo, hi) = (cfg.terrain.min_height, cfg.terrain.max_height);
     let lim = crate::check::MAX_ABS_HEIGHT;
     if !(lo.is_finite() && hi.is_finite() && hi > lo && lo.abs() <= lim && hi.abs() <= lim) {
-        return Err(bad(
-            "terrain.max_height",
-            format!("height range [{lo}, {hi}] is empty or not within [-{lim}, {lim}] m"),
-        ));
+        let msg = format!("height range [{lo}, {hi}] is empty or not within [-{lim}, {lim}] m");
+        return Err(bad(path, "terrain.max_height", msg));
     }
     let heightmap = heightmap_io::load_heightmap(&w.bmp, 1.0, lo, hi)?;
     if heightmap.nx != MAP_PX || heightmap.ny != MAP_PX {
@@ -208,56 +236,59 @@ pub fn import_world(w: &ReleaseWorld) -> Result<WorldRecord, TasksError> {
             });
         }
     }
+    Ok(heightmap)
+}
+
+/// The 16 x 16 patches: each texture's class, and its friction (rigid) or soil set (deformable).
+fn patches(cfg: &Config, path: &Path) -> Result<Vec<Patch>, TasksError> {
     if cfg.textures.len() != PATCHES * PATCHES {
-        return Err(bad(
-            "textures",
-            format!(
-                "{} entries, expected {}",
-                cfg.textures.len(),
-                PATCHES * PATCHES
-            ),
-        ));
+        let msg = format!(
+            "{} entries, expected {}",
+            cfg.textures.len(),
+            PATCHES * PATCHES
+        );
+        return Err(bad(path, "textures", msg));
     }
     let mut patches: Vec<Option<Patch>> = vec![None; PATCHES * PATCHES];
     for (k, t) in cfg.textures.iter().enumerate() {
         let field = format!("textures[{k}]");
         let [i, j] = t.index;
         if i >= PATCHES || j >= PATCHES {
-            return Err(bad(
-                &format!("{field}.index"),
-                format!("[{i}, {j}] is off the 16 x 16 grid"),
-            ));
+            let msg = format!("[{i}, {j}] is off the 16 x 16 grid");
+            return Err(bad(path, &format!("{field}.index"), msg));
         }
         let semantic = class(&t.terrain_type).ok_or_else(|| {
-            bad(
-                &format!("{field}.terrain_type"),
-                format!("unknown class `{}`", t.terrain_type),
-            )
+            let msg = format!("unknown class `{}`", t.terrain_type);
+            bad(path, &format!("{field}.terrain_type"), msg)
         })?;
         let surface = match (semantic.soil(), t.friction) {
             (Some(soil), _) => Surface::Deformable { soil },
             (None, Some(f)) if (0.0..=2.0).contains(&f) => Surface::Rigid { friction: f },
             (None, f) => {
-                return Err(bad(
-                    &format!("{field}.friction"),
-                    format!("{f:?} is missing or out of range"),
-                ))
+                let msg = format!("{f:?} is missing or out of range");
+                return Err(bad(path, &format!("{field}.friction"), msg));
             }
         };
         patches[(PATCHES - 1 - i) * PATCHES + j] = Some(Patch { semantic, surface });
     }
-    let patches: Vec<Patch> = patches
+    patches
         .into_iter()
         .enumerate()
-        .map(|(k, p)| p.ok_or_else(|| bad("textures", format!("patch {k} is missing"))))
-        .collect::<Result<_, _>>()?;
+        .map(|(k, p)| p.ok_or_else(|| bad(path, "textures", format!("patch {k} is missing"))))
+        .collect()
+}
+
+/// Rocks as boxes of their scale and trees as trunks, standing on the ground.
+fn obstacles(
+    cfg: &Config,
+    heightmap: &Heightmap,
+    path: &Path,
+) -> Result<Vec<Obstacle>, TasksError> {
     let mut obstacles = Vec::new();
     for (k, r) in cfg.obstacles.rocks.iter().enumerate() {
         if !(r.scale.is_finite() && r.scale > 0.0) {
-            return Err(bad(
-                &format!("obstacles.rocks[{k}].scale"),
-                format!("{} is not positive", r.scale),
-            ));
+            let msg = format!("{} is not positive", r.scale);
+            return Err(bad(path, &format!("obstacles.rocks[{k}].scale"), msg));
         }
         obstacles.push(Obstacle {
             kind: ObstacleKind::Rock,
@@ -278,41 +309,32 @@ pub fn import_world(w: &ReleaseWorld) -> Result<WorldRecord, TasksError> {
             half_extents: [TREE_RADIUS, TREE_RADIUS, TREE_HALF_HEIGHT],
         });
     }
-    let world = World {
-        id: w.id,
-        scale: 1.0,
-        level,
-        semantics,
-        density,
-        heightmap,
-        patches,
-        obstacles,
-    };
-    let blocked = occupancy(&world, DEFAULT_INFLATION);
+    Ok(obstacles)
+}
+
+/// The start/goal pairs with their global paths (A* on the obstacle grid, or over the open map).
+fn tasks(cfg: &Config, world: &World, path: &Path) -> Result<Vec<Task>, TasksError> {
+    let blocked = occupancy(world, DEFAULT_INFLATION);
     let mut tasks = Vec::new();
     for (k, p) in cfg.positions.iter().enumerate() {
         let field = format!("positions[{k}]");
         if p.start.len() < 2 || p.goal.len() < 2 {
-            return Err(bad(&field, "start and goal need x and y".into()));
+            return Err(bad(path, &field, "start and goal need x and y".into()));
         }
         let (s, g) = ([p.start[0], p.start[1]], [p.goal[0], p.goal[1]]);
         if !world.heightmap.contains(s[0], s[1]) || !world.heightmap.contains(g[0], g[1]) {
-            return Err(bad(&field, "start or goal is outside the map".into()));
+            return Err(bad(path, &field, "start or goal is outside the map".into()));
         }
-        let path = plan_on_grid(&world, &blocked, s, g)
-            .or_else(|| crate::path::plan_path(&world, s, g, 0.0))
-            .ok_or_else(|| bad(&field, "no path between start and goal".into()))?;
+        let planned = plan_on_grid(world, &blocked, s, g)
+            .or_else(|| crate::path::plan_path(world, s, g, 0.0))
+            .ok_or_else(|| bad(path, &field, "no path between start and goal".into()))?;
         tasks.push(Task {
-            world_id: w.id,
+            world_id: world.id,
             index: k as u32,
             start: s,
             goal: g,
-            path,
+            path: planned,
         });
     }
-    Ok(WorldRecord {
-        world,
-        tasks,
-        terrain: None,
-    })
+    Ok(tasks)
 }

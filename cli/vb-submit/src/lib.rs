@@ -165,11 +165,15 @@ pub async fn results(client: &mut Client, id: &str) -> Result<pb::ResultsRespons
 }
 
 /// The planner log of one episode of the caller's own submission.
-pub async fn episode_log(client: &mut Client, id: &str, task: &str) -> Result<String, SubmitError> {
+pub async fn episode_log(
+    client: &mut Client,
+    id: &str,
+    task: contracts::TaskId,
+) -> Result<String, SubmitError> {
     Ok(client
         .episode_log(pb::EpisodeLogRequest {
             submission_id: id.into(),
-            task_id: task.into(),
+            task_id: task.to_string(),
         })
         .await
         .map_err(rpc)?
@@ -197,7 +201,7 @@ pub async fn write_logs(
         let task: contracts::TaskId = e.task_id.parse().map_err(|_| {
             SubmitError::Protocol(format!("task id `{}` in the results", e.task_id))
         })?;
-        let log = episode_log(client, id, &e.task_id).await?;
+        let log = episode_log(client, id, task).await?;
         if log.is_empty() {
             continue;
         }

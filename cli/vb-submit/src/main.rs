@@ -130,7 +130,7 @@ enum Cmd {
     Log {
         id: String,
         /// Task id, e.g. w001-t0.
-        task: String,
+        task: contracts::TaskId,
     },
     /// Cancel a submission: finished episodes are kept, the rest are marked not run.
     Cancel { id: String },
@@ -316,75 +316,17 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Builtin { planner, opts } => {
             do_submit(&cli, Kind::Builtin(planner.clone()), planner.clone(), opts).await
         }
-        Cmd::Status { id, watch } => {
-            let mut client =
-                vb_submit::connect(&cli.coordinator, &token(&cli)?, cli.tls_ca.as_deref()).await?;
-            match id {
-                None => {
-                    let all = vb_submit::list(&mut client).await?;
-                    if all.is_empty() {
-                        println!("no submissions");
-                    }
-                    for s in all {
-                        println!("{}", vb_submit::list_line(&s));
-                    }
-                }
-                Some(id) if *watch => {
-                    let last = vb_submit::watch(&mut client, id, |s| {
-                        eprint!("\r{}   ", vb_submit::status_line(s))
-                    })
-                    .await?;
-                    eprintln!();
-                    println!("{}", vb_submit::status_line(&last));
-                }
-                Some(id) => println!(
-                    "{}",
-                    vb_submit::status_line(&vb_submit::status(&mut client, id).await?)
-                ),
-            }
-            Ok(())
-        }
+        Cmd::Status { id, watch } => status(&cli, id.as_deref(), *watch).await,
         Cmd::Results {
             id,
             format,
             out,
             logs,
-        } => {
-            let mut client =
-                vb_submit::connect(&cli.coordinator, &token(&cli)?, cli.tls_ca.as_deref()).await?;
-            let r = vb_submit::results(&mut client, id).await?;
-            let unfinished = vb_submit::results::unfinished(&r)?;
-            if !unfinished.is_empty() {
-                eprintln!(
-                    "note: {} of {} episodes have not finished (first: {} {}); the results hold the finished ones",
-                    unfinished.len(),
-                    r.episodes.len(),
-                    unfinished[0].0,
-                    unfinished[0].1
-                );
-            }
-            match out {
-                Some(dir) => {
-                    let mut s = vb_submit::results::write_dir(dir, &r)?;
-                    s.planner = shown(&s.planner).into_owned();
-                    print!("{}", results::report::summary_text(&s));
-                    if *logs {
-                        let n = vb_submit::write_logs(&mut client, &r, &dir.join("logs")).await?;
-                        println!("wrote {n} planner logs in {}", dir.join("logs").display());
-                    }
-                    println!("wrote {}", dir.display());
-                }
-                None if format == "json" => {
-                    print!("{}", vb_submit::results::json(&r)?)
-                }
-                None => print!("{}", vb_submit::results::csv(&r)?),
-            }
-            Ok(())
-        }
+        } => results_cmd(&cli, id, format, out.as_deref(), *logs).await,
         Cmd::Log { id, task } => {
             let mut client =
                 vb_submit::connect(&cli.coordinator, &token(&cli)?, cli.tls_ca.as_deref()).await?;
-            let log = vb_submit::episode_log(&mut client, id, task).await?;
+            let log = vb_submit::episode_log(&mut client, id, *task).await?;
             print!("{log}");
             Ok(())
         }
@@ -397,6 +339,76 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Cmd::Validate { what } => validate(what).await,
     }
+}
+
+/// `vb-submit status`: every submission of the caller, or one (watched until it ends).
+async fn status(cli: &Cli, id: Option<&str>, watch: bool) -> anyhow::Result<()> {
+    let mut client =
+        vb_submit::connect(&cli.coordinator, &token(cli)?, cli.tls_ca.as_deref()).await?;
+    match id {
+        None => {
+            let all = vb_submit::list(&mut client).await?;
+            if all.is_empty() {
+                println!("no submissions");
+            }
+            for s in all {
+                println!("{}", vb_submit::list_line(&s));
+            }
+        }
+        Some(id) if watch => {
+            let last = vb_submit::watch(&mut client, id, |s| {
+                eprint!("\r{}   ", vb_submit::status_line(s))
+            })
+            .await?;
+            eprintln!();
+            println!("{}", vb_submit::status_line(&last));
+        }
+        Some(id) => println!(
+            "{}",
+            vb_submit::status_line(&vb_submit::status(&mut client, id).await?)
+        ),
+    }
+    Ok(())
+}
+
+/// `vb-submit results`: a submission's results as CSV or JSON, or written to a directory (with the planner logs).
+async fn results_cmd(
+    cli: &Cli,
+    id: &str,
+    format: &str,
+    out: Option<&std::path::Path>,
+    logs: bool,
+) -> anyhow::Result<()> {
+    let mut client =
+        vb_submit::connect(&cli.coordinator, &token(cli)?, cli.tls_ca.as_deref()).await?;
+    let r = vb_submit::results(&mut client, id).await?;
+    let unfinished = vb_submit::results::unfinished(&r)?;
+    if !unfinished.is_empty() {
+        eprintln!(
+            "note: {} of {} episodes have not finished (first: {} {}); the results hold the finished ones",
+            unfinished.len(),
+            r.episodes.len(),
+            unfinished[0].0,
+            unfinished[0].1
+        );
+    }
+    match out {
+        Some(dir) => {
+            let mut s = vb_submit::results::write_dir(dir, &r)?;
+            s.planner = shown(&s.planner).into_owned();
+            print!("{}", results::report::summary_text(&s));
+            if logs {
+                let n = vb_submit::write_logs(&mut client, &r, &dir.join("logs")).await?;
+                println!("wrote {n} planner logs in {}", dir.join("logs").display());
+            }
+            println!("wrote {}", dir.display());
+        }
+        None if format == "json" => {
+            print!("{}", vb_submit::results::json(&r)?)
+        }
+        None => print!("{}", vb_submit::results::csv(&r)?),
+    }
+    Ok(())
 }
 
 #[cfg(feature = "validate")]

@@ -64,7 +64,7 @@ pub async fn validate(
         max_time: Some(max_time),
         containment,
     };
-    let run = vb_worker::run_episode(
+    let run = vb_worker::run_leased(
         set,
         spec,
         Arc::new(AtomicBool::new(false)),

@@ -96,3 +96,82 @@ fn bench_move_off_times_the_reference_s_starts() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--worlds"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `vb sim drive` speaks the lock-step protocol on stdin and stdout (`eval::external`): it names itself, acts on the
+/// first state, and a simulator that hangs up before the episode ended is a clear error.
+#[test]
+fn sim_drive_acts_on_states_and_names_a_broken_pipe() {
+    use std::io::Write;
+    let mut child = Command::new(integration::vb())
+        .args(["sim", "drive", "--task", "w001-t0", "--planner", "pid"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    stdin
+        .write_all(b"dt 0.005\nstate 0 0 0 1 0 0 0 0 0 0 0 0 0 0 0\n")
+        .unwrap();
+    drop(stdin);
+    let out = child.wait_with_output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    let mut lines = text.lines();
+    let ok = lines.next().unwrap_or("");
+    assert!(
+        ok.starts_with("ok {")
+            && ok.contains("\"planner\":\"pid\"")
+            && ok.contains("\"control_every\":10"),
+        "{text}"
+    );
+    assert!(
+        lines.next().is_some_and(|l| l.starts_with("act ")),
+        "{text}"
+    );
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("driving w001-t0") && err.contains("closed the pipe after 2 lines"),
+        "{err}"
+    );
+    let bad = vb(&["sim", "drive", "--task", "w1-t0"]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("is not a task id"));
+}
+
+/// `vb sim episodes` drives the reference's tasks with its planner and rules and lists both outcome by outcome.
+#[test]
+fn sim_episodes_lists_both_simulators_outcomes() {
+    let dir = integration::temp_dir("sim-episodes");
+    let config = serde_json::to_string(&sim_core::episode::EpisodeConfig::default()).unwrap();
+    let reference = format!(
+        "{{\"reference\": {{\"simulator\": \"Chrono 10.0.0\"}}, \"datasheets\": [], \"episodes\": {{\"driver\": \
+         {{\"planner\": \"pid\", \"config\": {config}, \"control_every\": 10}}, \"tasks\": [\
+         {{\"task\": \"w001-t0\", \"outcome\": \"success\", \"reason\": \"success\", \"time\": 20.5}}, \
+         {{\"task\": \"w001-t1\", \"outcome\": \"stuck\", \"reason\": \"stuck\", \"time\": 31}}]}}}}"
+    );
+    let file = dir.join("episodes.json");
+    std::fs::write(&file, reference).unwrap();
+    let out = vb(&["sim", "episodes", "--reference", file.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("pid driving 2 tasks under the paper rules"),
+        "{text}"
+    );
+    assert!(
+        text.contains("w001-t0") && text.contains("w001-t1"),
+        "{text}"
+    );
+    assert!(text.contains("of 2 tasks; ours / Chrono 10.0.0:"), "{text}");
+    let none = dir.join("none.json");
+    std::fs::write(&none, "{\"datasheets\": []}").unwrap();
+    let out = vb(&["sim", "episodes", "--reference", none.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("holds no episodes"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

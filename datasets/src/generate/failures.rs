@@ -5,7 +5,7 @@
 //! numerically (`numerical_failure`, counted as rollovers by the benchmark) are simulator failures, not the
 //! vehicle's, and give no window.
 
-use crate::record::{DatasetKind, EpisodeRecord, FailureClass, FailureWindow, Frames};
+use crate::record::{DatasetKind, FailureClass, FailureWindow, Frames, RecordedEpisode};
 use contracts::{EndReason, Outcome};
 
 /// Length of a failure window, simulated s (the stuck rule's window, at any scale).
@@ -67,11 +67,11 @@ pub fn tail(frames: &Frames, n: usize) -> Frames {
 /// The failure window of a recorded episode (`period` s a frame), from run `source`'s episode `source_episode`;
 /// `None` when the episode did not end in a rollover or a stuck.
 pub fn failure_window(
-    rec: &EpisodeRecord,
+    rec: &RecordedEpisode,
     period: f64,
     source: &str,
     source_episode: u64,
-) -> Option<EpisodeRecord> {
+) -> Option<RecordedEpisode> {
     let class = class_of(rec.meta.outcome, rec.meta.reason)?;
     let n = window_frames(period);
     let len = rec.frames.len();
@@ -87,7 +87,7 @@ pub fn failure_window(
         start_time: from as f64 * period,
         short: len < n,
     });
-    Some(EpisodeRecord {
+    Some(RecordedEpisode {
         meta,
         frames: tail(&rec.frames, n),
     })

@@ -34,7 +34,7 @@ mod stream;
 pub use plan::{contact_count, failures_spec, spec};
 pub use run::run;
 
-use crate::record::{DatasetKind, EpisodeMeta, EpisodeRecord};
+use crate::record::{DatasetKind, EpisodeMeta, RecordedEpisode};
 use crate::spec::{SpeedProfile, Variant};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -42,14 +42,14 @@ use std::path::PathBuf;
 /// Where a run puts its episodes (the writer implements it; tests collect into a vector).
 pub trait EpisodeSink {
     /// Appends one episode; episodes come in index order.
-    fn append(&mut self, rec: &EpisodeRecord) -> Result<(), SinkError>;
+    fn append(&mut self, rec: &RecordedEpisode) -> Result<(), SinkError>;
 }
 
 /// A sink's failure, as the sink words it.
 pub type SinkError = Box<dyn std::error::Error + Send + Sync>;
 
-impl EpisodeSink for Vec<EpisodeRecord> {
-    fn append(&mut self, rec: &EpisodeRecord) -> Result<(), SinkError> {
+impl EpisodeSink for Vec<RecordedEpisode> {
+    fn append(&mut self, rec: &RecordedEpisode) -> Result<(), SinkError> {
         self.push(rec.clone());
         Ok(())
     }
@@ -192,7 +192,7 @@ impl Resume {
 
 /// What a run reports as it goes (after every episode index it has dealt with).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Progress {
+pub struct GenerateProgress {
     /// Episode indices dealt with so far (the next one to run).
     pub next_index: u64,
     /// Frames in the main sink, and the frames that end the run.

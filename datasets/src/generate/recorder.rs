@@ -5,7 +5,7 @@
 //! (planner reset, its control rate, act, control, advance), so an episode ends exactly as under `vb eval`.
 //! Frames are allocated once per episode, for the longest episode the time limit allows.
 
-use crate::record::{EpisodeRecord, Frames};
+use crate::record::{Frames, RecordedEpisode};
 use contracts::{EndReason, Outcome};
 use sim_core::observe::{
     goal_vector, relative_elevation_crop, semantics_crop, state_vector, CropSpec,
@@ -32,7 +32,7 @@ pub struct Recorded {
 /// Whether an episode can be written: at least one frame, every value finite (state, goal and the final observation
 /// as float64, wheels, action, reward terms as float32, crops as float16). An episode whose simulation diverged can
 /// hold infinities or NaN in its last frames and its final observation.
-pub fn writable(rec: &EpisodeRecord) -> bool {
+pub fn writable(rec: &RecordedEpisode) -> bool {
     const F16_MAX: f32 = 65504.0;
     let f = &rec.frames;
     let fin = |v: &[f32]| v.iter().all(|x| x.is_finite());

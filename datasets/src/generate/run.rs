@@ -9,7 +9,7 @@ use super::recorder::{writable, Recorded};
 use super::source::Source;
 use super::stream::ordered;
 use super::*;
-use crate::record::{DatasetKind, EpisodeMeta, EpisodeRecord};
+use crate::record::{DatasetKind, EpisodeMeta, RecordedEpisode};
 use contracts::{Outcome, TaskId};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -19,8 +19,8 @@ use sim_core::world::World;
 
 /// What episode `i` gives: its record for the main sink, its failure window, and how it ended.
 struct Output {
-    main: Option<EpisodeRecord>,
-    window: Option<EpisodeRecord>,
+    main: Option<RecordedEpisode>,
+    window: Option<RecordedEpisode>,
     outcome: Outcome,
     /// Frames the episode ran, kept or not.
     frames: u64,
@@ -44,8 +44,8 @@ fn record(
     policy_params: std::collections::BTreeMap<String, f64>,
     seed: u64,
     rec: Recorded,
-) -> EpisodeRecord {
-    EpisodeRecord {
+) -> RecordedEpisode {
+    RecordedEpisode {
         meta: EpisodeMeta {
             kind,
             task_id,
@@ -80,7 +80,7 @@ fn planner_record(
     t: &EpisodeTask,
     planner: &str,
     seed: u64,
-) -> Result<EpisodeRecord, GenerateError> {
+) -> Result<RecordedEpisode, GenerateError> {
     let rec = drive_planner(&ctx.src, t, planner, ctx.plan.record_crop.as_ref())?;
     let (x, y, yaw) = start_pose(&t.task);
     let world = &ctx.src.worlds[t.world].world;
@@ -178,7 +178,7 @@ pub fn run(
     resume: &Resume,
     sink: &mut dyn EpisodeSink,
     mut failures: Option<&mut dyn EpisodeSink>,
-    progress: &dyn Fn(&Progress),
+    progress: &dyn Fn(&GenerateProgress),
 ) -> Result<GenerateSummary, GenerateError> {
     if cfg.kind == DatasetKind::Failures && failures.is_some() {
         return Err(GenerateError::param(
@@ -186,14 +186,7 @@ pub fn run(
             "a failures run writes its windows into the main sink; give no failures sink",
         ));
     }
-    plan::check(cfg)?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(cfg.threads)
-        .build()
-        .map_err(|e| GenerateError::Pool(e.to_string()))?;
-    let src = pool.install(|| Source::load(cfg))?;
-    let plan = Plan::new(cfg, &src.vehicle, src.scale)?;
-    let ctx = Ctx { cfg, src, plan };
+    let (pool, ctx) = prepare(cfg)?;
     let target = ctx.plan.target_frames;
     let n_tasks = ctx.src.tasks.len() as u64;
     let end = (cfg.kind == DatasetKind::Failures).then(|| n_tasks * cfg.planners.len() as u64);
@@ -206,22 +199,11 @@ pub fn run(
     let mut kept_frames = resume.main_frames;
     // A main sink that already holds the hours ends at its last episode; the failures sink may still catch up.
     let mut cut = (kept_frames >= target).then(|| resume.main_next.saturating_sub(1));
-    let mut s = GenerateSummary {
-        episodes_run: 0,
-        kept_episodes: 0,
-        failure_windows: 0,
-        kept_frames,
-        kept_seconds: 0.0,
-        simulated_seconds: 0.0,
-        reached_hours: false,
-        dropped: 0,
-        next: *resume,
-        outcomes: Default::default(),
-        windows: Default::default(),
-    };
+    let mut s = GenerateSummary::resuming(resume);
     let give_up = n_tasks.max(100);
     let mut next_index = first;
     let mut simulated = 0u64;
+    // The first index not to run: past the failures run's last episode, or past the cut.
     let limit = match (end, cut) {
         (Some(e), Some(c)) => Some(e.min(c + 1)),
         (e, c) => e.or(c.map(|c| c + 1)),
@@ -245,11 +227,7 @@ pub fn run(
             })?;
             kept_frames += rec.frames.len() as u64;
             s.kept_episodes += 1;
-            if let Some(fw) = &rec.meta.failure {
-                *s.windows
-                    .entry(class_name(fw.class).to_string())
-                    .or_default() += 1;
-            }
+            s.count_window(rec);
             if cut.is_none() && kept_frames >= target {
                 cut = Some(i);
             }
@@ -263,24 +241,11 @@ pub fn run(
                 source,
             })?;
             s.failure_windows += 1;
-            if let Some(fw) = &w.meta.failure {
-                *s.windows
-                    .entry(class_name(fw.class).to_string())
-                    .or_default() += 1;
-            }
+            s.count_window(w);
         }
         next_index = i + 1;
-        // An expert that never succeeds would run for ever.
-        if cfg.kind == DatasetKind::Expert && next_index == give_up && kept_frames == 0 {
-            return Err(GenerateError::param(
-                "planners",
-                format!(
-                    "planner `{}` succeeded in none of the first {give_up} episodes: no demonstrations to keep",
-                    cfg.planners[0]
-                ),
-            ));
-        }
-        progress(&Progress {
+        expert_succeeds(cfg, next_index, give_up, kept_frames)?;
+        progress(&GenerateProgress {
             next_index,
             kept_frames,
             target_frames: target,
@@ -299,14 +264,83 @@ pub fn run(
     s.kept_seconds = kept_frames as f64 * ctx.plan.period;
     s.simulated_seconds = simulated as f64 * ctx.plan.period;
     s.reached_hours = kept_frames >= target;
-    s.next = Resume {
-        main_next: next_index.max(resume.main_next),
-        main_frames: kept_frames,
-        failures_next: if feeds_failures {
-            next_index.max(resume.failures_next)
-        } else {
-            resume.failures_next
-        },
-    };
+    s.next = resume.after(next_index, kept_frames, feeds_failures);
     Ok(s)
+}
+
+/// An expert that never succeeds would run for ever: after `give_up` episodes without a kept frame, an error.
+fn expert_succeeds(
+    cfg: &GenerateConfig,
+    next_index: u64,
+    give_up: u64,
+    kept_frames: u64,
+) -> Result<(), GenerateError> {
+    if cfg.kind == DatasetKind::Expert && next_index == give_up && kept_frames == 0 {
+        return Err(GenerateError::param(
+            "planners",
+            format!(
+                "planner `{}` succeeded in none of the first {give_up} episodes: no demonstrations to keep",
+                cfg.planners[0]
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The run's thread pool and what its episodes share: the configuration checked, the task source loaded (on the
+/// pool) and the plan.
+fn prepare(cfg: &GenerateConfig) -> Result<(rayon::ThreadPool, Ctx<'_>), GenerateError> {
+    plan::check(cfg)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(cfg.threads)
+        .build()
+        .map_err(|e| GenerateError::Pool(e.to_string()))?;
+    let src = pool.install(|| Source::load(cfg))?;
+    let plan = Plan::new(cfg, &src.vehicle, src.scale)?;
+    Ok((pool, Ctx { cfg, src, plan }))
+}
+
+impl GenerateSummary {
+    /// Nothing run yet by this run, resuming after `resume`.
+    fn resuming(resume: &Resume) -> GenerateSummary {
+        GenerateSummary {
+            episodes_run: 0,
+            kept_episodes: 0,
+            failure_windows: 0,
+            kept_frames: resume.main_frames,
+            kept_seconds: 0.0,
+            simulated_seconds: 0.0,
+            reached_hours: false,
+            dropped: 0,
+            next: *resume,
+            outcomes: Default::default(),
+            windows: Default::default(),
+        }
+    }
+
+    /// Counts the failure window `rec` holds, if it holds one.
+    fn count_window(&mut self, rec: &RecordedEpisode) {
+        if let Some(fw) = &rec.meta.failure {
+            *self
+                .windows
+                .entry(class_name(fw.class).to_string())
+                .or_default() += 1;
+        }
+    }
+}
+
+impl Resume {
+    /// Where a run that resumed at `self` stops: episodes dealt with up to `next_index`, `kept_frames` kept in the
+    /// main sink, the failures sink fed too when `feeds_failures`.
+    fn after(&self, next_index: u64, kept_frames: u64, feeds_failures: bool) -> Resume {
+        Resume {
+            main_next: next_index.max(self.main_next),
+            main_frames: kept_frames,
+            failures_next: if feeds_failures {
+                next_index.max(self.failures_next)
+            } else {
+                self.failures_next
+            },
+        }
+    }
 }

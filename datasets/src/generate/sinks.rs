@@ -8,11 +8,11 @@ use super::failures::source_name;
 use super::{episode_index, EpisodeSink, GenerateConfig, GenerateError, Resume, SinkError};
 use crate::episodes::read_episodes;
 use crate::layout::scan;
-use crate::record::{DatasetKind, EpisodeMeta, EpisodeRecord};
+use crate::record::{DatasetKind, EpisodeMeta, RecordedEpisode};
 use crate::writer::DatasetWriter;
 
 impl EpisodeSink for DatasetWriter {
-    fn append(&mut self, rec: &EpisodeRecord) -> Result<(), SinkError> {
+    fn append(&mut self, rec: &RecordedEpisode) -> Result<(), SinkError> {
         DatasetWriter::append(self, rec).map_err(Into::into)
     }
 }

@@ -3,8 +3,8 @@
 
 use contracts::{ElevationLevel, EndReason, ObstacleDensity, Outcome, SemanticsKind, TaskId};
 use datasets::{
-    CropSpec, DatasetKind, DatasetSpec, EpisodeMeta, EpisodeRecord, FailureClass, FailureWindow,
-    Frames, SpeedProfile, Variant, WriterOptions,
+    CropSpec, DatasetKind, DatasetSpec, EpisodeMeta, FailureClass, FailureWindow, Frames,
+    RecordedEpisode, SpeedProfile, Variant, WriterOptions,
 };
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -57,7 +57,7 @@ pub fn crop_val(i: u64, t: usize, k: usize, which: usize) -> f32 {
     ((i as usize * 3 + t + k + which * 5) % 32) as f32 * 0.25 - 2.0
 }
 
-pub fn record(spec: &DatasetSpec, i: u64) -> EpisodeRecord {
+pub fn record(spec: &DatasetSpec, i: u64) -> RecordedEpisode {
     let n = len(i);
     let outcomes = [
         Outcome::Success,
@@ -161,7 +161,7 @@ pub fn record(spec: &DatasetSpec, i: u64) -> EpisodeRecord {
         final_state: state_at(n),
         final_goal: goal_at(n),
     };
-    EpisodeRecord { meta, frames }
+    RecordedEpisode { meta, frames }
 }
 
 pub fn tmpdir(name: &str) -> PathBuf {
@@ -200,7 +200,12 @@ pub fn assert_same(a: &Path, b: &Path) {
 }
 
 /// Writes episodes `0..n` of `spec` into `dir` with `options` and finishes.
-pub fn write(dir: &Path, spec: &DatasetSpec, n: u64, options: WriterOptions) -> datasets::Summary {
+pub fn write(
+    dir: &Path,
+    spec: &DatasetSpec,
+    n: u64,
+    options: WriterOptions,
+) -> datasets::WrittenDataset {
     let mut w =
         datasets::DatasetWriter::open_with(dir, spec, "vb dataset generate --test", options)
             .unwrap();

@@ -181,6 +181,11 @@ const THREAD_FAILED: &str = "the evaluation thread failed (a bug: please report 
 /// is the name of a built-in planner (run in parallel on `num_threads` threads) or a
 /// `vertibench.planner.Planner` (run one episode at a time in the calling thread, `identity` its
 /// `eval::PlannerIdentity` as JSON, each call failed with reason `planner_timeout` past `step_timeout` seconds).
+///
+/// One piece on purpose: the evaluation thread, the channel to the calling thread, the proxies' factory and the
+/// watch loop that serves the Python planner's calls borrow one another inside one `std::thread::scope`; split,
+/// each part would take the others' borrows, and the handshake (started, progress, done; Ctrl-C; the note on an
+/// interrupted run) reads in order here.
 #[pyfunction]
 #[pyo3(signature = (planner, out, task_dir, tasks="all", vehicle="hmmwv", scale=None, rules="paper",
     progress=true, identity=None, step_timeout=None, num_threads=None))]
@@ -199,24 +204,8 @@ pub fn evaluate<'py>(
     step_timeout: Option<f64>,
     num_threads: Option<usize>,
 ) -> PyResult<(Bound<'py, PyDict>, bool)> {
-    let episode = match rules {
-        "paper" => EpisodeConfig::default(),
-        "release" => EpisodeConfig::release(),
-        o => {
-            return Err(PyValueError::new_err(format!(
-                "rules `{o}` is not `paper` or `release`"
-            )))
-        }
-    };
-    let step_timeout = match step_timeout {
-        None => None,
-        Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
-        Some(s) => {
-            return Err(PyValueError::new_err(format!(
-                "step_timeout must be a positive number of seconds or None, not {s}"
-            )))
-        }
-    };
+    let episode = rules_named(rules)?;
+    let step_timeout = step_timeout_of(step_timeout)?;
     if num_threads == Some(0) {
         return Err(PyValueError::new_err("num_threads must be at least 1"));
     }
@@ -266,11 +255,7 @@ pub fn evaluate<'py>(
     };
     let crop = match &builtin {
         Some(_) => None,
-        None => {
-            let size: usize = planner.getattr("crop_size")?.extract()?;
-            let resolution: f64 = planner.getattr("crop_resolution")?.extract()?;
-            (size > 0).then_some(CropSpec { size, resolution })
-        }
+        None => crop_of(&planner)?,
     };
     let obj = planner.clone().unbind();
     let make = || -> Box<dyn Planner> {
@@ -325,13 +310,7 @@ pub fn evaluate<'py>(
     let summary = eval::summary::summarise(&rows);
     py.detach(|| eval::report::write(&out, &rows, &summary))
         .map_err(|e| PyOSError::new_err(e.to_string()))?;
-    let mut note = String::new();
-    if watch.shown {
-        note.push('\n');
-    }
-    if !complete {
-        note += &format!("vertibench.evaluate: interrupted; {} of {total} episodes are kept in {}: call evaluate again with the same out= to resume\n", rows.len(), out.display());
-    }
+    let note = closing_note(watch.shown, complete, rows.len(), total, &out);
     if !note.is_empty() {
         if let Err(e) = say(py, &note) {
             watch.signal(py, e);
@@ -348,4 +327,50 @@ pub fn evaluate<'py>(
         return Err(e);
     }
     Ok((table(py, &rows)?, complete))
+}
+
+/// The rules `vertibench.evaluate` takes by name.
+fn rules_named(rules: &str) -> PyResult<EpisodeConfig> {
+    match rules {
+        "paper" => Ok(EpisodeConfig::default()),
+        "release" => Ok(EpisodeConfig::release()),
+        o => Err(PyValueError::new_err(format!(
+            "rules `{o}` is not `paper` or `release`"
+        ))),
+    }
+}
+
+fn step_timeout_of(step_timeout: Option<f64>) -> PyResult<Option<Duration>> {
+    match step_timeout {
+        None => Ok(None),
+        Some(s) if s.is_finite() && s > 0.0 => Ok(Some(Duration::from_secs_f64(s))),
+        Some(s) => Err(PyValueError::new_err(format!(
+            "step_timeout must be a positive number of seconds or None, not {s}"
+        ))),
+    }
+}
+
+/// The local map crop a Python planner asks for (`crop_size` 0: none).
+fn crop_of(planner: &Bound<'_, PyAny>) -> PyResult<Option<CropSpec>> {
+    let size: usize = planner.getattr("crop_size")?.extract()?;
+    let resolution: f64 = planner.getattr("crop_resolution")?.extract()?;
+    Ok((size > 0).then_some(CropSpec { size, resolution }))
+}
+
+/// What `evaluate` says as it returns: a line break after its progress line, and how to resume an interrupted run.
+fn closing_note(
+    shown: bool,
+    complete: bool,
+    kept: usize,
+    total: usize,
+    out: &std::path::Path,
+) -> String {
+    let mut note = String::new();
+    if shown {
+        note.push('\n');
+    }
+    if !complete {
+        note += &format!("vertibench.evaluate: interrupted; {kept} of {total} episodes are kept in {}: call evaluate again with the same out= to resume\n", out.display());
+    }
+    note
 }

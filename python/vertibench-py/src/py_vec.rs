@@ -184,39 +184,9 @@ impl VecCore {
                 Some(CropSpec { size, resolution })
             }
         };
-        let weights = match reward {
-            None => RewardWeights::default(),
-            Some([progress, roll, pitch, success_bonus, failure_penalty]) => {
-                if ![progress, roll, pitch, success_bonus, failure_penalty]
-                    .iter()
-                    .all(|v| v.is_finite())
-                {
-                    return Err(bad("reward weights must be finite"));
-                }
-                RewardWeights {
-                    progress,
-                    roll,
-                    pitch,
-                    success_bonus,
-                    failure_penalty,
-                }
-            }
-        };
-        let autoreset = match autoreset {
-            "next_step" => Autoreset::NextStep,
-            "same_step" => Autoreset::SameStep,
-            "disabled" => Autoreset::Disabled,
-            o => {
-                return Err(bad(format!(
-                    "autoreset `{o}` is not next_step, same_step or disabled"
-                )))
-            }
-        };
-        let order = match task_order {
-            "random" => TaskOrder::Random,
-            "cycle" => TaskOrder::Cycle,
-            o => return Err(bad(format!("task_order `{o}` is not random or cycle"))),
-        };
+        let weights = reward_weights(reward)?;
+        let autoreset = autoreset_named(autoreset)?;
+        let order = task_order_named(task_order)?;
         let pool = match num_threads {
             Some(0) => {
                 return Err(bad(
@@ -480,5 +450,45 @@ impl VecCore {
             tasks,
             ended,
         ))
+    }
+}
+
+fn reward_weights(reward: Option<[f64; 5]>) -> PyResult<RewardWeights> {
+    Ok(match reward {
+        None => RewardWeights::default(),
+        Some([progress, roll, pitch, success_bonus, failure_penalty]) => {
+            if ![progress, roll, pitch, success_bonus, failure_penalty]
+                .iter()
+                .all(|v| v.is_finite())
+            {
+                return Err(bad("reward weights must be finite"));
+            }
+            RewardWeights {
+                progress,
+                roll,
+                pitch,
+                success_bonus,
+                failure_penalty,
+            }
+        }
+    })
+}
+
+fn autoreset_named(autoreset: &str) -> PyResult<Autoreset> {
+    match autoreset {
+        "next_step" => Ok(Autoreset::NextStep),
+        "same_step" => Ok(Autoreset::SameStep),
+        "disabled" => Ok(Autoreset::Disabled),
+        o => Err(bad(format!(
+            "autoreset `{o}` is not next_step, same_step or disabled"
+        ))),
+    }
+}
+
+fn task_order_named(task_order: &str) -> PyResult<TaskOrder> {
+    match task_order {
+        "random" => Ok(TaskOrder::Random),
+        "cycle" => Ok(TaskOrder::Cycle),
+        o => Err(bad(format!("task_order `{o}` is not random or cycle"))),
     }
 }

@@ -9,33 +9,38 @@ use vb_proto::v1 as pb;
 use vb_proto::ProtoEnum;
 use vb_store::{EpisodeRecord, EpisodeResultIn, Lease, Progress, Submission};
 
-/// Rebuilds the planner reference a submission was made with.
-pub fn planner_ref_from_parts(kind: PlannerKind, spec: &str) -> pb::PlannerRef {
+/// Rebuilds the planner reference a submission was made with from the store's kind and spec (an exec planner's
+/// argv is stored as a JSON list; anything else there is a corrupt row, said as such).
+pub fn planner_ref_from_parts(kind: PlannerKind, spec: &str) -> Result<pb::PlannerRef, String> {
     use pb::planner_ref::Kind;
     let kind = match kind {
         PlannerKind::Builtin => Kind::Builtin(spec.into()),
         PlannerKind::Endpoint => Kind::Endpoint(spec.into()),
         PlannerKind::Image => Kind::Image(spec.into()),
         PlannerKind::Exec => Kind::Exec(pb::ExecPlanner {
-            argv: serde_json::from_str(spec).unwrap_or_else(|_| vec![spec.to_string()]),
+            argv: serde_json::from_str(spec)
+                .map_err(|e| format!("the stored exec planner is not a JSON argv: {e}"))?,
         }),
     };
-    pb::PlannerRef { kind: Some(kind) }
+    Ok(pb::PlannerRef { kind: Some(kind) })
 }
 
-pub fn lease(l: &Lease) -> pb::EpisodeLease {
+/// A lease as the worker gets it; INTERNAL if the submission's stored planner is corrupt.
+pub fn lease(l: &Lease) -> Result<pb::EpisodeLease, Status> {
     let s = &l.submission;
-    pb::EpisodeLease {
+    let planner = planner_ref_from_parts(s.planner_kind, &s.planner_spec)
+        .map_err(|e| Status::internal(format!("submission {}: {e}", s.id)))?;
+    Ok(pb::EpisodeLease {
         lease_id: l.lease_id.clone(),
         submission_id: s.id.clone(),
         task_id: l.task_id.to_string(),
-        planner: Some(planner_ref_from_parts(s.planner_kind, &s.planner_spec)),
+        planner: Some(planner),
         vehicle: s.vehicle.clone(),
         scale: s.scale,
         seed: s.seed,
         step_deadline_s: s.step_deadline_s,
         task_set_version: s.task_set_version.clone(),
-    }
+    })
 }
 
 /// A submission's status; `throughput_per_s`: the service's recent episodes per second (`None`: not known yet, so
@@ -167,6 +172,22 @@ fn flate2_decode(bytes: &[u8], max: usize, out: &mut String) -> Result<(), Statu
 mod tests {
     use super::*;
     use contracts::{ElevationLevel, EpisodeState, ObstacleDensity, Outcome, SemanticsKind};
+
+    /// An exec planner's stored argv comes back as it was submitted; a stored spec that is not a JSON argv is an
+    /// error, never a one-word command made of it.
+    #[test]
+    fn a_stored_exec_planner_is_its_argv_or_an_error() {
+        use pb::planner_ref::Kind;
+        let r = planner_ref_from_parts(PlannerKind::Exec, r#"["python3","-m","planner"]"#).unwrap();
+        let Some(Kind::Exec(e)) = r.kind else {
+            panic!("{r:?}")
+        };
+        assert_eq!(e.argv, ["python3", "-m", "planner"]);
+        let bad = planner_ref_from_parts(PlannerKind::Exec, "python3 -m planner").unwrap_err();
+        assert!(bad.contains("not a JSON argv"), "{bad}");
+        let b = planner_ref_from_parts(PlannerKind::Builtin, "pid").unwrap();
+        assert_eq!(b.kind, Some(Kind::Builtin("pid".into())));
+    }
 
     fn metrics() -> EpisodeMetrics {
         let mut m = EpisodeMetrics {

@@ -136,11 +136,14 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
         let token = self.0.user(&req).await?;
         let r = req.get_ref();
         self.0.owned(&token, &r.submission_id).await?;
+        let task: contracts::TaskId = r.task_id.parse().map_err(|_| {
+            Status::invalid_argument(format!("`{}` is not a task id (w001-t0)", r.task_id))
+        })?;
         let d = self
             .0
             .store
             .reader()
-            .episode_detail(&r.submission_id, &r.task_id)
+            .episode_detail(&r.submission_id, task)
             .await
             .map_err(store_status)?;
         Ok(Response::new(pb::EpisodeLogResponse {

@@ -3,7 +3,7 @@
 //! an image reference by Docker's grammar), vehicle, scale, deadline and task selection.
 
 use crate::*;
-use contracts::{input, PlannerKind};
+use contracts::{input, Catalog, PlannerKind};
 
 pub(crate) struct ValidSubmit {
     pub(crate) sub: NewSubmission,
@@ -13,16 +13,41 @@ pub(crate) struct ValidSubmit {
 impl Coordinator {
     pub(crate) fn validate_submit(&self, r: &pb::SubmitRequest) -> Result<ValidSubmit, Status> {
         let catalog = &self.cfg.catalog;
-        let bad = |m: String| Status::invalid_argument(m);
-        let name = r.name.trim();
-        if name.is_empty() || name.chars().count() > MAX_NAME {
-            return Err(bad(format!(
-                "name must be 1 to {MAX_NAME} printable characters (got {} characters)",
-                r.name.chars().count()
-            )));
-        }
-        input::check_display_text("name", &r.name).map_err(|e| bad(e.to_string()))?;
-        let (kind, spec) = match r.planner.as_ref().and_then(|p| p.kind.as_ref()) {
+        let name = check_name(&r.name)?;
+        let (kind, spec) = self.planner(r.planner.as_ref())?;
+        let (vehicle, scale) = vehicle_and_scale(catalog, &r.vehicle, r.scale)?;
+        let deadline = step_deadline(r.step_deadline_s)?;
+        let episodes = episodes(catalog, &r.task_ids)?;
+        Ok(ValidSubmit {
+            sub: NewSubmission {
+                name: name.to_string(),
+                owner: String::new(),
+                owner_token: String::new(),
+                planner_kind: kind,
+                planner_identity: match kind {
+                    PlannerKind::Builtin => format!("builtin:{spec} ({})", catalog.sim_version),
+                    _ => format!("{kind}:{spec}"),
+                },
+                planner_spec: spec,
+                vehicle,
+                scale,
+                seed: r.seed,
+                step_deadline_s: deadline,
+                task_set_version: catalog.task_set_version.clone(),
+                sim_version: catalog.sim_version.clone(),
+            },
+            episodes,
+        })
+    }
+
+    /// The planner's kind and its spec as the store keeps it (a builtin's name, the URL, the argv as JSON, the
+    /// image reference); exec and image planners only where this coordinator runs them.
+    fn planner(&self, planner: Option<&pb::PlannerRef>) -> Result<(PlannerKind, String), Status> {
+        let catalog = &self.cfg.catalog;
+        let refuse = |what: &str| {
+            Status::permission_denied(format!("this coordinator does not run {what} planners"))
+        };
+        Ok(match planner.and_then(|p| p.kind.as_ref()) {
             None => {
                 return Err(bad(
                     "planner is missing: give an endpoint, exec argv, image or builtin".into(),
@@ -44,21 +69,9 @@ impl Coordinator {
             }
             Some(pb::planner_ref::Kind::Exec(e)) => {
                 if !self.cfg.allow_exec {
-                    return Err(Status::permission_denied(
-                        "this coordinator does not run exec planners",
-                    ));
+                    return Err(refuse("exec"));
                 }
-                if e.argv.is_empty()
-                    || e.argv.len() > MAX_ARGV
-                    || e.argv.iter().any(|a| a.len() > MAX_ARG_LEN)
-                {
-                    return Err(bad(format!(
-                        "exec argv must have 1 to {MAX_ARGV} arguments of at most {MAX_ARG_LEN} bytes"
-                    )));
-                }
-                if e.argv[0].trim().is_empty() {
-                    return Err(bad("exec argv[0] (the program) is empty".into()));
-                }
+                check_argv(&e.argv)?;
                 (
                     PlannerKind::Exec,
                     serde_json::to_string(&e.argv).map_err(|e| Status::internal(e.to_string()))?,
@@ -66,83 +79,95 @@ impl Coordinator {
             }
             Some(pb::planner_ref::Kind::Image(i)) => {
                 if !self.cfg.allow_exec {
-                    return Err(Status::permission_denied(
-                        "this coordinator does not run container planners",
-                    ));
+                    return Err(refuse("container"));
                 }
                 input::check_image_ref(i).map_err(|e| bad(e.to_string()))?;
                 (PlannerKind::Image, i.clone())
             }
-        };
-        let vehicle_name = if r.vehicle.is_empty() {
-            "hmmwv"
-        } else {
-            r.vehicle.as_str()
-        };
-        let Some(&vehicle_scale) = catalog.vehicles.get(vehicle_name) else {
-            let names: Vec<&str> = catalog.vehicles.keys().map(String::as_str).collect();
-            return Err(bad(format!(
-                "vehicle: unknown vehicle `{vehicle_name}` (available: {})",
-                names.join(", ")
-            )));
-        };
-        let scale = if r.scale == 0.0 {
-            vehicle_scale
-        } else {
-            r.scale
-        };
-        if !(scale.is_finite() && scale > 0.0 && scale <= 1.0) {
-            return Err(bad(format!(
-                "scale {} must be in (0, 1] (0 = the vehicle's own)",
-                r.scale
-            )));
-        }
-        let deadline = if r.step_deadline_s == 0.0 {
-            1.0
-        } else {
-            r.step_deadline_s
-        };
-        if !(deadline.is_finite() && deadline > 0.0 && deadline <= 60.0) {
-            return Err(bad(format!(
-                "step_deadline_s {} must be in (0, 60] (0 = the default, 1 s)",
-                r.step_deadline_s
-            )));
-        }
-        if r.task_ids.len() > 10_000 || r.task_ids.iter().any(|t| t.len() > 64) {
-            return Err(bad("too many or too long task ids".into()));
-        }
-        let spec_str = if r.task_ids.is_empty() {
-            "all".to_string()
-        } else {
-            r.task_ids.join(",")
-        };
-        let selected = catalog.select(&spec_str).map_err(|e| bad(e.to_string()))?;
-        // Selected from the catalog, so every task's world is in it.
-        let episodes = selected
-            .into_iter()
-            .filter_map(|id| NewEpisode::of(catalog, id))
-            .collect();
-        Ok(ValidSubmit {
-            sub: NewSubmission {
-                name: name.to_string(),
-                owner: String::new(),
-                owner_token: String::new(),
-                planner_kind: kind,
-                planner_identity: match kind {
-                    PlannerKind::Builtin => format!("builtin:{spec} ({})", catalog.sim_version),
-                    _ => format!("{kind}:{spec}"),
-                },
-                planner_spec: spec,
-                vehicle: vehicle_name.to_string(),
-                scale,
-                seed: r.seed,
-                step_deadline_s: deadline,
-                task_set_version: catalog.task_set_version.clone(),
-                sim_version: catalog.sim_version.clone(),
-            },
-            episodes,
         })
     }
+}
+
+fn bad(m: String) -> Status {
+    Status::invalid_argument(m)
+}
+
+/// The submission's name, trimmed: 1 to `MAX_NAME` characters of displayable text.
+fn check_name(raw: &str) -> Result<&str, Status> {
+    let name = raw.trim();
+    if name.is_empty() || name.chars().count() > MAX_NAME {
+        return Err(bad(format!(
+            "name must be 1 to {MAX_NAME} printable characters (got {} characters)",
+            raw.chars().count()
+        )));
+    }
+    input::check_display_text("name", raw).map_err(|e| bad(e.to_string()))?;
+    Ok(name)
+}
+
+/// An exec planner's argv: 1 to `MAX_ARGV` arguments of at most `MAX_ARG_LEN` bytes, the program named.
+fn check_argv(argv: &[String]) -> Result<(), Status> {
+    if argv.is_empty() || argv.len() > MAX_ARGV || argv.iter().any(|a| a.len() > MAX_ARG_LEN) {
+        return Err(bad(format!(
+            "exec argv must have 1 to {MAX_ARGV} arguments of at most {MAX_ARG_LEN} bytes"
+        )));
+    }
+    if argv[0].trim().is_empty() {
+        return Err(bad("exec argv[0] (the program) is empty".into()));
+    }
+    Ok(())
+}
+
+/// The catalogue's vehicle (default `hmmwv`) and the scale (0: the vehicle's own), in (0, 1].
+fn vehicle_and_scale(
+    catalog: &Catalog,
+    vehicle: &str,
+    scale: f64,
+) -> Result<(String, f64), Status> {
+    let name = if vehicle.is_empty() { "hmmwv" } else { vehicle };
+    let Some(&own) = catalog.vehicles.get(name) else {
+        let names: Vec<&str> = catalog.vehicles.keys().map(String::as_str).collect();
+        return Err(bad(format!(
+            "vehicle: unknown vehicle `{name}` (available: {})",
+            names.join(", ")
+        )));
+    };
+    let s = if scale == 0.0 { own } else { scale };
+    if !(s.is_finite() && s > 0.0 && s <= 1.0) {
+        return Err(bad(format!(
+            "scale {scale} must be in (0, 1] (0 = the vehicle's own)"
+        )));
+    }
+    Ok((name.to_string(), s))
+}
+
+/// The per-step deadline (0: the default, 1 s), in (0, 60] s.
+fn step_deadline(given: f64) -> Result<f64, Status> {
+    let deadline = if given == 0.0 { 1.0 } else { given };
+    if !(deadline.is_finite() && deadline > 0.0 && deadline <= 60.0) {
+        return Err(bad(format!(
+            "step_deadline_s {given} must be in (0, 60] (0 = the default, 1 s)"
+        )));
+    }
+    Ok(deadline)
+}
+
+/// The selected tasks (none given: all), with the factors the board breaks results down by.
+fn episodes(catalog: &Catalog, task_ids: &[String]) -> Result<Vec<NewEpisode>, Status> {
+    if task_ids.len() > 10_000 || task_ids.iter().any(|t| t.len() > 64) {
+        return Err(bad("too many or too long task ids".into()));
+    }
+    let spec = if task_ids.is_empty() {
+        "all".to_string()
+    } else {
+        task_ids.join(",")
+    };
+    let selected = catalog.select(&spec).map_err(|e| bad(e.to_string()))?;
+    // Selected from the catalog, so every task's world is in it.
+    Ok(selected
+        .into_iter()
+        .filter_map(|id| NewEpisode::of(catalog, id))
+        .collect())
 }
 
 /// Checks a planner endpoint URL: `http://` or `https://` with a host (and optionally a port), parsed as the worker's

@@ -3,6 +3,7 @@
 //! or hand them back at a high rate.
 
 use crate::*;
+use vb_proto::v1::episode_report::Unscored;
 use vb_store::ReportOutcome;
 
 #[tonic::async_trait]
@@ -90,7 +91,10 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
                 .map_err(store_status)?
         };
         Ok(Response::new(pb::LeaseResponse {
-            leases: leases.iter().map(convert::lease).collect(),
+            leases: leases
+                .iter()
+                .map(convert::lease)
+                .collect::<Result<_, _>>()?,
         }))
     }
 
@@ -123,61 +127,8 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
         let r = req.into_inner();
         let t = now();
         self.0.known_worker(&r.worker_id, &token, t).await?;
-        if r.cannot_run {
-            let _g = self.0.lease_lock.lock().await;
-            if self
-                .0
-                .store
-                .refuse(&r.worker_id, &r.lease_id, &r.detail, t)
-                .await
-                .map_err(store_status)?
-            {
-                tracing::warn!(
-                    worker = %r.worker_id,
-                    submission = %r.submission_id,
-                    reason = %r.detail,
-                    "a worker cannot run a submission; its episodes wait for another"
-                );
-            }
-            return Ok(Response::new(pb::ReportAck {
-                accepted: false,
-                duplicate: false,
-            }));
-        }
-        if r.handed_back {
-            let _g = self.0.lease_lock.lock().await;
-            let ok = self
-                .0
-                .store
-                .hand_back(&r.worker_id, &r.lease_id, t)
-                .await
-                .map_err(store_status)?;
-            if ok {
-                tracing::info!(
-                    worker = %r.worker_id,
-                    lease = %r.lease_id,
-                    "a stopping worker handed an episode back"
-                );
-            }
-            return Ok(Response::new(pb::ReportAck {
-                accepted: false,
-                duplicate: false,
-            }));
-        }
-        if r.infrastructure_failure {
-            tracing::warn!(
-                worker = %r.worker_id,
-                submission = %r.submission_id,
-                task = %r.task_id,
-                detail = %r.detail,
-                "a worker could not run an episode"
-            );
-            let _g = self.0.lease_lock.lock().await;
-            self.0
-                .store
-                .release(&r.worker_id, &r.lease_id, &r.detail, t)
-                .await
-                .map_err(store_status)?;
+        if let Some(unscored) = &r.unscored {
+            self.0.unscored(&r, unscored, t).await?;
             return Ok(Response::new(pb::ReportAck {
                 accepted: false,
                 duplicate: false,
@@ -229,6 +180,64 @@ impl pb::worker_pool_server::WorkerPool for WorkerPoolApi {
             accepted: outcome == ReportOutcome::Accepted,
             duplicate: outcome == ReportOutcome::Duplicate,
         }))
+    }
+}
+
+impl Coordinator {
+    /// A report without a result to score: the lease goes back to the queue, kept from that worker if it cannot run
+    /// the submission's planner, counted as an attempt if the worker failed it.
+    async fn unscored(
+        &self,
+        r: &pb::EpisodeReport,
+        unscored: &Unscored,
+        t: f64,
+    ) -> Result<(), Status> {
+        let _g = self.lease_lock.lock().await;
+        match unscored {
+            Unscored::CannotRun(_) => {
+                if self
+                    .store
+                    .refuse(&r.worker_id, &r.lease_id, &r.detail, t)
+                    .await
+                    .map_err(store_status)?
+                {
+                    tracing::warn!(
+                        worker = %r.worker_id,
+                        submission = %r.submission_id,
+                        reason = %r.detail,
+                        "a worker cannot run a submission; its episodes wait for another"
+                    );
+                }
+            }
+            Unscored::HandedBack(_) => {
+                if self
+                    .store
+                    .hand_back(&r.worker_id, &r.lease_id, t)
+                    .await
+                    .map_err(store_status)?
+                {
+                    tracing::info!(
+                        worker = %r.worker_id,
+                        lease = %r.lease_id,
+                        "a stopping worker handed an episode back"
+                    );
+                }
+            }
+            Unscored::InfrastructureFailure(_) => {
+                tracing::warn!(
+                    worker = %r.worker_id,
+                    submission = %r.submission_id,
+                    task = %r.task_id,
+                    detail = %r.detail,
+                    "a worker could not run an episode"
+                );
+                self.store
+                    .release(&r.worker_id, &r.lease_id, &r.detail, t)
+                    .await
+                    .map_err(store_status)?;
+            }
+        }
+        Ok(())
     }
 }
 

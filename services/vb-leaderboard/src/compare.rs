@@ -2,12 +2,12 @@
 //! directories: success rates, their paired difference with its 95% interval and the exact McNemar test, overall and
 //! per elevation level, with notes when the two ran on different task sets, simulators or rules.
 
+use crate::public::PublicSubmission;
 use crate::{public, Leaderboard, WebError};
+use contracts::ElevationLevel;
 use results::compare::Comparison;
-use results::report::LEVELS;
 use results::EpisodeRow;
 use serde::Serialize;
-use vb_store::Submission;
 
 /// One side of a comparison.
 #[derive(Clone, Debug, Serialize)]
@@ -35,7 +35,7 @@ pub struct Pairwise {
     pub notes: Vec<String>,
 }
 
-fn side(s: &Submission, rows: &[EpisodeRow]) -> Side {
+fn side(s: &PublicSubmission, rows: &[EpisodeRow]) -> Side {
     Side {
         id: s.id.clone(),
         name: s.name.clone(),
@@ -49,7 +49,12 @@ fn side(s: &Submission, rows: &[EpisodeRow]) -> Side {
 }
 
 /// Compares the finished episodes `ra` of A with `rb` of B.
-pub fn pairwise(a: &Submission, ra: &[EpisodeRow], b: &Submission, rb: &[EpisodeRow]) -> Pairwise {
+pub fn pairwise(
+    a: &PublicSubmission,
+    ra: &[EpisodeRow],
+    b: &PublicSubmission,
+    rb: &[EpisodeRow],
+) -> Pairwise {
     let (sa, sb) = (side(a, ra), side(b, rb));
     let mut notes: Vec<String> = results::compare::task_set_note(ra, rb)
         .into_iter()
@@ -75,14 +80,11 @@ pub fn pairwise(a: &Submission, ra: &[EpisodeRow], b: &Submission, rb: &[Episode
             ));
         }
     }
-    let by_level = LEVELS
+    let by_level = ElevationLevel::ALL
         .iter()
         .filter_map(|&level| {
             let of = |rows: &[EpisodeRow]| -> Vec<EpisodeRow> {
-                rows.iter()
-                    .filter(|r| r.level.as_str() == level)
-                    .cloned()
-                    .collect()
+                rows.iter().filter(|r| r.level == level).cloned().collect()
             };
             let c = results::compare::compare(&of(ra), &of(rb));
             (c.paired_tasks > 0).then(|| (level.to_string(), c))
@@ -99,10 +101,13 @@ pub fn pairwise(a: &Submission, ra: &[EpisodeRow], b: &Submission, rb: &[Episode
 
 impl Leaderboard {
     /// A submission (as the public sees it) and its finished episodes as evaluation rows.
-    async fn finished_rows(&self, id: &str) -> Result<(Submission, Vec<EpisodeRow>), WebError> {
+    async fn finished_rows(
+        &self,
+        id: &str,
+    ) -> Result<(PublicSubmission, Vec<EpisodeRow>), WebError> {
         let sub = public::submission(&self.reader, id).await?;
         let eps = public::episodes(&self.reader, &sub).await?;
-        let rows = vb_store::aggregate::rows(&sub, &eps, self.catalog())?;
+        let rows = vb_store::aggregate::rows_of(&sub.facts, &eps, self.catalog())?;
         Ok((sub, rows))
     }
 

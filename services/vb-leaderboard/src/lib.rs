@@ -18,10 +18,11 @@ use axum::response::{Html, IntoResponse, Response};
 use axum::routing::get;
 use axum::{Json, Router};
 use contracts::{Catalog, ServiceError, ServiceErrorCode, WorldPicture};
+use public::PublicSubmission;
 use serde::Serialize;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
-use vb_store::{EpisodeRecord, Progress, Reader, StoreError, StoredSummary, Submission};
+use vb_store::{EpisodeRecord, Progress, Reader, StoreError, StoredSummary};
 
 pub const OPENAPI: &str = include_str!("../../../web/openapi.json");
 
@@ -60,7 +61,7 @@ pub struct SubmissionEntry {
     pub unranked: Option<ranking::Unranked>,
     /// Finished tasks over the full task set the board ranks on (0 to 1).
     pub coverage: f64,
-    pub submission: Submission,
+    pub submission: PublicSubmission,
     pub progress: Progress,
     pub summary: results::summary::Summary,
 }
@@ -132,6 +133,15 @@ impl IntoResponse for WebError {
     }
 }
 
+/// A task id from a URL; text that is not one names no episode.
+fn task_id(submission: &str, task: &str) -> Result<contracts::TaskId, WebError> {
+    task.parse().map_err(|_| {
+        WebError::NotFound(format!(
+            "no episode `{task}` in submission `{submission}` (task ids look like w001-t0)"
+        ))
+    })
+}
+
 impl Leaderboard {
     fn catalog(&self) -> Option<&Catalog> {
         self.tasks.as_ref().map(|t| t.catalog.as_ref())
@@ -177,7 +187,7 @@ impl Leaderboard {
     /// from the stored counts.
     async fn entry(
         &self,
-        sub: Submission,
+        sub: PublicSubmission,
         stored: Option<StoredSummary>,
     ) -> Result<SubmissionEntry, WebError> {
         let ended = !sub.state.is_active();
@@ -187,7 +197,7 @@ impl Leaderboard {
             Some(m) => m.summary.clone(),
             None => {
                 let eps = public::episodes(&self.reader, &sub).await?;
-                vb_store::aggregate::summary_of(&sub, &eps, self.catalog())?
+                vb_store::aggregate::summary_with(&sub.facts, &eps, self.catalog())?
             }
         };
         let progress = match &stored {
@@ -369,7 +379,7 @@ async fn episode_page(
     Path((id, task)): Path<(String, String)>,
 ) -> Result<Html<String>, WebError> {
     let sub = public::submission(&lb.reader, &id).await?;
-    let detail = public::episode_detail(&lb.reader, &id, &task).await?;
+    let detail = public::episode_detail(&lb.reader, &id, task_id(&id, &task)?).await?;
     // The page works without its map (no task set served, or a world it does not have).
     let map = if lb.tasks.is_some() {
         picture(&lb, detail.record.world_id).await.ok()
@@ -445,7 +455,9 @@ async fn api_episode(
     State(lb): St,
     Path((id, task)): Path<(String, String)>,
 ) -> Result<Json<public::PublicEpisode>, WebError> {
-    Ok(Json(public::episode_detail(&lb.reader, &id, &task).await?))
+    Ok(Json(
+        public::episode_detail(&lb.reader, &id, task_id(&id, &task)?).await?,
+    ))
 }
 
 async fn compare_page(

@@ -6,15 +6,17 @@
 //! owner the whole detail (`vb-submit results`). Every read of the store by the leaderboard goes through here.
 
 use contracts::PlannerKind;
+use results::RunFacts;
 use serde::Serialize;
 use sha2::{Digest, Sha256};
-use vb_store::{EpisodeRecord, Reader, StoreError, StoredSummary, Submission};
+use vb_store::{EpisodeRecord, Reader, StoreError, StoredSummary, Submission, SubmissionState};
 
-/// One episode as the public sees it: its record and trajectory, without the planner's log.
+/// One episode as the public sees it: its record and trajectory (the recorded samples, decoded), without the
+/// planner's log.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct PublicEpisode {
     pub record: EpisodeRecord,
-    pub trajectory_csv: String,
+    pub trajectory: Vec<contracts::TrajectorySample>,
 }
 
 /// A short hash of a planner identity (`sha256:` and 12 hex digits): equal identities, equal hashes.
@@ -33,12 +35,55 @@ fn public_planner(kind: PlannerKind, spec: &str, identity: &str) -> (String, Str
     }
 }
 
-fn redact(mut s: Submission) -> Submission {
-    let (spec, identity) = public_planner(s.planner_kind, &s.planner_spec, &s.planner_identity);
-    s.planner_spec = spec;
-    s.planner_identity = identity;
-    s.owner_token = String::new();
-    s
+/// A submission as the public sees it: the store's row without its owner's token, the planner's spec shown only
+/// for a built-in and its identity only as a hash otherwise (`web/openapi.json`'s `Submission`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PublicSubmission {
+    pub id: String,
+    pub seq: i64,
+    pub name: String,
+    pub owner: String,
+    pub planner_kind: PlannerKind,
+    pub planner_spec: String,
+    pub planner_identity: String,
+    pub vehicle: String,
+    pub scale: f64,
+    pub seed: u64,
+    pub step_deadline_s: f64,
+    pub task_set_version: String,
+    pub sim_version: String,
+    pub state: SubmissionState,
+    pub created_at: f64,
+    pub finished_at: Option<f64>,
+    pub tasks: u32,
+    /// What its results' rows share (name, vehicle, versions, rules), for their summaries.
+    #[serde(skip)]
+    pub facts: RunFacts,
+}
+
+fn redact(s: Submission) -> PublicSubmission {
+    let (planner_spec, planner_identity) =
+        public_planner(s.planner_kind, &s.planner_spec, &s.planner_identity);
+    PublicSubmission {
+        facts: vb_store::aggregate::facts(&s),
+        planner_spec,
+        planner_identity,
+        id: s.id,
+        seq: s.seq,
+        name: s.name,
+        owner: s.owner,
+        planner_kind: s.planner_kind,
+        vehicle: s.vehicle,
+        scale: s.scale,
+        seed: s.seed,
+        step_deadline_s: s.step_deadline_s,
+        task_set_version: s.task_set_version,
+        sim_version: s.sim_version,
+        state: s.state,
+        created_at: s.created_at,
+        finished_at: s.finished_at,
+        tasks: s.tasks,
+    }
 }
 
 fn redact_episode(kind: PlannerKind, mut e: EpisodeRecord) -> EpisodeRecord {
@@ -52,12 +97,14 @@ fn redact_episode(kind: PlannerKind, mut e: EpisodeRecord) -> EpisodeRecord {
     e
 }
 
-pub async fn submission(r: &Reader, id: &str) -> Result<Submission, StoreError> {
+pub async fn submission(r: &Reader, id: &str) -> Result<PublicSubmission, StoreError> {
     r.submission(id).await.map(redact)
 }
 
 /// Every submission with its stored aggregates, newest first.
-pub async fn board(r: &Reader) -> Result<Vec<(Submission, Option<StoredSummary>)>, StoreError> {
+pub async fn board(
+    r: &Reader,
+) -> Result<Vec<(PublicSubmission, Option<StoredSummary>)>, StoreError> {
     Ok(r.board()
         .await?
         .into_iter()
@@ -68,7 +115,7 @@ pub async fn board(r: &Reader) -> Result<Vec<(Submission, Option<StoredSummary>)
 /// A page of a submission's episodes (`limit` from `offset`).
 pub async fn episodes_range(
     r: &Reader,
-    sub: &Submission,
+    sub: &PublicSubmission,
     offset: usize,
     limit: usize,
 ) -> Result<Vec<EpisodeRecord>, StoreError> {
@@ -80,7 +127,10 @@ pub async fn episodes_range(
 }
 
 /// Every episode of submission `sub` (as [`submission`] read it).
-pub async fn episodes(r: &Reader, sub: &Submission) -> Result<Vec<EpisodeRecord>, StoreError> {
+pub async fn episodes(
+    r: &Reader,
+    sub: &PublicSubmission,
+) -> Result<Vec<EpisodeRecord>, StoreError> {
     Ok(r.episodes(&sub.id)
         .await?
         .into_iter()
@@ -88,11 +138,22 @@ pub async fn episodes(r: &Reader, sub: &Submission) -> Result<Vec<EpisodeRecord>
         .collect())
 }
 
-pub async fn episode_detail(r: &Reader, id: &str, task: &str) -> Result<PublicEpisode, StoreError> {
+pub async fn episode_detail(
+    r: &Reader,
+    id: &str,
+    task: contracts::TaskId,
+) -> Result<PublicEpisode, StoreError> {
     let kind = r.submission(id).await?.planner_kind;
     let d = r.episode_detail(id, task).await?;
+    // An episode without a trajectory (not finished, or failed at its start) has none.
+    let trajectory = if d.trajectory_csv.is_empty() {
+        Vec::new()
+    } else {
+        contracts::trajectory::from_csv(&d.trajectory_csv)
+            .map_err(|e| StoreError::Corrupt(format!("episode {task}'s trajectory: {e}")))?
+    };
     Ok(PublicEpisode {
         record: redact_episode(kind, d.record),
-        trajectory_csv: d.trajectory_csv,
+        trajectory,
     })
 }

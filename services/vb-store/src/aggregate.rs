@@ -28,11 +28,19 @@ pub fn rows(
     eps: &[EpisodeRecord],
     catalog: Option<&Catalog>,
 ) -> Result<Vec<EpisodeRow>, StoreError> {
-    let facts = facts(sub);
+    rows_of(&facts(sub), eps, catalog)
+}
+
+/// [`rows`] of a submission whose facts are `facts`.
+pub fn rows_of(
+    facts: &RunFacts,
+    eps: &[EpisodeRecord],
+    catalog: Option<&Catalog>,
+) -> Result<Vec<EpisodeRow>, StoreError> {
     eps.iter()
         .filter(|e| e.state == crate::EpisodeState::Done)
         .map(|e| {
-            let terrain = catalog.and_then(|c| c.terrain(&sub.task_set_version, e.world_id));
+            let terrain = catalog.and_then(|c| c.terrain(&facts.task_set_version, e.world_id));
             Ok(facts.row(values(e, terrain)?))
         })
         .collect()
@@ -63,5 +71,14 @@ pub fn summary_of(
     eps: &[EpisodeRecord],
     catalog: Option<&Catalog>,
 ) -> Result<Summary, StoreError> {
-    Ok(facts(sub).summary(&rows(sub, eps, catalog)?))
+    summary_with(&facts(sub), eps, catalog)
+}
+
+/// [`summary_of`] a submission whose facts are `facts`.
+pub fn summary_with(
+    facts: &RunFacts,
+    eps: &[EpisodeRecord],
+    catalog: Option<&Catalog>,
+) -> Result<Summary, StoreError> {
+    Ok(facts.summary(&rows_of(facts, eps, catalog)?))
 }

@@ -55,7 +55,7 @@ impl Compressed {
 pub(crate) async fn insert(
     tx: &mut Transaction<'static, Any>,
     submission_id: &str,
-    task_id: &str,
+    task: contracts::TaskId,
     blobs: &Compressed,
 ) -> Result<()> {
     sqlx::query(
@@ -63,7 +63,7 @@ pub(crate) async fn insert(
          ON CONFLICT (submission_id, task_id) DO NOTHING",
     )
     .bind(submission_id)
-    .bind(task_id)
+    .bind(task.to_string())
     .bind(&blobs.trajectory)
     .bind(&blobs.log)
     .execute(&mut **tx)
@@ -76,13 +76,14 @@ pub(crate) async fn insert(
 pub(crate) async fn read(
     pool: &AnyPool,
     submission_id: &str,
-    task_id: &str,
+    task: contracts::TaskId,
 ) -> Result<(String, String)> {
+    let task_id = task.to_string();
     let row = sqlx::query(
         "SELECT trajectory_gz, planner_log_gz FROM episode_blobs WHERE submission_id = $1 AND task_id = $2",
     )
     .bind(submission_id)
-    .bind(task_id)
+    .bind(&task_id)
     .fetch_optional(pool)
     .await?;
     if let Some(r) = row {
@@ -98,7 +99,7 @@ pub(crate) async fn read(
         "SELECT trajectory_csv, planner_log FROM episodes WHERE submission_id = $1 AND task_id = $2",
     )
     .bind(submission_id)
-    .bind(task_id)
+    .bind(&task_id)
     .fetch_optional(pool)
     .await?;
     Ok(match r {
@@ -131,11 +132,14 @@ pub(crate) async fn move_inline(pool: &AnyPool) -> Result<u64> {
         for r in &rows {
             let sub: String = r.try_get("submission_id")?;
             let task: String = r.try_get("task_id")?;
+            let id: contracts::TaskId = task
+                .parse()
+                .map_err(|e: contracts::TaskIdError| StoreError::Corrupt(e.to_string()))?;
             let traj: Option<String> = r.try_get("trajectory_csv")?;
             let log: Option<String> = r.try_get("planner_log")?;
             let blobs =
                 Compressed::new(traj.as_deref().unwrap_or(""), log.as_deref().unwrap_or(""));
-            insert(&mut tx, &sub, &task, &blobs).await?;
+            insert(&mut tx, &sub, id, &blobs).await?;
             sqlx::query(
                 "UPDATE episodes SET trajectory_csv = NULL, planner_log = NULL WHERE submission_id = $1 AND task_id = $2",
             )

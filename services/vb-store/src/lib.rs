@@ -38,7 +38,10 @@ pub enum StoreError {
     #[error("no submission `{0}`")]
     UnknownSubmission(String),
     #[error("no episode `{task}` in submission `{submission}`")]
-    UnknownEpisode { submission: String, task: String },
+    UnknownEpisode {
+        submission: String,
+        task: contracts::TaskId,
+    },
     #[error("system random number generator failed: {0}")]
     Random(String),
     #[error("corrupt row: {0}")]

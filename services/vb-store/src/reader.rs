@@ -119,21 +119,22 @@ impl Reader {
     pub async fn episode_detail(
         &self,
         submission_id: &str,
-        task_id: &str,
+        task: contracts::TaskId,
     ) -> Result<EpisodeDetail> {
+        let task_id = task.to_string();
         let row = sqlx::query(&format!(
             "SELECT {EPISODE_COLUMNS} FROM episodes WHERE submission_id = $1 AND task_id = $2"
         ))
         .bind(submission_id)
-        .bind(task_id)
+        .bind(&task_id)
         .fetch_optional(&self.pool)
         .await?
         .ok_or_else(|| StoreError::UnknownEpisode {
             submission: submission_id.into(),
-            task: task_id.into(),
+            task,
         })?;
         let (trajectory_csv, planner_log) =
-            crate::blobs::read(&self.pool, submission_id, task_id).await?;
+            crate::blobs::read(&self.pool, submission_id, task).await?;
         Ok(EpisodeDetail {
             record: episode_from_row(&row)?,
             trajectory_csv,

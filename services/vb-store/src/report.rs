@@ -67,7 +67,7 @@ impl Store {
         if n == 0 {
             return Ok(ReportOutcome::Duplicate);
         }
-        crate::blobs::insert(&mut tx, &r.submission_id, &r.task_id.to_string(), &blobs).await?;
+        crate::blobs::insert(&mut tx, &r.submission_id, r.task_id, &blobs).await?;
         if !r.planner_identity.is_empty() {
             sqlx::query("UPDATE submissions SET planner_identity = $1 WHERE id = $2")
                 .bind(&r.planner_identity)

@@ -5,6 +5,7 @@
 mod common;
 
 use common::*;
+use contracts::TaskId;
 use sqlx::Row;
 use vb_store::*;
 
@@ -23,7 +24,10 @@ async fn trajectories_and_logs_live_compressed_outside_the_episodes_table() -> a
         r.trajectory_csv = "time,x\n".to_string() + &"0.1,2.5\n".repeat(5000);
         r.planner_log = "log line\n".repeat(100);
         store.report(&w, &r, 2.0).await?;
-        let d = store.reader().episode_detail(&id, "w001-t0").await?;
+        let d = store
+            .reader()
+            .episode_detail(&id, TaskId::new(1, 0))
+            .await?;
         assert_eq!(d.trajectory_csv, r.trajectory_csv, "{url}");
         assert_eq!(d.planner_log, r.planner_log, "{url}");
         // Nothing inline; the stored bytes are compressed.
@@ -76,7 +80,7 @@ async fn an_older_stores_inline_trajectories_are_moved_when_it_opens() -> anyhow
         // Readable as they are, by a reader of the not yet reopened store.
         let d = Reader::open(&url)
             .await?
-            .episode_detail(&id, "w001-t1")
+            .episode_detail(&id, TaskId::new(1, 1))
             .await?;
         assert_eq!(
             (d.trajectory_csv.as_str(), d.planner_log.as_str()),
@@ -93,7 +97,7 @@ async fn an_older_stores_inline_trajectories_are_moved_when_it_opens() -> anyhow
         for t in 0..3 {
             let d = store
                 .reader()
-                .episode_detail(&id, &format!("w001-t{t}"))
+                .episode_detail(&id, TaskId::new(1, t))
                 .await?;
             assert_eq!(d.trajectory_csv, format!("time,x\n{t},1\n"), "{url}");
             assert_eq!(d.planner_log, format!("log {t}"), "{url}");

@@ -1,6 +1,7 @@
 //! The store's scheduling and result rules, run against SQLite always and against PostgreSQL when
 //! `VB_TEST_POSTGRES_URL` names a server (`.ci/run` starts one); the same queries serve both.
 
+use contracts::TaskId;
 use sqlx::Row;
 use vb_store::*;
 
@@ -131,7 +132,7 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
         let eps = r.episodes(&a).await?;
         assert_eq!(eps.iter().filter(|e| e.state.as_str() == "done").count(), 2);
         assert_eq!(eps[1].outcome.map(|o| o.as_str()), Some("stuck"));
-        let d = r.episode_detail(&a, "w001-t1").await?;
+        let d = r.episode_detail(&a, TaskId::new(1, 1)).await?;
         assert_eq!(
             (d.planner_log.as_str(), d.trajectory_csv.as_str()),
             ("hello", "time,x\n0,0\n")
@@ -155,7 +156,7 @@ async fn leases_results_and_late_duplicates() -> anyhow::Result<()> {
             Err(StoreError::UnknownSubmission(_))
         ));
         assert!(matches!(
-            r.episode_detail(&a, "w009-t9").await,
+            r.episode_detail(&a, TaskId::new(9, 9)).await,
             Err(StoreError::UnknownEpisode { .. })
         ));
     }

@@ -178,6 +178,11 @@ pub fn exec_identity(argv: &[String]) -> String {
 
 /// Starts `argv` with `VB_PLANNER_ADDR` set and waits (up to `startup`) until it serves; returns the process and a
 /// connected planner. `image`: `argv` is an [`image_command`] (else an exec planner's own command).
+///
+/// One piece on purpose: it acquires the planner's resources in the one order that leaves nothing behind when the
+/// worker dies at any point (the watchdog, then the private directory, its owner, the address, the process group,
+/// and only then `PlannerProcess`, whose drop releases them all), and each early return releases exactly what was
+/// acquired before it; that order is the function's contract and reads top to bottom here.
 pub async fn start(
     argv: &[String],
     image: bool,

@@ -17,6 +17,7 @@ pub mod remote;
 pub mod sandbox;
 pub mod sim_access;
 pub mod sim_service;
+mod startup;
 // The client's TLS setup is the protocol crate's (vb-submit uses it without the worker).
 pub use vb_proto::tls;
 
@@ -180,7 +181,7 @@ impl From<String> for EpisodeError {
 
 /// Runs one episode. `Err` means the worker could not run it (not the planner's fault): the coordinator re-queues
 /// it. Planner failures are an `Ok` run with outcome `planner_failure`.
-pub async fn run_episode(
+pub async fn run_leased(
     set: Arc<TaskSet>,
     spec: EpisodeSpec,
     cancel: Arc<AtomicBool>,
@@ -204,77 +205,12 @@ pub async fn run_episode(
         cfg.max_time = m;
     }
     let deadline = Duration::from_secs_f64(spec.step_deadline_s.clamp(0.001, 60.0));
-    use pb::planner_ref::Kind;
-    let kind = spec
-        .planner
-        .kind
-        .clone()
-        .ok_or_else(|| "lease without a planner".to_string())?;
     let log: SharedLog = Arc::new(Mutex::new(PlannerLog::default()));
-    let mut process = None;
-    let (planner, identity) = match kind {
-        Kind::Builtin(name) => match registry::Builtin::resolve(&name, None) {
-            Ok(b) => {
-                let weights = b
-                    .weights_version()
-                    .map(|v| format!(", {v}"))
-                    .unwrap_or_default();
-                (
-                    AnyPlanner::Builtin(b.make()),
-                    format!("builtin:{name} ({SIM_VERSION}{weights})"),
-                )
-            }
-            Err(e) => {
-                return Err(format!("this worker cannot run builtin planner `{name}`: {e}").into())
-            }
-        },
-        Kind::Endpoint(url) => {
-            let identity = format!("endpoint:{url}");
-            match RemotePlanner::connect(&url, deadline, Duration::from_secs(5)).await {
-                Ok(mut p) => {
-                    p.set_log(log.clone());
-                    p.set_episode_context(set.version(), spec.seed);
-                    (AnyPlanner::Remote(Box::new(p)), identity)
-                }
-                Err(e) => {
-                    // A planner that answered wrongly is at fault for what it said, not unreachable.
-                    let reason = match e {
-                        PlannerError::Timeout(_) | PlannerError::Protocol(_) => e.reason(),
-                        _ => EndReason::PlannerUnreachable,
-                    };
-                    return Ok(failed(reason, &e, String::new(), identity, t0));
-                }
-            }
-        }
-        Kind::Exec(_) | Kind::Image(_) => {
-            let (argv, identity) = match kind_ref(&spec.planner) {
-                Some(Kind::Image(image)) => exec::image_command(image).await?,
-                Some(Kind::Exec(e)) => (e.argv.clone(), exec::exec_identity(&e.argv)),
-                _ => {
-                    return Err(EpisodeError::Infrastructure(
-                        "unsupported planner kind".into(),
-                    ))
-                }
-            };
-            let started = exec::start(
-                &argv,
-                matches!(kind_ref(&spec.planner), Some(Kind::Image(_))),
-                identity.clone(),
-                deadline,
-                planner_startup,
-                spec.containment,
-            );
-            match started.await {
-                Ok((proc_, mut p)) => {
-                    p.set_log(proc_.output.clone());
-                    p.set_episode_context(set.version(), spec.seed);
-                    process = Some(proc_);
-                    (AnyPlanner::Remote(Box::new(p)), identity)
-                }
-                Err((e, text)) => return Ok(failed(e.reason(), &e, text, identity, t0)),
-            }
-        }
-    };
+    let (planner, identity, process) =
+        match start_planner(&set, &spec, deadline, planner_startup, &log, t0).await? {
+            Started::Ready(planner, identity, process) => (planner, identity, process),
+            Started::Failed(f) => return Ok(f),
+        };
     let scale = spec.scale;
     let world_set = set.clone();
     let joined = tokio::task::spawn_blocking(move || {
@@ -316,5 +252,93 @@ pub async fn run_episode(
         planner_identity: identity,
         wall_time_s: t0.elapsed().as_secs_f64(),
         round_trips,
+    })
+}
+
+/// How starting an episode's planner went: ready (with the process the worker started for it), or failed (the
+/// planner's fault: the episode ends as a planner failure).
+enum Started {
+    Ready(AnyPlanner, String, Option<exec::PlannerProcess>),
+    Failed(FinishedEpisode),
+}
+
+/// Makes a built-in, connects to an endpoint, or starts an exec or image planner and connects to it. `Err`: the
+/// worker cannot run it.
+async fn start_planner(
+    set: &TaskSet,
+    spec: &EpisodeSpec,
+    deadline: Duration,
+    planner_startup: Duration,
+    log: &SharedLog,
+    t0: Instant,
+) -> Result<Started, EpisodeError> {
+    use pb::planner_ref::Kind;
+    let kind = spec
+        .planner
+        .kind
+        .clone()
+        .ok_or_else(|| "lease without a planner".to_string())?;
+    Ok(match kind {
+        Kind::Builtin(name) => match registry::Builtin::resolve(&name, None) {
+            Ok(b) => {
+                let weights = b
+                    .weights_version()
+                    .map(|v| format!(", {v}"))
+                    .unwrap_or_default();
+                Started::Ready(
+                    AnyPlanner::Builtin(b.make()),
+                    format!("builtin:{name} ({SIM_VERSION}{weights})"),
+                    None,
+                )
+            }
+            Err(e) => {
+                return Err(format!("this worker cannot run builtin planner `{name}`: {e}").into())
+            }
+        },
+        Kind::Endpoint(url) => {
+            let identity = format!("endpoint:{url}");
+            match RemotePlanner::connect(&url, deadline, Duration::from_secs(5)).await {
+                Ok(mut p) => {
+                    p.set_log(log.clone());
+                    p.set_episode_context(set.version(), spec.seed);
+                    Started::Ready(AnyPlanner::Remote(Box::new(p)), identity, None)
+                }
+                Err(e) => {
+                    // A planner that answered wrongly is at fault for what it said, not unreachable.
+                    let reason = match e {
+                        PlannerError::Timeout(_) | PlannerError::Protocol(_) => e.reason(),
+                        _ => EndReason::PlannerUnreachable,
+                    };
+                    Started::Failed(failed(reason, &e, String::new(), identity, t0))
+                }
+            }
+        }
+        Kind::Exec(_) | Kind::Image(_) => {
+            let (argv, identity) = match kind_ref(&spec.planner) {
+                Some(Kind::Image(image)) => exec::image_command(image).await?,
+                Some(Kind::Exec(e)) => (e.argv.clone(), exec::exec_identity(&e.argv)),
+                _ => {
+                    return Err(EpisodeError::Infrastructure(
+                        "unsupported planner kind".into(),
+                    ))
+                }
+            };
+            let started = exec::start(
+                &argv,
+                matches!(kind_ref(&spec.planner), Some(Kind::Image(_))),
+                identity.clone(),
+                deadline,
+                planner_startup,
+                spec.containment,
+            );
+            match started.await {
+                Ok((proc_, mut p)) => {
+                    p.set_log(proc_.output.clone());
+                    p.set_episode_context(set.version(), spec.seed);
+                    Started::Ready(AnyPlanner::Remote(Box::new(p)), identity, Some(proc_))
+                }
+                Err((e, text)) => Started::Failed(failed(e.reason(), &e, text, identity, t0)),
+            }
+        }
     })
 }

@@ -1,15 +1,15 @@
 //! The lease loop of a worker (`run_worker`): register, lease (a slot's worth ahead), heartbeat, run each episode
-//! ([`crate::run_episode`]), report with retries, and on shutdown drain: finish within the limit, hand back the rest.
+//! ([`crate::run_leased`]), report with retries, and on shutdown drain: finish within the limit, hand back the rest.
 
+use crate::startup::{Client, PlannerPolicy};
 use crate::*;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use tasks::TaskSet;
-use tonic::transport::Channel;
 use vb_proto::v1 as pb;
-use vb_proto::v1::worker_pool_client::WorkerPoolClient;
+use vb_proto::v1::episode_report::Unscored;
 use vb_proto::ProtoEnum;
 
 fn report(
@@ -33,27 +33,12 @@ fn report(
         sim_version: SIM_VERSION.into(),
         planner_identity: run.planner_identity.clone(),
         wall_time_s: run.wall_time_s,
-        infrastructure_failure: false,
-        handed_back: false,
-        cannot_run: false,
+        unscored: None,
     }
 }
 
 /// Delivers a report, retrying (with backoff) while the coordinator is unreachable, so a coordinator restart loses
 /// nothing. Gives up only on a definite refusal, or after `give_up`.
-/// Sends the worker token with every call.
-#[derive(Clone)]
-struct Auth(tonic::metadata::MetadataValue<tonic::metadata::Ascii>);
-
-impl tonic::service::Interceptor for Auth {
-    fn call(&mut self, mut req: tonic::Request<()>) -> Result<tonic::Request<()>, tonic::Status> {
-        req.metadata_mut().insert("authorization", self.0.clone());
-        Ok(req)
-    }
-}
-
-type Client = WorkerPoolClient<tonic::service::interceptor::InterceptedService<Channel, Auth>>;
-
 async fn deliver(client: &mut Client, r: pb::EpisodeReport, give_up: Duration) {
     let t0 = Instant::now();
     let mut backoff = Duration::from_millis(100);
@@ -92,59 +77,16 @@ async fn deliver(client: &mut Client, r: pb::EpisodeReport, give_up: Duration) {
 
 type Active = Arc<Mutex<HashMap<String, Arc<AtomicBool>>>>;
 
-/// How this worker runs planners.
-#[derive(Clone, Copy, Debug)]
-struct PlannerPolicy {
-    /// How long a started planner process may take to serve.
-    startup: Duration,
-    /// How exec planners are contained.
-    containment: sandbox::Containment,
-}
-
 /// Runs a worker until `shutdown` turns true.
 pub async fn run_worker(
     cfg: WorkerConfig,
     mut shutdown: tokio::sync::watch::Receiver<bool>,
 ) -> Result<(), WorkerError> {
     let set = Arc::new(TaskSet::load(&cfg.task_dir)?);
-    let channel = tls::endpoint(&cfg.coordinator, cfg.tls_ca.as_deref())
-        .map_err(|e| WorkerError::Address(cfg.coordinator.clone(), e))?
-        .connect_timeout(Duration::from_secs(2))
-        .tcp_nodelay(true)
-        .connect_lazy();
-    let auth = format!("Bearer {}", cfg.token.trim())
-        .parse()
-        .map_err(|_| WorkerError::Refused("the worker token is not valid header text".into()))?;
-    let mut client = WorkerPoolClient::with_interceptor(channel, Auth(auth))
-        .max_encoding_message_size(crate::remote::MAX_WORKER_MESSAGE);
+    let mut client = startup::connect(&cfg)?;
     let slots = cfg.slots.max(1);
-    // Register, waiting for the coordinator if it is not up yet.
-    let reg = loop {
-        if *shutdown.borrow() {
-            return Ok(());
-        }
-        match client
-            .register(pb::RegisterRequest {
-                worker_name: cfg.name.clone(),
-                slots: slots as u32,
-                sim_version: SIM_VERSION.into(),
-            })
-            .await
-        {
-            Ok(r) => break r.into_inner(),
-            Err(s)
-                if matches!(
-                    s.code(),
-                    tonic::Code::FailedPrecondition
-                        | tonic::Code::InvalidArgument
-                        | tonic::Code::Unauthenticated
-                        | tonic::Code::PermissionDenied
-                ) =>
-            {
-                return Err(WorkerError::Refused(s.message().into()))
-            }
-            Err(_) => tokio::time::sleep(Duration::from_millis(300)).await,
-        }
+    let Some(reg) = startup::register(&mut client, &cfg, slots, &shutdown).await? else {
+        return Ok(());
     };
     let worker_id = reg.worker_id.clone();
     tracing::info!(
@@ -155,90 +97,24 @@ pub async fn run_worker(
         "worker registered"
     );
     let active: Active = Arc::new(Mutex::new(HashMap::new()));
-    // Heartbeats: renew the leases of running episodes (while they drain at shutdown too); abandon those the
-    // coordinator no longer gives us.
-    let heartbeats = {
-        let mut client = client.clone();
-        let active = active.clone();
-        let worker_id = worker_id.clone();
-        let period = Duration::from_secs_f64(reg.heartbeat_s.clamp(0.1, 60.0));
-        tokio::spawn(async move {
-            loop {
-                tokio::time::sleep(period).await;
-                let ids: Vec<String> = active
-                    .lock()
-                    .map(|a| a.keys().cloned().collect())
-                    .unwrap_or_default();
-                if ids.is_empty() {
-                    continue;
-                }
-                if let Ok(r) = client
-                    .heartbeat(pb::HeartbeatRequest {
-                        worker_id: worker_id.clone(),
-                        lease_ids: ids,
-                    })
-                    .await
-                {
-                    if let Ok(a) = active.lock() {
-                        for id in r.into_inner().expired_lease_ids {
-                            if let Some(flag) = a.get(&id) {
-                                flag.store(true, Ordering::Relaxed);
-                            }
-                        }
-                    }
-                }
-            }
-        })
+    let period = Duration::from_secs_f64(reg.heartbeat_s.clamp(0.1, 60.0));
+    let heartbeats = heartbeat(client.clone(), active.clone(), worker_id.clone(), period);
+    let caps = startup::capabilities(&cfg).await;
+    let slot = Slots {
+        set,
+        worker_id: worker_id.clone(),
+        active: active.clone(),
+        freed: Arc::new(tokio::sync::Notify::new()),
+        permits: Arc::new(tokio::sync::Semaphore::new(slots)),
+        unstarted: Arc::new(AtomicUsize::new(0)),
+        reporting: Arc::new(AtomicUsize::new(0)),
+        policy: caps.policy,
     };
-    // Exec planners only where they can be given namespaces of their own: a worker that cannot contain them says so
-    // and leaves them to workers that can, rather than promising an isolation it does not give.
-    let (containment, runs_exec) = if cfg.allow_exec {
-        match sandbox::Containment::probe(cfg.planner_user).await {
-            Ok(c) => (c, true),
-            Err(why) => {
-                tracing::warn!(reason = %why, "exec planners are refused by this worker (left to other workers)");
-                (sandbox::Containment::default(), false)
-            }
-        }
-    } else {
-        (sandbox::Containment::default(), false)
-    };
-    let policy = PlannerPolicy {
-        startup: Duration::from_secs_f64(cfg.planner_startup_s.max(1.0)),
-        containment,
-    };
-    // Image planners only where Docker runs: other workers leave image submissions to those that can.
-    let runs_images = cfg.allow_exec
-        && match exec::docker_available().await {
-            Ok(()) => true,
-            Err(why) => {
-                tracing::info!(reason = %why, "image planners are left to other workers");
-                false
-            }
-        };
-    // What planners of this machine's dead workers left (a watchdog removes it unless the machine went down or the
-    // watchdog was killed): never anything of a worker not proven dead.
-    if cfg.allow_exec {
-        let swept = sandbox::reaper::sweep(runs_images).await;
-        if swept != sandbox::reaper::Swept::default() {
-            tracing::info!(
-                containers = swept.containers,
-                dirs = swept.dirs,
-                "removed what planners of dead workers left"
-            );
-        }
-    }
-    // Signalled whenever an episode ends, so the loop leases for the freed slot at once.
-    let freed = Arc::new(tokio::sync::Notify::new());
-    let permits = Arc::new(tokio::sync::Semaphore::new(slots));
-    // Leased episodes handed back unstarted by a stopping worker (for its last log line).
-    let unstarted = Arc::new(AtomicUsize::new(0));
-    // Reports of ended episodes still being delivered (a stopping worker waits for them).
-    let reporting = Arc::new(AtomicUsize::new(0));
     let mut backoff = Duration::from_millis(100);
     loop {
         if *shutdown.borrow() {
-            drain(&mut client, &worker_id, &active, &unstarted, cfg.drain).await;
+            drain(&mut client, &worker_id, &active, &slot.unstarted, cfg.drain).await;
+            let reporting = slot.reporting.clone();
             wait_until(REPORTS_AT_EXIT, || reporting.load(Ordering::SeqCst) == 0).await;
             heartbeats.abort();
             return Ok(());
@@ -253,8 +129,8 @@ pub async fn run_worker(
                 .lease(pb::LeaseRequest {
                     worker_id: worker_id.clone(),
                     max: free as u32,
-                    runs_exec_planners: runs_exec,
-                    runs_image_planners: runs_images,
+                    runs_exec_planners: caps.runs_exec,
+                    runs_image_planners: caps.runs_images,
                 })
                 .await
             {
@@ -262,46 +138,7 @@ pub async fn run_worker(
                     backoff = Duration::from_millis(100);
                     for lease in r.into_inner().leases {
                         got += 1;
-                        let flag = Arc::new(AtomicBool::new(false));
-                        if let Ok(mut a) = active.lock() {
-                            a.insert(lease.lease_id.clone(), flag.clone());
-                        }
-                        let set = set.clone();
-                        let mut client = client.clone();
-                        let active = active.clone();
-                        let worker_id = worker_id.clone();
-                        let freed = freed.clone();
-                        let reporting = reporting.clone();
-                        let permits = permits.clone();
-                        let unstarted = unstarted.clone();
-                        let mut stopping = shutdown.clone();
-                        tokio::spawn(async move {
-                            // A slot, unless the worker stops first (then the episode goes back unstarted).
-                            let permit = tokio::select! {
-                                p = permits.acquire_owned() => p.ok(),
-                                _ = stopping.wait_for(|s| *s) => None,
-                            };
-                            let report = match permit {
-                                Some(_slot) if !*stopping.borrow() => {
-                                    run_lease(set, &worker_id, lease.clone(), flag.clone(), policy)
-                                        .await
-                                }
-                                _ => {
-                                    unstarted.fetch_add(1, Ordering::SeqCst);
-                                    Some(handed_back(&worker_id, &lease.lease_id))
-                                }
-                            };
-                            // The slot is free while the report travels.
-                            reporting.fetch_add(1, Ordering::SeqCst);
-                            if let Ok(mut a) = active.lock() {
-                                a.remove(&lease.lease_id);
-                            }
-                            freed.notify_one();
-                            if let Some(r) = report {
-                                deliver(&mut client, r, Duration::from_secs(600)).await;
-                            }
-                            reporting.fetch_sub(1, Ordering::SeqCst);
-                        });
+                        slot.start(client.clone(), lease, shutdown.clone());
                     }
                 }
                 Err(s) => {
@@ -321,11 +158,113 @@ pub async fn run_worker(
         if got == 0 {
             // Wait for a slot to free (at once when one does) or, with free slots, for work to be queued.
             tokio::select! {
-                _ = freed.notified() => {}
+                _ = slot.freed.notified() => {}
                 _ = tokio::time::sleep(Duration::from_millis(200)) => {}
                 _ = shutdown.changed() => {}
             }
         }
+    }
+}
+
+/// Renews the leases of running episodes every `period` (while they drain at shutdown too), and abandons those the
+/// coordinator no longer gives this worker.
+fn heartbeat(
+    mut client: Client,
+    active: Active,
+    worker_id: String,
+    period: Duration,
+) -> tokio::task::JoinHandle<()> {
+    tokio::spawn(async move {
+        loop {
+            tokio::time::sleep(period).await;
+            let ids: Vec<String> = active
+                .lock()
+                .map(|a| a.keys().cloned().collect())
+                .unwrap_or_default();
+            if ids.is_empty() {
+                continue;
+            }
+            if let Ok(r) = client
+                .heartbeat(pb::HeartbeatRequest {
+                    worker_id: worker_id.clone(),
+                    lease_ids: ids,
+                })
+                .await
+            {
+                if let Ok(a) = active.lock() {
+                    for id in r.into_inner().expired_lease_ids {
+                        if let Some(flag) = a.get(&id) {
+                            flag.store(true, Ordering::Relaxed);
+                        }
+                    }
+                }
+            }
+        }
+    })
+}
+
+/// What every leased episode of this worker shares: the task set, the running episodes, the slots.
+#[derive(Clone)]
+struct Slots {
+    set: Arc<TaskSet>,
+    worker_id: String,
+    active: Active,
+    /// Signalled whenever an episode ends, so the loop leases for the freed slot at once.
+    freed: Arc<tokio::sync::Notify>,
+    permits: Arc<tokio::sync::Semaphore>,
+    /// Leased episodes handed back unstarted by a stopping worker (for its last log line).
+    unstarted: Arc<AtomicUsize>,
+    /// Reports of ended episodes still being delivered (a stopping worker waits for them).
+    reporting: Arc<AtomicUsize>,
+    policy: PlannerPolicy,
+}
+
+impl Slots {
+    /// Runs `lease` in a slot of its own once one is free, unless the worker stops first (then the episode goes back
+    /// unstarted), and delivers its report.
+    fn start(
+        &self,
+        mut client: Client,
+        lease: pb::EpisodeLease,
+        mut stopping: tokio::sync::watch::Receiver<bool>,
+    ) {
+        let flag = Arc::new(AtomicBool::new(false));
+        if let Ok(mut a) = self.active.lock() {
+            a.insert(lease.lease_id.clone(), flag.clone());
+        }
+        let s = self.clone();
+        tokio::spawn(async move {
+            let permit = tokio::select! {
+                p = s.permits.clone().acquire_owned() => p.ok(),
+                _ = stopping.wait_for(|s| *s) => None,
+            };
+            let report = match permit {
+                Some(_slot) if !*stopping.borrow() => {
+                    run_lease(
+                        s.set.clone(),
+                        &s.worker_id,
+                        lease.clone(),
+                        flag.clone(),
+                        s.policy,
+                    )
+                    .await
+                }
+                _ => {
+                    s.unstarted.fetch_add(1, Ordering::SeqCst);
+                    Some(handed_back(&s.worker_id, &lease.lease_id))
+                }
+            };
+            // The slot is free while the report travels.
+            s.reporting.fetch_add(1, Ordering::SeqCst);
+            if let Ok(mut a) = s.active.lock() {
+                a.remove(&lease.lease_id);
+            }
+            s.freed.notify_one();
+            if let Some(r) = report {
+                deliver(&mut client, r, Duration::from_secs(600)).await;
+            }
+            s.reporting.fetch_sub(1, Ordering::SeqCst);
+        });
     }
 }
 
@@ -395,7 +334,7 @@ fn handed_back(worker_id: &str, lease_id: &str) -> pb::EpisodeReport {
     pb::EpisodeReport {
         worker_id: worker_id.into(),
         lease_id: lease_id.into(),
-        handed_back: true,
+        unscored: Some(Unscored::HandedBack(true)),
         sim_version: SIM_VERSION.into(),
         ..Default::default()
     }
@@ -429,7 +368,7 @@ async fn run_lease(
         reason: contracts::EndReason::Infrastructure.wire(),
         detail,
         sim_version: SIM_VERSION.into(),
-        infrastructure_failure: true,
+        unscored: Some(Unscored::InfrastructureFailure(true)),
         ..Default::default()
     };
     if lease.task_set_version != set.version() {
@@ -456,11 +395,11 @@ async fn run_lease(
         max_time: None,
         containment,
     };
-    match run_episode(set, spec, cancel.clone(), startup).await {
+    match run_leased(set, spec, cancel.clone(), startup).await {
         Err(EpisodeError::Infrastructure(why)) => Some(infra(why)),
         // Another worker may run it (the coordinator leases this submission to this one no more).
         Err(EpisodeError::CannotRun(why)) => Some(pb::EpisodeReport {
-            cannot_run: true,
+            unscored: Some(Unscored::CannotRun(true)),
             ..infra(why)
         }),
         // The lease was taken back (expired, finished elsewhere, or the submission was cancelled).

@@ -161,6 +161,106 @@ impl SimService {
     }
 }
 
+/// What a create request asks for, checked: the vehicle (default `hmmwv`), the scale (0: the vehicle's own), the
+/// control period (0: 0.05 s) and the local map crop.
+struct Settings {
+    vehicle: sim_core::VehicleSpec,
+    scale: f64,
+    control_dt: f64,
+    crop: Option<CropSpec>,
+}
+
+fn settings(r: &pb::CreateEpisodeRequest) -> Result<Settings, Status> {
+    let bad = Status::invalid_argument;
+    let vname = if r.vehicle.is_empty() {
+        "hmmwv"
+    } else {
+        &r.vehicle
+    };
+    let vehicle =
+        sim_core::vehicle::vehicle_by_name(vname).map_err(|e| bad(format!("vehicle: {e}")))?;
+    let scale = if r.scale == 0.0 {
+        vehicle.scale
+    } else {
+        r.scale
+    };
+    if !(scale.is_finite() && scale > 0.0 && scale <= 1.0) {
+        return Err(bad(format!("scale {} must be in (0, 1]", r.scale)));
+    }
+    let control_dt = if r.control_dt == 0.0 {
+        0.05
+    } else {
+        r.control_dt
+    };
+    if !(control_dt.is_finite() && (0.001..=1.0).contains(&control_dt)) {
+        return Err(bad(format!(
+            "control_dt {} must be in [0.001, 1] s",
+            r.control_dt
+        )));
+    }
+    let crop = match r.local_map_size {
+        0 => None,
+        n if n <= 512 && r.local_map_resolution.is_finite() && r.local_map_resolution > 0.0 => {
+            Some(CropSpec {
+                size: n as usize,
+                resolution: r.local_map_resolution,
+            })
+        }
+        _ => {
+            return Err(bad(
+                "local_map_size must be <= 512 with a positive local_map_resolution".into(),
+            ))
+        }
+    };
+    Ok(Settings {
+        vehicle,
+        scale,
+        control_dt,
+        crop,
+    })
+}
+
+/// A new episode id: `ep-` and 32 random hex digits.
+fn episode_id() -> Result<String, Status> {
+    let mut id_bytes = [0u8; 16];
+    getrandom::getrandom(&mut id_bytes).map_err(|e| Status::internal(e.to_string()))?;
+    let id = format!(
+        "ep-{}",
+        id_bytes
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect::<String>()
+    );
+    Ok(id)
+}
+
+impl SimService {
+    /// Closes the episodes unused for the idle time, then refuses a new one beyond the client's and the server's
+    /// limits.
+    fn make_room(
+        &self,
+        map: &mut HashMap<String, Entry>,
+        client: &Client,
+        now: std::time::Instant,
+    ) -> Result<(), Status> {
+        map.retain(|_, e| now.duration_since(e.last_used) < self.access.idle);
+        if map.values().filter(|e| e.owner == *client).count() >= PER_CLIENT {
+            return Err(Status::resource_exhausted(format!(
+            "you have {PER_CLIENT} episodes open on this server: close some first (unused ones close after \
+             {:.0} s)",
+            self.access.idle.as_secs_f64()
+        )));
+        }
+        if map.len() >= MAX_EPISODES {
+            return Err(Status::resource_exhausted(format!(
+            "{MAX_EPISODES} episodes are open on this server: close some first (unused ones close after {:.0} s)",
+            self.access.idle.as_secs_f64()
+        )));
+        }
+        Ok(())
+    }
+}
+
 #[tonic::async_trait]
 impl pb::sim_server::Sim for SimService {
     async fn create_episode(
@@ -175,46 +275,12 @@ impl pb::sim_server::Sim for SimService {
             .parse()
             .map_err(|_| bad(format!("task_id `{}` is not like w017-t3", r.task_id)))?;
         let (w, t) = (id.world, id.index);
-        let vname = if r.vehicle.is_empty() {
-            "hmmwv"
-        } else {
-            &r.vehicle
-        };
-        let vehicle =
-            sim_core::vehicle::vehicle_by_name(vname).map_err(|e| bad(format!("vehicle: {e}")))?;
-        let scale = if r.scale == 0.0 {
-            vehicle.scale
-        } else {
-            r.scale
-        };
-        if !(scale.is_finite() && scale > 0.0 && scale <= 1.0) {
-            return Err(bad(format!("scale {} must be in (0, 1]", r.scale)));
-        }
-        let control_dt = if r.control_dt == 0.0 {
-            0.05
-        } else {
-            r.control_dt
-        };
-        if !(control_dt.is_finite() && (0.001..=1.0).contains(&control_dt)) {
-            return Err(bad(format!(
-                "control_dt {} must be in [0.001, 1] s",
-                r.control_dt
-            )));
-        }
-        let crop = match r.local_map_size {
-            0 => None,
-            n if n <= 512 && r.local_map_resolution.is_finite() && r.local_map_resolution > 0.0 => {
-                Some(CropSpec {
-                    size: n as usize,
-                    resolution: r.local_map_resolution,
-                })
-            }
-            _ => {
-                return Err(bad(
-                    "local_map_size must be <= 512 with a positive local_map_resolution".into(),
-                ))
-            }
-        };
+        let Settings {
+            vehicle,
+            scale,
+            control_dt,
+            crop,
+        } = settings(&r)?;
         let world = self
             .set
             .world(w, scale)
@@ -228,15 +294,7 @@ impl pb::sim_server::Sim for SimService {
             .ok_or_else(|| Status::not_found(format!("no task {t} in world {w}")))?;
         let task_info = convert::task_info(&task, &world, self.set.version());
         let info = convert::vehicle_info(&vehicle.info());
-        let mut id_bytes = [0u8; 16];
-        getrandom::getrandom(&mut id_bytes).map_err(|e| Status::internal(e.to_string()))?;
-        let id = format!(
-            "ep-{}",
-            id_bytes
-                .iter()
-                .map(|b| format!("{b:02x}"))
-                .collect::<String>()
-        );
+        let id = episode_id()?;
         let ep = SimEpisode {
             world: Arc::new(world),
             task: Arc::new(task),
@@ -251,20 +309,7 @@ impl pb::sim_server::Sim for SimService {
         };
         let mut map = self.episodes.lock().await;
         let now = std::time::Instant::now();
-        map.retain(|_, e| now.duration_since(e.last_used) < self.access.idle);
-        if map.values().filter(|e| e.owner == client).count() >= PER_CLIENT {
-            return Err(Status::resource_exhausted(format!(
-                "you have {PER_CLIENT} episodes open on this server: close some first (unused ones close after \
-                 {:.0} s)",
-                self.access.idle.as_secs_f64()
-            )));
-        }
-        if map.len() >= MAX_EPISODES {
-            return Err(Status::resource_exhausted(format!(
-                "{MAX_EPISODES} episodes are open on this server: close some first (unused ones close after {:.0} s)",
-                self.access.idle.as_secs_f64()
-            )));
-        }
+        self.make_room(&mut map, &client, now)?;
         map.insert(
             id.clone(),
             Entry {

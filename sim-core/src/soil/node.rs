@@ -214,6 +214,11 @@ pub(super) fn bristle_over_janosi(speed: f64, creep: f64) -> f64 {
 impl SoilGrid {
     /// SCM update of node `(i, j)` pressed by a body surface at `hit`; `b` is the Bekker contact width. Adds the
     /// node's force to `out` (torque about `centre`) together with its share of the Jacobians.
+    ///
+    /// One piece on purpose: its numbered steps are Chrono's per-node SCM update in Chrono's order
+    /// (`scm-chrono-formulation.md`), each reading what the step before left in the node it holds borrowed; split,
+    /// every part would take the node, the hit, the soil and a dozen of the steps' values, and the order that
+    /// makes the model Chrono's would no longer read top to bottom.
     pub(super) fn press_node(
         &mut self,
         (i, j): (usize, usize),

@@ -93,11 +93,8 @@ impl Simulation {
                     left: wp.side > 0.0,
                     spin: w.spin,
                     compression: w.compression,
-                    soil_torque: if c.active && c.soil {
-                        c.soil_torque
-                    } else {
-                        0.0
-                    },
+                    // Zero off soil and out of contact (the contact sets it only there).
+                    soil_torque: c.soil_torque,
                 }
             })
     }

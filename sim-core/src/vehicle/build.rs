@@ -10,7 +10,7 @@ use super::simulation::*;
 use crate::collide::{NearList, ObstacleSet};
 use crate::soil::SoilGrid;
 use crate::vehicle::spec::{Differential, SteeringKind, VehicleSpec};
-use crate::world::World;
+use crate::world::{Heightmap, World};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use std::sync::Arc;
 
@@ -59,88 +59,9 @@ impl Simulation {
             .dt
             .filter(|d| d.is_finite() && *d > 0.0)
             .unwrap_or_else(|| default_dt(scale));
-        let n_wheels_axle = 2;
-        let mut wheels = Vec::new();
         let total = spec.chassis.mass;
         let unsprung = UNSPRUNG_FRACTION * total;
-        let xs: Vec<f64> = spec.axles.iter().map(|a| a.x).collect();
-        let x_front = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let x_rear_ref = {
-            let rear: Vec<f64> = spec
-                .axles
-                .iter()
-                .filter(|a| !a.steered)
-                .map(|a| a.x)
-                .collect();
-            if rear.is_empty() {
-                xs.iter().copied().fold(f64::INFINITY, f64::min)
-            } else {
-                rear.iter().sum::<f64>() / rear.len() as f64
-            }
-        };
-        // Static axle loads from the moment balance (two-axle exact; more axles: proportional to 1/|x - x_cg| weights
-        // normalised, a documented approximation for the preload reference only).
-        let n_axles = spec.axles.len();
-        let loads: Vec<f64> = if n_axles == 2 {
-            let (a, b) = (spec.axles[0].x, spec.axles[1].x);
-            vec![total * G * (-b) / (a - b), total * G * a / (a - b)]
-        } else {
-            vec![total * G / n_axles as f64; n_axles]
-        };
-        let skid = spec.steering.kind == SteeringKind::Skid;
-        let mut positions: Vec<(usize, f64)> = spec
-            .axles
-            .iter()
-            .enumerate()
-            .map(|(ai, a)| (ai, a.x))
-            .collect();
-        if let Some(t) = &spec.tracks {
-            for w in 0..n_axles.saturating_sub(1) {
-                for k in 1..=t.belt_points_between_wheels {
-                    let f = k as f64 / (t.belt_points_between_wheels + 1) as f64;
-                    let x = spec.axles[w].x + (spec.axles[w + 1].x - spec.axles[w].x) * f;
-                    positions.push((w, x));
-                }
-            }
-        }
-        let contact_count = positions.len() * n_wheels_axle;
-        for (ai, px) in &positions {
-            let a = &spec.axles[*ai];
-            for side in [1.0, -1.0] {
-                let per_wheel_load = loads[*ai] / 2.0 * (n_axles * 2) as f64 / contact_count as f64;
-                let group = match (skid, a.driven, spec.powertrain.differential) {
-                    (true, _, _) => usize::from(side < 0.0),
-                    (false, true, Differential::Locked) => 0,
-                    _ => usize::MAX,
-                };
-                let steer_factor = if a.steered && x_front != x_rear_ref {
-                    (a.x - x_rear_ref) / (x_front - x_rear_ref)
-                } else {
-                    0.0
-                };
-                wheels.push(WheelParams {
-                    hard: Vector3::new(*px, side * a.track / 2.0, -spec.chassis.com_height),
-                    side,
-                    steer_factor,
-                    steered: a.steered && !skid,
-                    driven: a.driven || spec.tracks.is_some(),
-                    group,
-                    spring: a.spring,
-                    damper: a.damper,
-                    travel: a.travel,
-                    static_compression: (per_wheel_load - unsprung * G).max(0.0) / a.spring,
-                });
-            }
-        }
-        // Groups: locked drivelines share one spin group; others each wheel its own.
-        let mut next = if skid { 2 } else { 1 };
-        for w in wheels.iter_mut() {
-            if w.group == usize::MAX {
-                w.group = next;
-                next += 1;
-            }
-        }
-        let groups = next;
+        let (wheels, groups) = wheel_params(spec, unsprung);
         let clutches = clutches(spec, &wheels);
         let n = wheels.len() as f64;
         let sprung = total - n * unsprung;
@@ -150,35 +71,9 @@ impl Simulation {
         let tyre_k = static_load / (TYRE_STATIC_DEFLECTION * scale);
         let bristle_k = static_load / (BRISTLE_STATIC_DEFLECTION * scale);
         let body_k = total * G / (BODY_CONTACT_DEFLECTION * scale) / 4.0;
-        let [l, w, h] = spec.chassis.size;
-        let bottom = -spec.chassis.com_height - spec.wheels.radius + spec.chassis.ground_clearance;
-        let mut body_points = Vec::new();
-        for xi in 0..5 {
-            for yi in 0..3 {
-                let px = -l / 2.0 + l * xi as f64 / 4.0;
-                let py = -w / 2.0 + w * yi as f64 / 2.0;
-                body_points.push(Vector3::new(px, py, bottom));
-                body_points.push(Vector3::new(px, py, bottom + h));
-                if yi != 1 {
-                    body_points.push(Vector3::new(px, py, bottom + h / 2.0));
-                }
-            }
-        }
+        let body_points = body_points(spec);
         let hm = &world.heightmap;
-        let blocks_x = hm.nx.div_ceil(4);
-        let blocks_y = hm.ny.div_ceil(4);
-        let mut block_max = vec![f64::NEG_INFINITY; blocks_x * blocks_y];
-        for iy in 0..hm.ny {
-            for ix in 0..hm.nx {
-                // Each sample influences the bilinear surface of the cells around it: widen by one block.
-                for by in (iy / 4).saturating_sub(1)..=(iy / 4 + 1).min(blocks_y - 1) {
-                    for bx in (ix / 4).saturating_sub(1)..=(ix / 4 + 1).min(blocks_x - 1) {
-                        let m = &mut block_max[by * blocks_x + bx];
-                        *m = m.max(hm.at(ix, iy));
-                    }
-                }
-            }
-        }
+        let (block_max, blocks_x) = block_max(hm);
         let group_inertia = (0..groups)
             .map(|g| {
                 spec.wheels.inertia * wheels.iter().filter(|w| w.group == g).count().max(1) as f64
@@ -420,4 +315,129 @@ fn clutches(spec: &VehicleSpec, wheels: &[WheelParams]) -> Vec<Clutch> {
         });
     }
     out
+}
+
+/// Every wheel's (or track contact's) parameters, and how many spin groups they form: locked drivelines share one
+/// group, skid-steered sides one each, every other wheel its own.
+fn wheel_params(spec: &VehicleSpec, unsprung: f64) -> (Vec<WheelParams>, usize) {
+    let n_wheels_axle = 2;
+    let mut wheels = Vec::new();
+    let total = spec.chassis.mass;
+    let xs: Vec<f64> = spec.axles.iter().map(|a| a.x).collect();
+    let x_front = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let x_rear_ref = {
+        let rear: Vec<f64> = spec
+            .axles
+            .iter()
+            .filter(|a| !a.steered)
+            .map(|a| a.x)
+            .collect();
+        if rear.is_empty() {
+            xs.iter().copied().fold(f64::INFINITY, f64::min)
+        } else {
+            rear.iter().sum::<f64>() / rear.len() as f64
+        }
+    };
+    // Static axle loads from the moment balance (two-axle exact; more axles: proportional to 1/|x - x_cg| weights
+    // normalised, a documented approximation for the preload reference only).
+    let n_axles = spec.axles.len();
+    let loads: Vec<f64> = if n_axles == 2 {
+        let (a, b) = (spec.axles[0].x, spec.axles[1].x);
+        vec![total * G * (-b) / (a - b), total * G * a / (a - b)]
+    } else {
+        vec![total * G / n_axles as f64; n_axles]
+    };
+    let skid = spec.steering.kind == SteeringKind::Skid;
+    let mut positions: Vec<(usize, f64)> = spec
+        .axles
+        .iter()
+        .enumerate()
+        .map(|(ai, a)| (ai, a.x))
+        .collect();
+    if let Some(t) = &spec.tracks {
+        for w in 0..n_axles.saturating_sub(1) {
+            for k in 1..=t.belt_points_between_wheels {
+                let f = k as f64 / (t.belt_points_between_wheels + 1) as f64;
+                let x = spec.axles[w].x + (spec.axles[w + 1].x - spec.axles[w].x) * f;
+                positions.push((w, x));
+            }
+        }
+    }
+    let contact_count = positions.len() * n_wheels_axle;
+    for (ai, px) in &positions {
+        let a = &spec.axles[*ai];
+        for side in [1.0, -1.0] {
+            let per_wheel_load = loads[*ai] / 2.0 * (n_axles * 2) as f64 / contact_count as f64;
+            let group = match (skid, a.driven, spec.powertrain.differential) {
+                (true, _, _) => usize::from(side < 0.0),
+                (false, true, Differential::Locked) => 0,
+                _ => usize::MAX,
+            };
+            let steer_factor = if a.steered && x_front != x_rear_ref {
+                (a.x - x_rear_ref) / (x_front - x_rear_ref)
+            } else {
+                0.0
+            };
+            wheels.push(WheelParams {
+                hard: Vector3::new(*px, side * a.track / 2.0, -spec.chassis.com_height),
+                side,
+                steer_factor,
+                steered: a.steered && !skid,
+                driven: a.driven || spec.tracks.is_some(),
+                group,
+                spring: a.spring,
+                damper: a.damper,
+                travel: a.travel,
+                static_compression: (per_wheel_load - unsprung * G).max(0.0) / a.spring,
+            });
+        }
+    }
+    // Groups: locked drivelines share one spin group; others each wheel its own.
+    let mut next = if skid { 2 } else { 1 };
+    for w in wheels.iter_mut() {
+        if w.group == usize::MAX {
+            w.group = next;
+            next += 1;
+        }
+    }
+    let groups = next;
+    (wheels, groups)
+}
+
+/// The chassis box's contact points: a 5 x 3 grid on its bottom and top faces, and the sides' mid-height points.
+fn body_points(spec: &VehicleSpec) -> Vec<Vector3<f64>> {
+    let [l, w, h] = spec.chassis.size;
+    let bottom = -spec.chassis.com_height - spec.wheels.radius + spec.chassis.ground_clearance;
+    let mut body_points = Vec::new();
+    for xi in 0..5 {
+        for yi in 0..3 {
+            let px = -l / 2.0 + l * xi as f64 / 4.0;
+            let py = -w / 2.0 + w * yi as f64 / 2.0;
+            body_points.push(Vector3::new(px, py, bottom));
+            body_points.push(Vector3::new(px, py, bottom + h));
+            if yi != 1 {
+                body_points.push(Vector3::new(px, py, bottom + h / 2.0));
+            }
+        }
+    }
+    body_points
+}
+
+/// The highest height sample influencing each 4 x 4-sample block of the bilinear surface, and the blocks per row.
+fn block_max(hm: &Heightmap) -> (Vec<f64>, usize) {
+    let blocks_x = hm.nx.div_ceil(4);
+    let blocks_y = hm.ny.div_ceil(4);
+    let mut block_max = vec![f64::NEG_INFINITY; blocks_x * blocks_y];
+    for iy in 0..hm.ny {
+        for ix in 0..hm.nx {
+            // Each sample influences the bilinear surface of the cells around it: widen by one block.
+            for by in (iy / 4).saturating_sub(1)..=(iy / 4 + 1).min(blocks_y - 1) {
+                for bx in (ix / 4).saturating_sub(1)..=(ix / 4 + 1).min(blocks_x - 1) {
+                    let m = &mut block_max[by * blocks_x + bx];
+                    *m = m.max(hm.at(ix, iy));
+                }
+            }
+        }
+    }
+    (block_max, blocks_x)
 }

@@ -8,7 +8,7 @@ use super::scratch::WheelContact;
 use super::simulation::*;
 use super::step::Frame;
 use crate::soil::WheelGeometry;
-use crate::world::{Surface, World};
+use crate::world::{Heightmap, Surface, World};
 use nalgebra::Vector3;
 
 /// Phase 4: finds every wheel's contact into `contacts` (updating the wheels' tyre deflection and rut state and the
@@ -30,6 +30,104 @@ pub(super) fn patch_mu(p: &VehicleParams, world: &World, x: f64, y: f64) -> f64 
     match world.patch_at(x, y).surface {
         Surface::Rigid { friction } => friction.min(p.tyre_mu),
         Surface::Deformable { soil } => soil.friction_angle_deg.to_radians().tan(),
+    }
+}
+
+/// The rim's deepest point in rigid ground: its depth below the surface, the contact point and its rim angle (0
+/// under the centre). The deepest rim angle wins; across the tread its contact point is the depth-weighted mean of
+/// the lateral samples, so a wheel on flat ground touches under its mid-plane (left and right wheels mirror each
+/// other).
+fn deepest_rim_point(
+    h: &Heightmap,
+    p: &VehicleParams,
+    centre: Vector3<f64>,
+    heading: Vector3<f64>,
+    axle: Vector3<f64>,
+    up: &Vector3<f64>,
+) -> (f64, Vector3<f64>, f64) {
+    let mut best = (0.0, Vector3::zeros(), 0.0);
+    for (a, &(sin, cos)) in RIM_SIN_COS.iter().enumerate() {
+        let rim = centre + (heading * sin - up * cos) * p.radius;
+        let (mut deepest, mut weight, mut weighted) = (0.0_f64, 0.0, Vector3::zeros());
+        for lat in RIM_LATERAL {
+            let q = rim + axle * (lat * 0.5 * p.width);
+            let depth = (h.height_bilinear(q.x, q.y) - q.z) * cos;
+            if depth > 0.0 {
+                deepest = deepest.max(depth);
+                weight += depth;
+                weighted += q * depth;
+            }
+        }
+        if deepest > best.0 {
+            best = (deepest, weighted / weight, RIM_ANGLES[a]);
+        }
+    }
+    best
+}
+
+/// Wheel `k`'s contact with the soil under its centre (SCM over the wheel's rim, [`crate::soil`]): the wheel
+/// centre at `centre`, rolling along `heading` about `axle`.
+fn soil_contact(
+    p: &VehicleParams,
+    s: &mut DynamicsState,
+    k: usize,
+    (centre, heading, axle): (Vector3<f64>, Vector3<f64>, Vector3<f64>),
+    up: &Vector3<f64>,
+    omega_w: &Vector3<f64>,
+) -> WheelContact {
+    let w = &s.wheels[k];
+    // The wheel centre moves with the chassis and along the strut (its own vertical DOF).
+    let vel = s.vel + omega_w.cross(&(centre - s.pos)) + up * w.compression_rate;
+    let spin_vec = axle * w.spin + omega_w;
+    let sc = s.soil.wheel_contact(
+        &WheelGeometry {
+            centre,
+            axle,
+            radius: p.radius,
+            width: p.width,
+            velocity: vel,
+            angular_velocity: spin_vec,
+        },
+        p.dt,
+    );
+    // Sunk in soil, the wheel sits below the nominal surface; if it rolls onto a rigid patch it must climb out.
+    let wm = &mut s.wheels[k];
+    wm.deflection = 0.0;
+    wm.from_soil = true;
+    wm.rut_offset = 0.0;
+    if sc.nodes == 0 {
+        return WheelContact::default();
+    }
+    let n = sc.normal_dir;
+    let tx = (heading - n * heading.dot(&n)).normalize();
+    let ty = n.cross(&tx);
+    let point = centre - n * p.radius;
+    WheelContact {
+        active: true,
+        soil: true,
+        point,
+        normal: n,
+        load: sc.normal,
+        sinkage: sc.sinkage,
+        // The soil's vertical Jacobians (elastic or Bekker tangent per node, on the branch it moves along;
+        // damping R): the wheel's vertical DOF is implicit in them, so the soil's elastic stiffness is stable
+        // at the vehicle's step.
+        k_normal: sc.normal_stiffness,
+        c_normal: sc.normal_damping,
+        mu: 0.0,
+        tx,
+        ty,
+        // The soil acts on the spin through its moment about the axle (Chrono charges the wheel with the
+        // full moment of every node force about the spindle): compaction and damping cost engine torque.
+        soil_force: sc.force,
+        soil_stiffness: sc.traction_stiffness,
+        soil_torque: sc.torque.dot(&axle),
+        spin_stiffness: sc.spin_stiffness,
+        spin_force: sc.spin_force,
+        spin_lift: sc.spin_lift,
+        soil_moment: sc.torque,
+        shear_capacity: sc.shear_capacity,
+        r_eff: p.radius,
     }
 }
 
@@ -56,80 +154,10 @@ fn wheel_contact(
     };
     let axle = up.cross(&heading).normalize();
     let h = &world.heightmap;
-    if let Some(_soil) = s.soil.soil_at(centre.x, centre.y) {
-        // The wheel centre moves with the chassis and along the strut (its own vertical DOF).
-        let vel = s.vel + omega_w.cross(&(centre - s.pos)) + up * w.compression_rate;
-        let spin_vec = axle * w.spin + omega_w;
-        let sc = s.soil.wheel_contact(
-            &WheelGeometry {
-                centre,
-                axle,
-                radius: p.radius,
-                width: p.width,
-                velocity: vel,
-                angular_velocity: spin_vec,
-            },
-            p.dt,
-        );
-        // Sunk in soil, the wheel sits below the nominal surface; if it rolls onto a rigid patch it must climb out.
-        let wm = &mut s.wheels[k];
-        wm.deflection = 0.0;
-        wm.from_soil = true;
-        wm.rut_offset = 0.0;
-        if sc.nodes == 0 {
-            return WheelContact::default();
-        }
-        let n = sc.normal_dir;
-        let tx = (heading - n * heading.dot(&n)).normalize();
-        let ty = n.cross(&tx);
-        let point = centre - n * p.radius;
-        return WheelContact {
-            active: true,
-            soil: true,
-            point,
-            normal: n,
-            load: sc.normal,
-            sinkage: sc.sinkage,
-            // The soil's vertical Jacobians (elastic or Bekker tangent per node, on the branch it moves along;
-            // damping R): the wheel's vertical DOF is implicit in them, so the soil's elastic stiffness is stable
-            // at the vehicle's step.
-            k_normal: sc.normal_stiffness,
-            c_normal: sc.normal_damping,
-            mu: 0.0,
-            tx,
-            ty,
-            // The soil acts on the spin through its moment about the axle (Chrono charges the wheel with the
-            // full moment of every node force about the spindle): compaction and damping cost engine torque.
-            soil_force: sc.force,
-            soil_stiffness: sc.traction_stiffness,
-            soil_torque: sc.torque.dot(&axle),
-            spin_stiffness: sc.spin_stiffness,
-            spin_force: sc.spin_force,
-            spin_lift: sc.spin_lift,
-            soil_moment: sc.torque,
-            shear_capacity: sc.shear_capacity,
-            r_eff: p.radius,
-        };
+    if s.soil.soil_at(centre.x, centre.y).is_some() {
+        return soil_contact(p, s, k, (centre, heading, axle), up, omega_w);
     }
-    // The deepest rim angle wins; across the tread its contact point is the depth-weighted mean of the lateral
-    // samples, so a wheel on flat ground touches under its mid-plane (left and right wheels mirror each other).
-    let mut best = (0.0, Vector3::zeros(), 0.0);
-    for (a, &(sin, cos)) in RIM_SIN_COS.iter().enumerate() {
-        let rim = centre + (heading * sin - up * cos) * p.radius;
-        let (mut deepest, mut weight, mut weighted) = (0.0_f64, 0.0, Vector3::zeros());
-        for lat in RIM_LATERAL {
-            let q = rim + axle * (lat * 0.5 * p.width);
-            let depth = (h.height_bilinear(q.x, q.y) - q.z) * cos;
-            if depth > 0.0 {
-                deepest = deepest.max(depth);
-                weight += depth;
-                weighted += q * depth;
-            }
-        }
-        if deepest > best.0 {
-            best = (deepest, weighted / weight, RIM_ANGLES[a]);
-        }
-    }
+    let best = deepest_rim_point(h, p, centre, heading, axle, up);
     let wm = &mut s.wheels[k];
     // A wheel sunk in soil sits below the nominal surface, so when its centre crosses onto a rigid patch the
     // rigid ground is suddenly up to its sinkage above the rim bottom (the heightmap has no step there; only the

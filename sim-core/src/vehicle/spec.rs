@@ -256,6 +256,31 @@ impl VehicleSpec {
         {
             return bad("wheels", "radius, width, inertia and mu must be positive");
         }
+        self.validate_powertrain(file)?;
+        if self.steering.kind == SteeringKind::Ackermann
+            && !(self.steering.max_angle > 0.0 && self.steering.max_angle < 1.2)
+        {
+            return bad(
+                "steering.max_angle",
+                "must be in (0, 1.2) rad for Ackermann steering",
+            );
+        }
+        if !pos(self.steering.rate) {
+            return bad("steering.rate", "must be positive");
+        }
+        Ok(())
+    }
+
+    /// The powertrain: its differential's locking limits, its torque curves, engine speed and gears.
+    fn validate_powertrain(&self, file: &str) -> Result<(), VehicleError> {
+        let bad = |field: &str, message: &str| {
+            Err(VehicleError::Field {
+                file: file.into(),
+                field: field.into(),
+                message: message.into(),
+            })
+        };
+        let pos = |v: f64| v.is_finite() && v > 0.0;
         let p = &self.powertrain;
         match (p.differential, p.locking_limits) {
             (Differential::Clutched, Some(l)) => {
@@ -320,17 +345,6 @@ impl VehicleSpec {
                 "powertrain.gears",
                 "forward gears and final drive must be positive, reverse negative",
             );
-        }
-        if self.steering.kind == SteeringKind::Ackermann
-            && !(self.steering.max_angle > 0.0 && self.steering.max_angle < 1.2)
-        {
-            return bad(
-                "steering.max_angle",
-                "must be in (0, 1.2) rad for Ackermann steering",
-            );
-        }
-        if !pos(self.steering.rate) {
-            return bad("steering.rate", "must be positive");
         }
         Ok(())
     }

@@ -6,15 +6,15 @@
 //! depend on the platform's libm either.
 
 mod ops;
+mod weights;
 
-use crate::detail::{self, Detail};
+use crate::detail::Detail;
 pub use crate::num::{exp, tanh};
 use crate::{SwaeError, CROP_PX};
-use crate::{BN_EPS, BOTTOM_PX, LEAKY};
+use crate::{BOTTOM_PX, LEAKY};
 use ops::*;
-use safetensors::SafeTensors;
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
+use weights::Tensors;
 
 /// How a decoder stage doubles the resolution.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -86,243 +86,42 @@ impl Decoder {
 
     /// Parses weights file bytes; `path` names the source in errors.
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Decoder, SwaeError> {
-        let bad = |message: String| SwaeError::Weights {
-            path: PathBuf::from(path),
-            message,
-        };
-        let st = SafeTensors::deserialize(bytes).map_err(|e| bad(e.to_string()))?;
-        let mut t: BTreeMap<String, Tensor> = BTreeMap::new();
-        for (name, view) in st.tensors() {
-            if view.dtype() != safetensors::Dtype::F32 {
-                return Err(bad(format!(
-                    "tensor `{name}` is {:?}, expected F32",
-                    view.dtype()
-                )));
-            }
-            let data: Vec<f64> = view
-                .data()
-                .chunks_exact(4)
-                .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64)
-                .collect();
-            t.insert(
-                name.clone(),
-                Tensor {
-                    shape: view.shape().to_vec(),
-                    data,
-                },
-            );
-        }
-        let get = |name: &str, rank: usize| -> Result<&Tensor, SwaeError> {
-            let x = t
-                .get(name)
-                .ok_or_else(|| bad(format!("missing tensor `{name}`")))?;
-            if x.shape.len() != rank {
-                return Err(bad(format!(
-                    "tensor `{name}` has shape {:?}, expected rank {rank}",
-                    x.shape
-                )));
-            }
-            Ok(x)
-        };
-        let expect_len = |name: &str, x: &Tensor, n: usize| -> Result<(), SwaeError> {
-            if x.data.len() != n {
-                return Err(bad(format!(
-                    "tensor `{name}` has {} values, expected {n}",
-                    x.data.len()
-                )));
-            }
-            Ok(())
-        };
-        let bn = |prefix: &str, c: usize| -> Result<Affine, SwaeError> {
-            let mut parts = Vec::new();
-            for f in ["weight", "bias", "running_mean", "running_var"] {
-                let name = format!("{prefix}.{f}");
-                let x = get(&name, 1)?;
-                expect_len(&name, x, c)?;
-                parts.push(&x.data);
-            }
-            let (w, b, m, v) = (parts[0], parts[1], parts[2], parts[3]);
-            let mut scale = vec![0.0; c];
-            let mut shift = vec![0.0; c];
-            for i in 0..c {
-                if v[i] < 0.0 {
-                    return Err(bad(format!("`{prefix}.running_var` is negative")));
-                }
-                scale[i] = w[i] / (v[i] + BN_EPS).sqrt();
-                shift[i] = b[i] - m[i] * scale[i];
-            }
-            Ok(Affine { scale, shift })
-        };
+        let t = Tensors::read(bytes, path)?;
         // Encoder shape (for loading the candle model).
         let mut encoder_channels = Vec::new();
-        while let Some(w) = t.get(&format!("enc.conv{}.weight", encoder_channels.len())) {
+        while let Some(w) =
+            t.t.get(&format!("enc.conv{}.weight", encoder_channels.len()))
+        {
             encoder_channels.push(*w.shape.first().unwrap_or(&0));
         }
-        let fc_w = get("dec.fc.weight", 2)?;
+        let fc_w = t.get("dec.fc.weight", 2)?;
         let (flat, latent) = (fc_w.shape[0], fc_w.shape[1]);
         if latent == 0 || flat % (BOTTOM_PX * BOTTOM_PX) != 0 {
-            return Err(bad(format!(
+            return Err(t.bad(format!(
                 "`dec.fc.weight` has shape {:?}, expected [channels * {}, latent]",
                 fc_w.shape,
                 BOTTOM_PX * BOTTOM_PX
             )));
         }
         let bottom_channels = flat / (BOTTOM_PX * BOTTOM_PX);
-        let fc_b = get("dec.fc.bias", 1)?;
-        expect_len("dec.fc.bias", fc_b, flat)?;
-        let bn0 = bn("dec.bn0", bottom_channels)?;
-        let stages = (CROP_PX / BOTTOM_PX).trailing_zeros() as usize;
-        let kind = if t.contains_key("dec.up0.weight") {
+        let fc_b = t.vector("dec.fc.bias", flat)?;
+        let kind = if t.has("dec.up0.weight") {
             DecoderKind::Upsample
         } else {
             DecoderKind::Deconv
         };
-        let mut layers = Vec::new();
-        let mut cin = bottom_channels;
-        for i in 0..stages {
-            let prefix = match kind {
-                DecoderKind::Deconv => format!("dec.deconv{i}"),
-                DecoderKind::Upsample => format!("dec.up{i}"),
-            };
-            let name = format!("{prefix}.weight");
-            let w = get(&name, 4)?;
-            let (win, wout, k) = match kind {
-                DecoderKind::Deconv => (w.shape[0], w.shape[1], 4),
-                DecoderKind::Upsample => (w.shape[1], w.shape[0], 3),
-            };
-            if win != cin || w.shape[2] != k || w.shape[3] != k {
-                let expected = match kind {
-                    DecoderKind::Deconv => format!("[{cin}, out, 4, 4]"),
-                    DecoderKind::Upsample => format!("[out, {cin}, 3, 3]"),
-                };
-                return Err(bad(format!(
-                    "tensor `{name}` has shape {:?}, expected {expected}",
-                    w.shape
-                )));
-            }
-            let cout = wout;
-            let last = i + 1 == stages;
-            if last && cout != 1 {
-                return Err(bad(format!("tensor `{name}` must have 1 output channel")));
-            }
-            let bname = format!("{prefix}.bias");
-            let b = get(&bname, 1)?;
-            expect_len(&bname, b, cout)?;
-            layers.push(Stage {
-                cin,
-                cout,
-                weight: w.data.clone(),
-                bias: b.data.clone(),
-                bn: if last {
-                    None
-                } else {
-                    Some(bn(&format!("dec.bn{}", i + 1), cout)?)
-                },
-            });
-            cin = cout;
-        }
-        let linear = if t.contains_key("dec.lin.weight") {
-            let (w, b) = (get("dec.lin.weight", 2)?, get("dec.lin.bias", 1)?);
-            let d = CROP_PX * CROP_PX;
-            if w.shape != [d, latent] {
-                return Err(bad(format!(
-                    "tensor `dec.lin.weight` has shape {:?}, expected [{d}, {latent}]",
-                    w.shape
-                )));
-            }
-            expect_len("dec.lin.bias", b, d)?;
-            Some((w.data.clone(), b.data.clone()))
-        } else {
-            None
-        };
-        let detail = match t.get("detail.kernel") {
-            Some(k) if k.shape != [detail::SIDE, detail::SIDE] => {
-                return Err(bad(format!(
-                    "tensor `detail.kernel` has shape {:?}, expected [{s}, {s}]",
-                    k.shape,
-                    s = detail::SIDE
-                )))
-            }
-            Some(k) => {
-                // The marginal transform: absent (files before it) or all zero (never fitted) means none.
-                let marginal = match t.get("detail.marginal") {
-                    Some(m) if m.shape != [2, detail::KNOTS] => {
-                        return Err(bad(format!(
-                            "tensor `detail.marginal` has shape {:?}, expected [2, {}]",
-                            m.shape,
-                            detail::KNOTS
-                        )))
-                    }
-                    Some(m) if m.data.iter().any(|&v| v != 0.0) => {
-                        if m.data[..detail::KNOTS].windows(2).any(|w| w[1] < w[0])
-                            || m.data[detail::KNOTS..].windows(2).any(|w| w[1] < w[0])
-                        {
-                            return Err(bad("`detail.marginal` knots are not increasing".into()));
-                        }
-                        m.data.clone()
-                    }
-                    _ => Vec::new(),
-                };
-                // The log-amplitude: absent (v3 and earlier) means a stationary field.
-                let amplitude = match t.get("detail.amplitude") {
-                    Some(a) if a.shape != [1] => {
-                        return Err(bad(format!(
-                            "tensor `detail.amplitude` has shape {:?}, expected [1]",
-                            a.shape
-                        )))
-                    }
-                    Some(a) if !(a.data[0].is_finite() && a.data[0] >= 0.0) => {
-                        return Err(bad(format!(
-                            "`detail.amplitude` must be a non-negative number, not {}",
-                            a.data[0]
-                        )))
-                    }
-                    Some(a) => a.data[0],
-                    None => 0.0,
-                };
-                Some(Detail {
-                    kernel: k.data.clone(),
-                    marginal,
-                    amplitude,
-                })
-            }
-            None => None,
-        };
-        let mut refiner = Vec::new();
-        if t.contains_key("ref.conv0.weight") {
-            let mut cin = 1;
-            for i in 0..3 {
-                let (wn, bn) = (format!("ref.conv{i}.weight"), format!("ref.conv{i}.bias"));
-                let w = get(&wn, 4)?;
-                let cout = w.shape[0];
-                if w.shape[1..] != [cin, 3, 3] || (i == 2 && cout != 1) {
-                    return Err(bad(format!(
-                        "tensor `{wn}` has shape {:?}, expected [{}, {cin}, 3, 3]",
-                        w.shape,
-                        if i == 2 {
-                            "1".to_string()
-                        } else {
-                            "out".to_string()
-                        }
-                    )));
-                }
-                let b = get(&bn, 1)?;
-                expect_len(&bn, b, cout)?;
-                refiner.push((cin, cout, w.data.clone(), b.data.clone()));
-                cin = cout;
-            }
-        }
+        let stages = (CROP_PX / BOTTOM_PX).trailing_zeros() as usize;
         Ok(Decoder {
-            refiner,
-            linear,
-            detail,
+            bn0: t.batch_norm("dec.bn0", bottom_channels)?,
+            stages: t.stages(kind, stages, bottom_channels)?,
+            linear: t.linear(latent)?,
+            detail: t.detail()?,
+            refiner: t.refiner()?,
             latent,
             bottom_channels,
             fc_weight: fc_w.data.clone(),
             fc_bias: fc_b.data.clone(),
-            bn0,
             kind,
-            stages: layers,
             encoder_channels,
         })
     }

@@ -5,6 +5,7 @@
 //   chrono-reference climb --ground G --grade DEG[,DEG...] [VARIANT...] [--trace FILE.csv]
 //   chrono-reference move-off --task-dir DIR [--worlds ID[,ID...]] [VARIANT...] [--out FILE]
 //   chrono-reference roll-back --grade DEG [--seconds S] [VARIANT...]
+//   chrono-reference episodes --task-dir DIR --driver CMD [--worlds ID[,ID...]] [--per-world N] [--out FILE]
 //
 // VARIANT: --dt S (default 0.005), --smc (SMC contact instead of NSC), --no-chassis-collision,
 // --no-bulldozing, --chassis-domain (an SCM domain around the chassis too), --threads N (default 1).
@@ -21,6 +22,7 @@
 #include <cmath>
 
 #include "chrono/ChVersion.h"
+#include "episodes.h"
 #include "scenarios.h"
 
 using namespace vbref;
@@ -105,6 +107,8 @@ void write_out(const std::string& path, const std::string& text) {
                  "       chrono-reference climb --ground G --grade DEG[,DEG...] [--trace FILE.csv] [VARIANT...]\n"
                  "       chrono-reference move-off --task-dir DIR [--worlds ID[,ID...]] [--out FILE] [VARIANT...]\n"
                  "       chrono-reference roll-back --grade DEG [--seconds S] [VARIANT...]\n"
+                 "       chrono-reference episodes --task-dir DIR --driver CMD [--worlds ID[,ID...]] [--per-world N]\n"
+                 "                                 [--out FILE] [VARIANT...]\n"
                  "VARIANT: --dt S, --smc, --no-chassis-collision, --no-bulldozing, --chassis-domain, --threads N\n";
     std::exit(2);
 }
@@ -127,7 +131,8 @@ int main(int argc, char* argv[]) {
         usage("no command");
     std::string command = argv[1];
     Options o;
-    std::string ground = "all", out, trace, task_dir;
+    std::string ground = "all", out, trace, task_dir, driver;
+    int per_world = 0;
     std::vector<double> grades, worlds;
     double seconds = 4;
     for (int i = 2; i < argc; i++) {
@@ -159,6 +164,10 @@ int main(int argc, char* argv[]) {
             seconds = parse_number(a, value());
         else if (a == "--task-dir")
             task_dir = value();
+        else if (a == "--driver")
+            driver = value();
+        else if (a == "--per-world")
+            per_world = (int)parse_number(a, value());
         else if (a == "--grade" || a == "--worlds") {
             std::stringstream list(value());
             std::string g;
@@ -221,6 +230,47 @@ int main(int argc, char* argv[]) {
                  << "\"full throttle towards the goal for 20 s from the settled start; moved if >= 5 m\", "
                  << "\"starts\": " << starts << ", \"wall_s\": " << num(wall) << ",\n    \"stuck\": ["
                  << stuck.str() << "],\n    \"tasks\": [\n" << rows.str() << "\n    ]\n  }\n}\n";
+            write_out(out, json.str());
+        } else if (command == "episodes") {
+            if (task_dir.empty() || driver.empty())
+                usage("episodes wants --task-dir and --driver (e.g. \"vb sim drive --task-dir DIR --release-rules\")");
+            if (per_world < 0)
+                usage("--per-world must be at least 0 (0: every task)");
+            std::vector<int> ids;
+            if (worlds.empty())
+                ids = world_ids(task_dir);
+            for (double w : worlds)
+                ids.push_back((int)w);
+            std::ostringstream rows;
+            std::string identity;
+            int n = 0;
+            double wall = 0, simulated = 0;
+            for (int id : ids) {
+                World world = World::load(task_dir, id);
+                int k = 0;
+                for (const WorldTask& t : world.tasks) {
+                    if (per_world && k++ >= per_world)
+                        break;
+                    EpisodeRecord r = drive_episode(o, world, t, driver);
+                    if (identity.empty())
+                        identity = r.identity;
+                    else if (identity != r.identity)
+                        throw std::runtime_error(t.id + ": the driver changed its identity to " + r.identity);
+                    if (r.end_json.size() < 2 || r.end_json.front() != '{')
+                        throw std::runtime_error(t.id + ": the driver's end is not a JSON object: " + r.end_json);
+                    wall += r.wall_s;
+                    simulated += r.simulated_s;
+                    rows << (n++ ? ",\n" : "") << "      {\"task\": \"" << t.id << "\", \"wall_s\": " << num(r.wall_s)
+                         << ", " << r.end_json.substr(1);
+                    std::cerr << t.id << " (" << world.semantics << "): " << r.end_json << ", " << num(r.wall_s)
+                              << " s wall" << std::endl;
+                }
+            }
+            std::ostringstream json;
+            json << "{\n" << json_meta(o) << ",\n  \"datasheets\": [],\n  \"episodes\": {\"driver\": "
+                 << (identity.empty() ? "null" : identity) << ", \"wall_s\": " << num(wall)
+                 << ", \"simulated_s\": " << num(simulated) << ",\n    \"tasks\": [\n" << rows.str()
+                 << "\n    ]\n  }\n}\n";
             write_out(out, json.str());
         } else if (command == "height") {
             // The world's height at points (a self-check of the loader): --task-dir DIR --worlds N --grade X,Y,...

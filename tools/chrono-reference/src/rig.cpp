@@ -147,6 +147,17 @@ double Rig::speed() const {
     return m_hmmwv->GetVehicle().GetSpeed();
 }
 
+void Rig::attitude(double& roll, double& pitch, double& yaw) const {
+    const auto& R = m_hmmwv->GetChassisBody()->GetRotMat();
+    roll = std::atan2(R(2, 1), R(2, 2));
+    pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
+    yaw = std::atan2(R(1, 0), R(0, 0));
+}
+
+ChVector3d Rig::angular_velocity_local() const {
+    return m_hmmwv->GetChassisBody()->GetAngVelLocal();
+}
+
 double Rig::chassis_mass() const {
     return m_hmmwv->GetChassisBody()->GetMass();
 }

@@ -51,6 +51,9 @@ class Rig {
     double heading() const;               // yaw of the chassis' x axis, rad
     double yaw_rate() const;              // world z angular velocity, rad/s
     double speed() const;                 // forward speed of the chassis, m/s
+    // Cardan angles of the chassis, R = Rz(yaw) Ry(pitch) Rx(roll) (sim-core's VehicleState), rad.
+    void attitude(double& roll, double& pitch, double& yaw) const;
+    chrono::ChVector3d angular_velocity_local() const;  // in the chassis frame, rad/s
     double chassis_mass() const;
     void set_gravity(const chrono::ChVector3d& g);
 

@@ -131,7 +131,7 @@ fn bench_planner(tasks_spec: &str, task_dir: PathBuf, command: Vec<String>) -> a
         };
         let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
         let run = rt
-            .block_on(vb_worker::run_episode(
+            .block_on(vb_worker::run_leased(
                 set.clone(),
                 spec,
                 cancel,
@@ -189,57 +189,15 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
             seconds,
             db,
             task_dir,
-        } => {
-            let set = tasks::TaskSet::load(&task_dir.unwrap_or_else(tasks::embedded::default_dir))?;
-            let tmp =
-                std::env::temp_dir().join(format!("vb-bench-leaderboard-{}", std::process::id()));
-            let url = match db {
-                Some(u) => u,
-                None => {
-                    std::fs::create_dir_all(&tmp)?;
-                    format!("sqlite://{}", tmp.join("vb.db").display())
-                }
-            };
-            let rt = tokio::runtime::Runtime::new()?;
-            let result = rt.block_on(async {
-                let store = vb_store::Store::open(&url).await?;
-                let existing: Vec<String> = store.reader().submissions().await?.into_iter().map(|s| s.id).collect();
-                let ids = if existing.len() >= submissions.max(1) {
-                    println!("measuring the {} submissions already in {url}", existing.len());
-                    existing
-                } else {
-                    let t0 = std::time::Instant::now();
-                    let ids = service_bench::seed::seed(&store, &eval::catalog(&set), submissions, episodes, trajectory_rows).await?;
-                    println!(
-                        "seeded {submissions} submissions x {episodes} episodes ({trajectory_rows}-row trajectories) in {:.0} s on {url}",
-                        t0.elapsed().as_secs_f64()
-                    );
-                    ids
-                };
-                let served = super::service::common::served_tasks(set);
-                let lb = vb_leaderboard::Leaderboard::new(store.reader(), sim_core::SIM_VERSION, Some(served));
-                let addr = service_bench::http_load::serve_loopback(lb).await?;
-                let id = &ids[ids.len() / 2];
-                println!("path                                   rate/s  requests  failed    p50 ms    p99 ms    max ms   bytes");
-                for path in [
-                    "/".to_string(),
-                    "/api/submissions".to_string(),
-                    format!("/api/submissions/{id}"),
-                    format!("/submissions/{id}"),
-                ] {
-                    let r = service_bench::http_load::load(addr, &path, rate, seconds).await;
-                    println!(
-                        "{:<38} {:>6.0} {:>9} {:>7} {:>9.2} {:>9.2} {:>9.2} {:>7}",
-                        r.path, r.rate, r.requests, r.failed, r.p50_ms, r.p99_ms, r.max_ms, r.bytes
-                    );
-                }
-                anyhow::Ok(())
-            });
-            if tmp.exists() {
-                let _ = std::fs::remove_dir_all(&tmp);
-            }
-            result
-        }
+        } => super::bench_leaderboard::run(super::bench_leaderboard::Args {
+            submissions,
+            episodes,
+            trajectory_rows,
+            rate,
+            seconds,
+            db,
+            task_dir,
+        }),
         BenchCmd::Planner {
             tasks,
             task_dir,
@@ -258,45 +216,48 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
             worlds.as_deref(),
             reference.as_deref(),
         ),
-        BenchCmd::Sim { seconds, task_dir } => {
-            anyhow::ensure!(
-                seconds.is_finite() && seconds > 0.0,
-                "--seconds must be positive"
+        BenchCmd::Sim { seconds, task_dir } => bench_sim(seconds, task_dir),
+    }
+}
+
+/// `vb bench sim`: steps per second of every vehicle on the first rigid and the first deformable world.
+fn bench_sim(seconds: f64, task_dir: Option<std::path::PathBuf>) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        seconds.is_finite() && seconds > 0.0,
+        "--seconds must be positive"
+    );
+    let set = tasks::TaskSet::load(&task_dir.unwrap_or_else(tasks::embedded::default_dir))?;
+    let (rigid, soft) = first_rigid_and_deformable(&set)?;
+    println!("vehicle       ground      world  steps/s     us/step  real-time factor");
+    for spec in sim_core::vehicle::builtin_vehicles() {
+        for (label, id) in [("rigid", rigid), ("deformable", soft)] {
+            let w = set.world(id, spec.scale)?;
+            let t = &set.tasks(id, spec.scale)?[0];
+            let cfg = sim_core::episode::EpisodeConfig {
+                max_time: seconds,
+                goal_radius: 0.0,
+                stuck: sim_core::episode::StuckRule::Displacement {
+                    distance: 0.0,
+                    window: seconds + 1.0,
+                },
+                ..Default::default()
+            };
+            let mut p = sim_core::control::PurePursuit::new();
+            let t0 = std::time::Instant::now();
+            let r = sim_core::run_episode(&w, t, &spec, &mut p, &cfg);
+            let wall = t0.elapsed().as_secs_f64();
+            println!(
+                "{:<13} {:<11} {:>5} {:>8.0} {:>11.2} {:>10.0}x   ({} after {:.1} s)",
+                spec.name,
+                label,
+                id,
+                r.metrics.steps as f64 / wall,
+                wall * 1e6 / r.metrics.steps as f64,
+                r.metrics.time / wall,
+                r.outcome.as_str(),
+                r.metrics.time
             );
-            let set = tasks::TaskSet::load(&task_dir.unwrap_or_else(tasks::embedded::default_dir))?;
-            let (rigid, soft) = first_rigid_and_deformable(&set)?;
-            println!("vehicle       ground      world  steps/s     us/step  real-time factor");
-            for spec in sim_core::vehicle::builtin_vehicles() {
-                for (label, id) in [("rigid", rigid), ("deformable", soft)] {
-                    let w = set.world(id, spec.scale)?;
-                    let t = &set.tasks(id, spec.scale)?[0];
-                    let cfg = sim_core::episode::EpisodeConfig {
-                        max_time: seconds,
-                        goal_radius: 0.0,
-                        stuck: sim_core::episode::StuckRule::Displacement {
-                            distance: 0.0,
-                            window: seconds + 1.0,
-                        },
-                        ..Default::default()
-                    };
-                    let mut p = sim_core::control::PurePursuit::new();
-                    let t0 = std::time::Instant::now();
-                    let r = sim_core::run_episode(&w, t, &spec, &mut p, &cfg);
-                    let wall = t0.elapsed().as_secs_f64();
-                    println!(
-                        "{:<13} {:<11} {:>5} {:>8.0} {:>11.2} {:>10.0}x   ({} after {:.1} s)",
-                        spec.name,
-                        label,
-                        id,
-                        r.metrics.steps as f64 / wall,
-                        wall * 1e6 / r.metrics.steps as f64,
-                        r.metrics.time / wall,
-                        r.outcome.as_str(),
-                        r.metrics.time
-                    );
-                }
-            }
-            Ok(())
         }
     }
+    Ok(())
 }

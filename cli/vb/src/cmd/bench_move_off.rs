@@ -91,15 +91,13 @@ pub fn run(task_dir: &Path, worlds: Option<&str>, reference: Option<&Path>) -> a
         wall / starts as f64,
         driven / wall
     );
-    if let Some(r) = reference {
-        let mut theirs = r.tasks.clone();
-        theirs.sort();
-        let mut ours = ran.clone();
-        ours.sort();
+    if let Some(mut r) = reference {
+        r.tasks.sort();
+        ran.sort();
         anyhow::ensure!(
-            theirs == ours,
+            r.tasks == ran,
             "the reference ran other starts ({} of them) than these {starts}: run it with the same --task-dir and --worlds",
-            theirs.len()
+            r.tasks.len()
         );
         println!(
             "{}: {starts} starts in {:.1} s, {:.3} s a start, {:.1} s driven per wall-clock second: sim-core is {:.0} times faster",

@@ -137,49 +137,16 @@ pub fn run(cmd: DatasetCmd) -> anyhow::Result<()> {
             }
             cfg.allow_benchmark_tasks = allow_benchmark_tasks;
             cfg.threads = threads;
-            // The recorded command omits what does not change the content (threads), so a resumed or re-run
-            // dataset keeps identical bytes.
-            let command: Vec<String> = std::env::args()
-                .collect::<Vec<_>>()
-                .split(|a| a == "--threads")
-                .enumerate()
-                .flat_map(|(i, part)| part.iter().skip(usize::from(i > 0)).cloned())
-                .collect();
-            let progress = |p: &datasets::generate::Progress| {
-                eprint!(
-                    "\r{:.2} of {:.2} simulated hours kept, {} episodes, {} failure windows ",
-                    p.kept_frames as f64 / p.target_frames.max(1) as f64 * hours,
-                    hours,
-                    p.kept_episodes,
-                    p.failure_windows
-                );
-                let _ = std::io::stderr().flush();
-            };
+            let progress = |p: &datasets::generate::GenerateProgress| print_progress(p, hours);
             let g = datasets::cli::generate(
                 &cfg,
                 &out,
                 failures_out.as_deref(),
-                &command.join(" "),
+                &recorded_command(),
                 &progress,
             )?;
             eprintln!();
-            println!(
-                "{}: {} episodes, {} frames, {:.2} simulated hours ({} episodes simulated by this run, outcomes {:?})",
-                g.main.dir.display(),
-                g.main.episodes,
-                g.main.frames,
-                g.main.simulated_hours,
-                g.run.episodes_run,
-                g.run.outcomes
-            );
-            if let Some(f) = g.failures {
-                println!(
-                    "{}: {} failure windows ({:?})",
-                    f.dir.display(),
-                    f.episodes,
-                    g.run.windows
-                );
-            }
+            print_generated(&g);
         }
         DatasetCmd::Info { dir } => print!("{}", datasets::info(&dir)?),
         DatasetCmd::Validate { dir } => {
@@ -193,4 +160,47 @@ pub fn run(cmd: DatasetCmd) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// The command line as the dataset records it: without what does not change the content (`--threads`), so a
+/// resumed or re-run dataset keeps identical bytes.
+fn recorded_command() -> String {
+    let command: Vec<String> = std::env::args()
+        .collect::<Vec<_>>()
+        .split(|a| a == "--threads")
+        .enumerate()
+        .flat_map(|(i, part)| part.iter().skip(usize::from(i > 0)).cloned())
+        .collect();
+    command.join(" ")
+}
+
+fn print_progress(p: &datasets::generate::GenerateProgress, hours: f64) {
+    eprint!(
+        "\r{:.2} of {:.2} simulated hours kept, {} episodes, {} failure windows ",
+        p.kept_frames as f64 / p.target_frames.max(1) as f64 * hours,
+        hours,
+        p.kept_episodes,
+        p.failure_windows
+    );
+    let _ = std::io::stderr().flush();
+}
+
+fn print_generated(g: &datasets::cli::Generated) {
+    println!(
+        "{}: {} episodes, {} frames, {:.2} simulated hours ({} episodes simulated by this run, outcomes {:?})",
+        g.main.dir.display(),
+        g.main.episodes,
+        g.main.frames,
+        g.main.simulated_hours,
+        g.run.episodes_run,
+        g.run.outcomes
+    );
+    if let Some(f) = &g.failures {
+        println!(
+            "{}: {} failure windows ({:?})",
+            f.dir.display(),
+            f.episodes,
+            g.run.windows
+        );
+    }
 }

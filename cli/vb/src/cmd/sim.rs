@@ -1,33 +1,38 @@
-//! `vb sim run`: one episode with the built-in pure-pursuit controller (or a baseline), with trajectory and plot.
+//! `vb sim`: one episode with its trajectory and plot (`run`), the datasheet's scenarios and the Chrono harness'
+//! counterparts (`characterize`, `climb`, `roll-back`, `drive`, `episodes`), the vehicle catalogue.
 
 use clap::Subcommand;
 use sim_core::episode::EpisodeConfig;
 use std::path::PathBuf;
 
+/// `vb sim run`'s arguments.
+#[derive(clap::Args)]
+pub struct RunArgs {
+    #[arg(long)]
+    world: u32,
+    /// Task index within the world (0..9).
+    #[arg(long, default_value_t = 0)]
+    task: u32,
+    #[arg(long, default_value = "hmmwv")]
+    vehicle: String,
+    /// pure_pursuit (built-in controller) or any built-in planner of `vb eval`.
+    #[arg(long, default_value = "pure_pursuit")]
+    planner: String,
+    #[arg(long)]
+    scale: Option<f64>,
+    #[arg(long)]
+    task_dir: Option<PathBuf>,
+    /// Trajectory recording rate, Hz.
+    #[arg(long, default_value_t = 20.0)]
+    record_hz: f64,
+    #[arg(long, default_value = "out/sim")]
+    out: PathBuf,
+}
+
 #[derive(Subcommand)]
 pub enum SimCmd {
     /// Run one episode and write trajectory.csv, episode.png and result.json.
-    Run {
-        #[arg(long)]
-        world: u32,
-        /// Task index within the world (0..9).
-        #[arg(long, default_value_t = 0)]
-        task: u32,
-        #[arg(long, default_value = "hmmwv")]
-        vehicle: String,
-        /// pure_pursuit (built-in controller) or any built-in planner of `vb eval`.
-        #[arg(long, default_value = "pure_pursuit")]
-        planner: String,
-        #[arg(long)]
-        scale: Option<f64>,
-        #[arg(long)]
-        task_dir: Option<PathBuf>,
-        /// Trajectory recording rate, Hz.
-        #[arg(long, default_value_t = 20.0)]
-        record_hz: f64,
-        #[arg(long, default_value = "out/sim")]
-        out: PathBuf,
-    },
+    Run(RunArgs),
     /// The steepest-grade scenario at the given grades (climbs or not, by the datasheet's criterion), with a
     /// per-wheel trace in the Chrono reference harness's CSV columns (`chrono-reference climb --trace`); columns
     /// sim-core does not model (engine speed, the chassis' and suspension's soil forces) are left empty, and the
@@ -53,6 +58,37 @@ pub enum SimCmd {
     },
     /// List the vehicle catalogue.
     Vehicles,
+    /// Drive one task of a task set in a simulator on the other end of stdin and stdout (the Chrono harness's
+    /// `episodes --driver`): a built-in planner acts and the benchmark's rules judge, over the lock-step line
+    /// protocol of `eval::external`; the end is the last line written.
+    Drive {
+        /// The task set (default: the benchmark's).
+        #[arg(long)]
+        task_dir: Option<PathBuf>,
+        /// The task, e.g. w001-t3.
+        #[arg(long)]
+        task: contracts::TaskId,
+        #[arg(long, default_value = "pid")]
+        planner: String,
+        #[arg(long, default_value = "hmmwv")]
+        vehicle: String,
+        /// The original release's rules (8 m goal radius, speed-based stuck, its rollover classification).
+        #[arg(long)]
+        release_rules: bool,
+    },
+    /// Whole episodes beside a reference simulator's (the Chrono harness's `episodes --out`): sim-core drives the
+    /// same tasks with the same planner and rules and prints both outcome by outcome, and how often they agree.
+    Episodes {
+        /// The task set the reference ran on (default: the benchmark's).
+        #[arg(long)]
+        task_dir: Option<PathBuf>,
+        #[arg(long)]
+        reference: PathBuf,
+        #[arg(long, default_value = "hmmwv")]
+        vehicle: String,
+        #[arg(long)]
+        json: bool,
+    },
     /// A coasting stop's roll-back, as the Chrono harness's `roll-back`: settled facing up a plane of the grade with
     /// the brakes on, then throttle and brakes released; CSV in the harness's columns (t, speed, engine_speed,
     /// engine_torque, gear), the engine's left empty.
@@ -102,45 +138,7 @@ pub enum SimCmd {
 
 pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
     match cmd {
-        SimCmd::Run {
-            world,
-            task,
-            vehicle,
-            planner,
-            scale,
-            task_dir,
-            record_hz,
-            out,
-        } => {
-            anyhow::ensure!(
-                record_hz.is_finite() && record_hz > 0.0,
-                "--record-hz must be positive"
-            );
-            let spec = sim_core::vehicle::vehicle_by_name(&vehicle)?;
-            let scale = scale.unwrap_or(spec.scale);
-            let set = tasks::TaskSet::load(&task_dir.unwrap_or_else(tasks::embedded::default_dir))?;
-            let w = set.world(world, scale)?;
-            let t = set
-                .tasks(world, scale)?
-                .into_iter()
-                .nth(task as usize)
-                .ok_or_else(|| anyhow::anyhow!("world {world} has no task {task} (0..9)"))?;
-            let mut p: Box<dyn sim_core::planner::Planner> = match planner.as_str() {
-                "pure_pursuit" => Box::new(sim_core::control::PurePursuit::new()),
-                other => eval::Builtin::resolve(other, None)?.make(),
-            };
-            let cfg = EpisodeConfig {
-                record_hz: Some(record_hz),
-                ..Default::default()
-            };
-            let r = sim_core::run_episode(&w, &t, &spec, p.as_mut(), &cfg);
-            let json = serde_json::to_string_pretty(&serde_json::json!({
-                "task": t.id(), "vehicle": spec.name, "scale": scale, "planner": planner,
-                "outcome": r.outcome.as_str(), "reason": r.reason, "detail": r.detail, "metrics": r.metrics,
-            }))?;
-            eval::viz::write_episode(&out, &w, &t, &r, &json)?;
-            println!("{}: {} ({}) after {:.1} s, {:.1} m driven; wrote {}/trajectory.csv, episode.png, result.json", t.id(), r.outcome.as_str(), r.reason, r.metrics.time, r.metrics.path_length, out.display());
-        }
+        SimCmd::Run(a) => run_one(a)?,
         SimCmd::Characterize {
             vehicle,
             surface,
@@ -148,115 +146,14 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
             json,
             task_dir,
             reference,
-        } => {
-            use anyhow::Context;
-            use sim_core::characterize::{datasheet, Ground, Setup};
-            // Read first: a bad file fails before minutes of simulation.
-            let reference = reference
-                .map(|p| {
-                    std::fs::read_to_string(&p)
-                        .with_context(|| format!("reading the reference {}", p.display()))
-                        .map(|t| (p, t))
-                })
-                .transpose()?;
-            let reference_move_off = match &reference {
-                Some((p, text)) => {
-                    eval::reference::compare(&[], text)
-                        .with_context(|| format!("the reference {}", p.display()))?;
-                    let starts = eval::reference::move_off(text)
-                        .with_context(|| format!("the reference {}", p.display()))?;
-                    anyhow::ensure!(
-                        starts.is_none() || task_dir.is_some(),
-                        "the reference {} holds the move-off check start by start: give --task-dir with the task set it ran on",
-                        p.display()
-                    );
-                    starts
-                }
-                None => None,
-            };
-            let spec = sim_core::vehicle::vehicle_by_name(&vehicle)?;
-            check_dt(dt)?;
-            let grounds: Vec<Ground> = if surface == "all" {
-                Ground::ALL.to_vec()
-            } else {
-                vec![Ground::from_name(&surface).ok_or_else(|| {
-                    anyhow::anyhow!("unknown --surface `{surface}` (rigid, snow, mud, sand or all)")
-                })?]
-            };
-            let sheets: Vec<_> = grounds
-                .into_iter()
-                .map(|ground| datasheet(&spec, &Setup { ground, dt }))
-                .collect();
-            let move_off = match &task_dir {
-                Some(dir) => Some(eval::move_off::move_off(
-                    &tasks::TaskSet::load(dir)?,
-                    &spec,
-                    dt,
-                )?),
-                None => None,
-            };
-            let comparison = match &reference {
-                Some((p, text)) => {
-                    let ours = sheets
-                        .iter()
-                        .map(serde_json::to_value)
-                        .collect::<Result<Vec<_>, _>>()?;
-                    Some(
-                        eval::reference::compare(&ours, text)
-                            .with_context(|| format!("the reference {}", p.display()))?,
-                    )
-                }
-                None => None,
-            };
-            let agreement = match (&move_off, &reference_move_off) {
-                (Some(ours), Some(theirs)) => Some(eval::move_off::agreement(ours, theirs)),
-                _ => None,
-            };
-            if json {
-                println!(
-                    "{}",
-                    serde_json::to_string_pretty(&serde_json::json!({
-                        "datasheets": sheets,
-                        "move_off": move_off,
-                        "comparison": comparison,
-                        "move_off_agreement": agreement
-                    }))?
-                );
-            } else {
-                print!("{}", sim_core::characterize::table(&sheets));
-                if let (Some(m), Some(dir)) = (&move_off, &task_dir) {
-                    let stuck = m.stuck();
-                    println!(
-                        "move-off from the {} starts of {}: stuck (under 5 m in 20 s at full throttle towards the goal) at {} ({:.1}%){}{}",
-                        m.starts(),
-                        dir.display(),
-                        stuck.len(),
-                        100.0 * m.stuck_share(),
-                        if stuck.is_empty() { "" } else { ": " },
-                        stuck
-                            .iter()
-                            .map(|t| t.to_string())
-                            .collect::<Vec<_>>()
-                            .join(" ")
-                    );
-                }
-                let Some((p, _)) = &reference else {
-                    return Ok(());
-                };
-                // (A reference of move-off starts only has no datasheet to compare.)
-                if let Some(rows) = comparison.filter(|r| r.iter().any(|c| c.reference.is_some())) {
-                    println!("beside the reference {}:", p.display());
-                    print!("{}", eval::reference::table(&rows));
-                }
-                if let Some(a) = &agreement {
-                    println!(
-                        "move-off start by start beside the reference {} (moved: at least 5 m in 20 s):",
-                        p.display()
-                    );
-                    print!("{}", eval::move_off::agreement_table(a));
-                }
-            }
-        }
+        } => super::sim_characterize::run(super::sim_characterize::Args {
+            vehicle,
+            surface,
+            dt,
+            json,
+            task_dir,
+            reference,
+        })?,
         SimCmd::Climb {
             vehicle,
             surface,
@@ -289,12 +186,79 @@ pub fn run(cmd: SimCmd) -> anyhow::Result<()> {
                 println!("{t:.3},{v:.6},,,{gear}");
             }
         }
+        SimCmd::Drive {
+            task_dir,
+            task,
+            planner,
+            vehicle,
+            release_rules,
+        } => super::sim_drive::drive(
+            &task_dir.unwrap_or_else(tasks::embedded::default_dir),
+            task,
+            &planner,
+            &vehicle,
+            release_rules,
+        )?,
+        SimCmd::Episodes {
+            task_dir,
+            reference,
+            vehicle,
+            json,
+        } => super::sim_drive::episodes(
+            &task_dir.unwrap_or_else(tasks::embedded::default_dir),
+            &reference,
+            &vehicle,
+            json,
+        )?,
         SimCmd::Vehicles => {
             for v in sim_core::vehicle::builtin_vehicles() {
                 println!("{:<12} scale {:<8} {}", v.name, v.scale, v.description);
             }
         }
     }
+    Ok(())
+}
+
+/// `vb sim run`: one episode, its trajectory, plot and result.
+fn run_one(a: RunArgs) -> anyhow::Result<()> {
+    let RunArgs {
+        world,
+        task,
+        vehicle,
+        planner,
+        scale,
+        task_dir,
+        record_hz,
+        out,
+    } = a;
+    anyhow::ensure!(
+        record_hz.is_finite() && record_hz > 0.0,
+        "--record-hz must be positive"
+    );
+    let spec = sim_core::vehicle::vehicle_by_name(&vehicle)?;
+    let scale = scale.unwrap_or(spec.scale);
+    let set = tasks::TaskSet::load(&task_dir.unwrap_or_else(tasks::embedded::default_dir))?;
+    let w = set.world(world, scale)?;
+    let t = set
+        .tasks(world, scale)?
+        .into_iter()
+        .nth(task as usize)
+        .ok_or_else(|| anyhow::anyhow!("world {world} has no task {task} (0..9)"))?;
+    let mut p: Box<dyn sim_core::planner::Planner> = match planner.as_str() {
+        "pure_pursuit" => Box::new(sim_core::control::PurePursuit::new()),
+        other => eval::Builtin::resolve(other, None)?.make(),
+    };
+    let cfg = EpisodeConfig {
+        record_hz: Some(record_hz),
+        ..Default::default()
+    };
+    let r = sim_core::run_episode(&w, &t, &spec, p.as_mut(), &cfg);
+    let json = serde_json::to_string_pretty(&serde_json::json!({
+        "task": t.id(), "vehicle": spec.name, "scale": scale, "planner": planner,
+        "outcome": r.outcome.as_str(), "reason": r.reason, "detail": r.detail, "metrics": r.metrics,
+    }))?;
+    eval::viz::write_episode(&out, &w, &t, &r, &json)?;
+    println!("{}: {} ({}) after {:.1} s, {:.1} m driven; wrote {}/trajectory.csv, episode.png, result.json", t.id(), r.outcome.as_str(), r.reason, r.metrics.time, r.metrics.path_length, out.display());
     Ok(())
 }
 
@@ -305,7 +269,7 @@ fn ground_named(surface: &str) -> anyhow::Result<sim_core::characterize::Ground>
 }
 
 /// `--dt`, when given: a physics step in (0, 0.02] s.
-fn check_dt(dt: Option<f64>) -> anyhow::Result<()> {
+pub(super) fn check_dt(dt: Option<f64>) -> anyhow::Result<()> {
     anyhow::ensure!(
         dt.is_none_or(|d| d.is_finite() && d > 0.0 && d <= 0.02),
         "--dt must be in (0, 0.02] s"

@@ -3,56 +3,60 @@
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
+/// `vb terrain train`'s arguments.
+#[derive(clap::Args)]
+pub struct TrainArgs {
+    #[arg(long)]
+    data: PathBuf,
+    /// Weights file to write (safetensors; rewritten after every epoch).
+    #[arg(long)]
+    out: PathBuf,
+    /// Continue the checkpoint OUT instead of starting afresh (only --epochs and --max-minutes apply).
+    #[arg(long)]
+    resume: bool,
+    /// Length of the learning-rate schedule (with --resume: extends the checkpoint's).
+    #[arg(long)]
+    epochs: Option<usize>,
+    #[arg(long, default_value_t = 8)]
+    batch: usize,
+    #[arg(long, default_value_t = 2e-3)]
+    lr: f64,
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Weight of the sliced-Wasserstein term.
+    #[arg(long, default_value_t = 1.0)]
+    sw_weight: f64,
+    /// Weight of the L1 loss on finite-difference slopes (0: off, as v1; default: swae's LossWeights::DEFAULT).
+    #[arg(long)]
+    gradient_weight: Option<f64>,
+    /// Weight of the L1 loss on the Laplacian (0: off, as v1; default: LossWeights::DEFAULT).
+    #[arg(long)]
+    laplacian_weight: Option<f64>,
+    /// Weight of the slope-distribution term (0: off, as v1; default: LossWeights::DEFAULT).
+    #[arg(long)]
+    slope_weight: Option<f64>,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Train on the crops as they are, without random rotations and mirrors.
+    #[arg(long)]
+    no_augment: bool,
+    /// Train only the refiner (needs --linear-skip): the conv paths keep their zero start.
+    #[arg(long)]
+    freeze_conv: bool,
+    /// Stop after the epoch in which this many minutes have passed (0: no limit).
+    #[arg(long, default_value_t = 0.0)]
+    max_minutes: f64,
+    /// Batches per epoch (0: all), for quick timing runs.
+    #[arg(long, default_value_t = 0)]
+    max_batches: usize,
+}
+
 #[derive(Subcommand)]
 pub enum TerrainCmd {
     /// Train the SWAE on a directory of 128 x 128 8-bit elevation maps (the release's BenchMaps/elev_maps).
     /// Every epoch checkpoints OUT (with OUT's .optim.safetensors, .state.json and .train.log beside it);
     /// `--resume` goes on from the last completed epoch with the checkpoint's own options.
-    Train {
-        #[arg(long)]
-        data: PathBuf,
-        /// Weights file to write (safetensors; rewritten after every epoch).
-        #[arg(long)]
-        out: PathBuf,
-        /// Continue the checkpoint OUT instead of starting afresh (only --epochs and --max-minutes apply).
-        #[arg(long)]
-        resume: bool,
-        /// Length of the learning-rate schedule (with --resume: extends the checkpoint's).
-        #[arg(long)]
-        epochs: Option<usize>,
-        #[arg(long, default_value_t = 8)]
-        batch: usize,
-        #[arg(long, default_value_t = 2e-3)]
-        lr: f64,
-        #[command(flatten)]
-        model: ModelArgs,
-        /// Weight of the sliced-Wasserstein term.
-        #[arg(long, default_value_t = 1.0)]
-        sw_weight: f64,
-        /// Weight of the L1 loss on finite-difference slopes (0: off, as v1; default: swae's LossWeights::DEFAULT).
-        #[arg(long)]
-        gradient_weight: Option<f64>,
-        /// Weight of the L1 loss on the Laplacian (0: off, as v1; default: LossWeights::DEFAULT).
-        #[arg(long)]
-        laplacian_weight: Option<f64>,
-        /// Weight of the slope-distribution term (0: off, as v1; default: LossWeights::DEFAULT).
-        #[arg(long)]
-        slope_weight: Option<f64>,
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Train on the crops as they are, without random rotations and mirrors.
-        #[arg(long)]
-        no_augment: bool,
-        /// Train only the refiner (needs --linear-skip): the conv paths keep their zero start.
-        #[arg(long)]
-        freeze_conv: bool,
-        /// Stop after the epoch in which this many minutes have passed (0: no limit).
-        #[arg(long, default_value_t = 0.0)]
-        max_minutes: f64,
-        /// Batches per epoch (0: all), for quick timing runs.
-        #[arg(long, default_value_t = 0)]
-        max_batches: usize,
-    },
+    Train(TrainArgs),
     /// Held-out reconstruction errors (vs 64-component PCA and the mean crop) and generated-vs-training
     /// height, slope and roughness distributions, as Markdown tables.
     Eval {
@@ -164,65 +168,7 @@ pub fn run(_: TerrainCmd) -> anyhow::Result<()> {
 #[cfg(feature = "train")]
 pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
     match cmd {
-        TerrainCmd::Train {
-            data,
-            out,
-            resume,
-            epochs,
-            batch,
-            lr,
-            model,
-            sw_weight,
-            gradient_weight,
-            laplacian_weight,
-            slope_weight,
-            seed,
-            no_augment,
-            freeze_conv,
-            max_minutes,
-            max_batches,
-        } => {
-            let (train, val) = swae::train::load_split(&data)?;
-            println!(
-                "{} training crops, {} held out, from {}",
-                train.len(),
-                val.len(),
-                data.display()
-            );
-            let log = |l: &swae::train::EpochLog| println!("{l}");
-            if resume {
-                swae::train::resume(&train, &val, &out, epochs, max_minutes * 60.0, log)?;
-            } else {
-                let defaults = swae::train::TrainOptions::default();
-                let opts = swae::train::TrainOptions {
-                    config: model.into(),
-                    loss: {
-                        let d = swae::loss::LossWeights::DEFAULT;
-                        swae::loss::LossWeights {
-                            sw: sw_weight,
-                            gradient: gradient_weight.unwrap_or(d.gradient),
-                            laplacian: laplacian_weight.unwrap_or(d.laplacian),
-                            slope_distribution: slope_weight.unwrap_or(d.slope_distribution),
-                            ..d
-                        }
-                    },
-                    batch,
-                    lr,
-                    seed,
-                    augment: !no_augment,
-                    freeze_conv,
-                    max_seconds: max_minutes * 60.0,
-                    max_batches,
-                    epochs: epochs.unwrap_or(defaults.epochs),
-                    ..defaults
-                };
-                swae::train::train(&train, &val, &opts, Some(&out), log)?;
-            }
-            println!(
-                "wrote {} (state, optimiser and log beside it)",
-                out.display()
-            );
-        }
+        TerrainCmd::Train(a) => train(a)?,
         TerrainCmd::Eval {
             data,
             weights,
@@ -271,5 +217,70 @@ pub fn run(cmd: TerrainCmd) -> anyhow::Result<()> {
             println!("{}", out.display());
         }
     }
+    Ok(())
+}
+
+/// `vb terrain train`: trains from scratch, or resumes from the last completed epoch.
+#[cfg(feature = "train")]
+fn train(a: TrainArgs) -> anyhow::Result<()> {
+    let TrainArgs {
+        data,
+        out,
+        resume,
+        epochs,
+        batch,
+        lr,
+        model,
+        sw_weight,
+        gradient_weight,
+        laplacian_weight,
+        slope_weight,
+        seed,
+        no_augment,
+        freeze_conv,
+        max_minutes,
+        max_batches,
+    } = a;
+    let (train, val) = swae::train::load_split(&data)?;
+    println!(
+        "{} training crops, {} held out, from {}",
+        train.len(),
+        val.len(),
+        data.display()
+    );
+    let log = |l: &swae::train::EpochLog| println!("{l}");
+    if resume {
+        swae::train::resume(&train, &val, &out, epochs, max_minutes * 60.0, log)?;
+    } else {
+        let defaults = swae::train::TrainOptions::default();
+        let opts = swae::train::TrainOptions {
+            config: model.into(),
+            loss: {
+                let d = swae::loss::LossWeights::DEFAULT;
+                swae::loss::LossWeights {
+                    sw: sw_weight,
+                    gradient: gradient_weight.unwrap_or(d.gradient),
+                    laplacian: laplacian_weight.unwrap_or(d.laplacian),
+                    slope_distribution: slope_weight.unwrap_or(d.slope_distribution),
+                    ..d
+                }
+            },
+            batch,
+            lr,
+            seed,
+            augment: !no_augment,
+            freeze_conv,
+            max_seconds: max_minutes * 60.0,
+            max_batches,
+            epochs: epochs.unwrap_or(defaults.epochs),
+            ..defaults
+        };
+        swae::train::train(&train, &val, &opts, Some(&out), log)?;
+    }
+    println!(
+        "wrote {} (state, optimiser and log beside it)",
+        out.display()
+    );
+
     Ok(())
 }

@@ -169,6 +169,10 @@ impl KinoMppi {
         self.cfg.horizon_steps as f64 * STEP_S / (KNOTS - 1) as f64
     }
 
+    /// One MPPI decision: the warm-started plan, the samples, every rollout through the learned model step by step
+    /// with its cost, and the softmin plan. One piece on purpose: the rollout loop holds the model, its output
+    /// buffer and the rollouts borrowed at once, and the cost's terms (progress, path distance, attitude, spread,
+    /// traversability, the terminal checks) are the planner's definition, read together.
     fn replan(&mut self, obs: &Observation) -> Result<(), PlannerError> {
         let spacing = self.knot_spacing();
         let Some(ep) = self.ep.as_mut() else {
@@ -203,20 +207,7 @@ impl KinoMppi {
         let err = |e: rand_distr::NormalError| PlannerError::Other(e.to_string());
         let ns = Normal::new(0.0, self.cfg.sigma_steer).map_err(err)?;
         let nv = Normal::new(0.0, self.cfg.sigma_speed).map_err(err)?;
-        for (k, sample) in self.samples.iter_mut().enumerate() {
-            for (j, knot) in sample.iter_mut().enumerate() {
-                let (es, ev) = (ns.sample(&mut ep.rng), nv.sample(&mut ep.rng));
-                *knot = match k {
-                    0 => self.plan[j],
-                    1 => [1.0, 0.6],
-                    2 => [-1.0, 0.6],
-                    _ => [
-                        (self.plan[j][0] + es).clamp(-1.0, 1.0),
-                        (self.plan[j][1] + ev).clamp(0.0, 1.0),
-                    ],
-                };
-            }
-        }
+        draw_samples(&mut self.samples, &self.plan, (ns, nv), &mut ep.rng);
         let prev = previous_delta(&before, &now);
         self.rolls.fill(Roll {
             pose: now,
@@ -266,21 +257,7 @@ impl KinoMppi {
                 self.model
                     .predict(&ep.world, &r.pose, ep.scales.scale, &vector, &mut self.out);
                 self.predictions += 1;
-                let mut mean = [0.0f64; 7];
-                for m in 0..members {
-                    for (j, x) in mean.iter_mut().enumerate() {
-                        *x += f64::from(self.out[m * t_n + j]);
-                    }
-                }
-                mean.iter_mut().for_each(|x| *x /= members as f64);
-                let mut spread = 0.0;
-                for (j, &mu) in mean.iter().enumerate().take(6) {
-                    let var = (0..members)
-                        .map(|m| (f64::from(self.out[m * t_n + j]) - mu).powi(2))
-                        .sum::<f64>()
-                        / members as f64;
-                    spread += var.sqrt();
-                }
+                let (mean, spread) = ensemble(&self.out, members, t_n);
                 let mut delta: [f64; 6] = std::array::from_fn(|j| mean[j] * factors[j]);
                 r.steering = mean[6].clamp(-1.0, 1.0);
                 if self.cfg.rollout == Rollout::Decomposed {
@@ -335,6 +312,52 @@ impl KinoMppi {
         self.since_replan = 0;
         self.decisions += 1;
         Ok(())
+    }
+}
+
+/// The ensemble's mean prediction of members' outputs `out` (`t_n` targets each) and its spread: the sum over the
+/// six motion targets of the members' standard deviations.
+fn ensemble(out: &[f32], members: usize, t_n: usize) -> ([f64; 7], f64) {
+    let mut mean = [0.0f64; 7];
+    for m in 0..members {
+        for (j, x) in mean.iter_mut().enumerate() {
+            *x += f64::from(out[m * t_n + j]);
+        }
+    }
+    mean.iter_mut().for_each(|x| *x /= members as f64);
+    let mut spread = 0.0;
+    for (j, &mu) in mean.iter().enumerate().take(6) {
+        let var = (0..members)
+            .map(|m| (f64::from(out[m * t_n + j]) - mu).powi(2))
+            .sum::<f64>()
+            / members as f64;
+        spread += var.sqrt();
+    }
+    (mean, spread)
+}
+
+/// The rollouts' control knots: the warm-started plan, full left and full right at 0.6, and the plan perturbed by
+/// the steering and speed noises `(ns, nv)` (both drawn for every knot of every sample, in order, so the stream
+/// stays the same whichever sample uses them).
+fn draw_samples(
+    samples: &mut [[[f64; 2]; KNOTS]],
+    plan: &[[f64; 2]; KNOTS],
+    (ns, nv): (Normal<f64>, Normal<f64>),
+    rng: &mut ChaCha8Rng,
+) {
+    for (k, sample) in samples.iter_mut().enumerate() {
+        for (j, knot) in sample.iter_mut().enumerate() {
+            let (es, ev) = (ns.sample(rng), nv.sample(rng));
+            *knot = match k {
+                0 => plan[j],
+                1 => [1.0, 0.6],
+                2 => [-1.0, 0.6],
+                _ => [
+                    (plan[j][0] + es).clamp(-1.0, 1.0),
+                    (plan[j][1] + ev).clamp(0.0, 1.0),
+                ],
+            };
+        }
     }
 }
 

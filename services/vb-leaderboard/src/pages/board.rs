@@ -5,7 +5,7 @@ use crate::ranking::{coverage_text, Reference, Run, Unranked};
 use crate::SubmissionEntry;
 use askama::Template;
 use contracts::SubmissionState;
-use results::report::{DENSITIES, LEVELS, SEMANTICS};
+use results::summary::Factor;
 use results::summary::{Aggregate, Summary};
 use std::collections::BTreeMap;
 
@@ -61,10 +61,12 @@ impl Board {
 }
 
 /// Success rates of a factor's three levels, `52% / 31% / -`.
-fn trio(m: &BTreeMap<String, Aggregate>, keys: [&str; 3]) -> String {
-    keys.iter()
+/// Success of each of a factor's values (`-` for one the run has no tasks of), in the canonical order.
+fn trio<K: Factor>(m: &BTreeMap<K, Aggregate>) -> String {
+    K::ALL
+        .iter()
         .map(|k| {
-            m.get(*k).map_or("-".to_string(), |a| {
+            m.get(k).map_or("-".to_string(), |a| {
                 format!("{:.0}%", 100.0 * a.success_rate)
             })
         })
@@ -84,9 +86,9 @@ fn row(rank: Option<usize>, name: &str, s: &Summary) -> Row {
         coverage: String::new(),
         why: String::new(),
         overall: AggView::new(&s.overall),
-        by_level: trio(&s.by_level, LEVELS),
-        by_semantics: trio(&s.by_semantics, SEMANTICS),
-        by_density: trio(&s.by_density, DENSITIES),
+        by_level: trio(&s.by_level),
+        by_semantics: trio(&s.by_semantics),
+        by_density: trio(&s.by_density),
         task_set: s.task_set_version.clone(),
         simulator: s.sim_version.clone(),
         rules: s.rules.as_str().to_string(),

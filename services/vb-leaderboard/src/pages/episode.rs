@@ -3,10 +3,11 @@
 
 use super::{render, Frame};
 use crate::public::PublicEpisode;
+use crate::public::PublicSubmission;
 use askama::Template;
 use contracts::WorldPicture;
 use std::fmt::Write;
-use vb_store::{EpisodeState, Submission};
+use vb_store::EpisodeState;
 
 struct MapView {
     width: String,
@@ -38,7 +39,7 @@ struct Page {
     frame: Frame,
     back_href: String,
     submission_name: String,
-    task: String,
+    task: contracts::TaskId,
     world: u32,
     task_index: u32,
     level: String,
@@ -49,14 +50,11 @@ struct Page {
     map: Option<MapView>,
     charts: Vec<LineChart>,
     submission_id: String,
-    task_id: String,
 }
 
-/// Parsed trajectory: time and (x, y, roll°, pitch°, speed).
-/// (time, x, y, roll in degrees, pitch in degrees, speed) of each sample (none for an unreadable trajectory).
-fn parse_trajectory(csv: &str) -> Vec<[f64; 6]> {
-    contracts::trajectory::from_csv(csv)
-        .unwrap_or_default()
+/// (time, x, y, roll in degrees, pitch in degrees, speed) of each sample.
+fn parse_trajectory(samples: &[contracts::TrajectorySample]) -> Vec<[f64; 6]> {
+    samples
         .iter()
         .map(|t| {
             [
@@ -103,7 +101,7 @@ fn plot(pts: &[(f64, f64)]) -> Option<Plot> {
 /// The map of task `task` of the episode's world: the global path and the driven trajectory (at the submission's
 /// scale) over the world's picture (drawn at full scale).
 fn map_view(
-    sub: &Submission,
+    sub: &PublicSubmission,
     pic: &WorldPicture,
     (world, task): (u32, u32),
     traj: &[[f64; 6]],
@@ -131,9 +129,9 @@ fn map_view(
 }
 
 /// The episode's page; `map`: its world's picture, when the leaderboard serves the task set.
-pub fn page(sub: &Submission, d: &PublicEpisode, map: Option<&WorldPicture>) -> String {
+pub fn page(sub: &PublicSubmission, d: &PublicEpisode, map: Option<&WorldPicture>) -> String {
     let r = &d.record;
-    let traj = parse_trajectory(&d.trajectory_csv);
+    let traj = parse_trajectory(&d.trajectory);
     let metrics = r.metrics.as_ref().map(|m| {
         vec![
             format!("{:.1}", m.time),
@@ -159,7 +157,7 @@ pub fn page(sub: &Submission, d: &PublicEpisode, map: Option<&WorldPicture>) -> 
         frame: Frame::served(&r.task_id.to_string(), live),
         back_href: format!("/submissions/{}", sub.id),
         submission_name: sub.name.clone(),
-        task: r.task_id.to_string(),
+        task: r.task_id,
         world: r.world_id,
         task_index: r.task_index,
         level: r.level.to_string(),
@@ -189,6 +187,5 @@ pub fn page(sub: &Submission, d: &PublicEpisode, map: Option<&WorldPicture>) -> 
             chart("speed-chart", "speed", "m/s", 5),
         ],
         submission_id: sub.id.clone(),
-        task_id: r.task_id.to_string(),
     })
 }

@@ -2,12 +2,12 @@
 //! charts, matched density contrasts and its episodes, a page of [`PAGE_SIZE`] at a time.
 
 use super::{render, AggView, Frame};
+use crate::public::PublicSubmission;
 use crate::SubmissionEntry;
 use askama::Template;
-use results::report::{DENSITIES, LEVELS, SEMANTICS};
+use results::summary::named;
 use results::summary::Aggregate;
-use std::collections::BTreeMap;
-use vb_store::{EpisodeRecord, Submission};
+use vb_store::EpisodeRecord;
 
 /// Episodes per page of a submission's episode table.
 pub const PAGE_SIZE: usize = 100;
@@ -87,7 +87,7 @@ pub fn compare_links(id: &str, ranking: &[SubmissionEntry]) -> Vec<(String, Stri
 pub const COMPARE_LINKS: usize = 10;
 
 /// `builtin:pid`, or the kind alone (the public does not see command lines, URLs or image names).
-pub fn planner_label(s: &Submission) -> String {
+pub fn planner_label(s: &PublicSubmission) -> String {
     if s.planner_spec.is_empty() {
         s.planner_kind.to_string()
     } else {
@@ -100,7 +100,7 @@ pub fn state_label(state: &str) -> String {
     state.replace('_', " ")
 }
 
-fn repro(s: &Submission) -> Vec<(&'static str, String)> {
+fn repro(s: &PublicSubmission) -> Vec<(&'static str, String)> {
     vec![
         ("submission", s.id.clone()),
         ("owner", s.owner.clone()),
@@ -114,18 +114,13 @@ fn repro(s: &Submission) -> Vec<(&'static str, String)> {
     ]
 }
 
-fn breakdown(
-    title: &'static str,
-    id: &'static str,
-    map: &BTreeMap<String, Aggregate>,
-    order: [&str; 3],
-) -> Breakdown {
+fn breakdown(title: &'static str, id: &'static str, entries: Vec<(&str, &Aggregate)>) -> Breakdown {
     Breakdown {
         title,
         id,
-        rows: results::report::in_order(map, &order)
+        rows: entries
             .into_iter()
-            .map(|(k, a)| (k.clone(), AggView::new(a)))
+            .map(|(k, a)| (k.to_string(), AggView::new(a)))
             .collect(),
     }
 }
@@ -212,14 +207,13 @@ pub fn page(
         charts: has_charts.then(|| results::charts::charts_svg(sum)),
         breakdowns: if has_charts {
             vec![
-                breakdown("elevation level", "by-level", &sum.by_level, LEVELS),
+                breakdown("elevation level", "by-level", named(&sum.by_level)),
                 breakdown(
                     "terrain semantics",
                     "by-semantics",
-                    &sum.by_semantics,
-                    SEMANTICS,
+                    named(&sum.by_semantics),
                 ),
-                breakdown("obstacle density", "by-density", &sum.by_density, DENSITIES),
+                breakdown("obstacle density", "by-density", named(&sum.by_density)),
             ]
         } else {
             Vec::new()
