@@ -221,14 +221,7 @@ impl VehicleSpec {
     }
 
     fn validate(&self, file: &str) -> Result<(), VehicleError> {
-        let bad = |field: &str, message: &str| {
-            Err(VehicleError::Field {
-                file: file.into(),
-                field: field.into(),
-                message: message.into(),
-            })
-        };
-        let pos = |v: f64| v.is_finite() && v > 0.0;
+        let bad = |field: &str, message: &str| field_error(file, field, message);
         if !pos(self.scale) || !pos(self.nominal_speed) || !pos(self.max_speed) {
             return bad("scale/nominal_speed/max_speed", "must be positive");
         }
@@ -273,14 +266,7 @@ impl VehicleSpec {
 
     /// The powertrain: its differential's locking limits, its torque curves, engine speed and gears.
     fn validate_powertrain(&self, file: &str) -> Result<(), VehicleError> {
-        let bad = |field: &str, message: &str| {
-            Err(VehicleError::Field {
-                file: file.into(),
-                field: field.into(),
-                message: message.into(),
-            })
-        };
-        let pos = |v: f64| v.is_finite() && v > 0.0;
+        let bad = |field: &str, message: &str| field_error(file, field, message);
         let p = &self.powertrain;
         match (p.differential, p.locking_limits) {
             (Differential::Clutched, Some(l)) => {
@@ -417,4 +403,18 @@ pub fn vehicle_by_name(name: &str) -> Result<VehicleSpec, VehicleError> {
         .find(|v| v.name == name)
         .cloned()
         .ok_or_else(|| VehicleError::Unknown(name.into(), names))
+}
+
+/// A vehicle file's field `field` is wrong: `message` says how.
+fn field_error(file: &str, field: &str, message: &str) -> Result<(), VehicleError> {
+    Err(VehicleError::Field {
+        file: file.into(),
+        field: field.into(),
+        message: message.into(),
+    })
+}
+
+/// A finite, positive number.
+fn pos(v: f64) -> bool {
+    v.is_finite() && v > 0.0
 }

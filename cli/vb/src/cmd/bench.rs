@@ -42,29 +42,7 @@ pub enum BenchCmd {
     },
     /// Latency of the leaderboard's pages and API at a fixed request rate on loopback, over a throw-away store seeded
     /// with finished submissions through the store's own API.
-    Leaderboard {
-        /// Finished submissions to seed.
-        #[arg(long, default_value_t = 100)]
-        submissions: usize,
-        /// Episodes per submission.
-        #[arg(long, default_value_t = 1000)]
-        episodes: usize,
-        /// Rows of each episode's trajectory (a 60 s episode logged at 10 Hz has 600).
-        #[arg(long, default_value_t = 600)]
-        trajectory_rows: usize,
-        /// Requests per second, per path.
-        #[arg(long, default_value_t = 500.0)]
-        rate: f64,
-        /// Seconds of load per path.
-        #[arg(long, default_value_t = 10.0)]
-        seconds: f64,
-        /// Store to seed: a throw-away database (default: a new SQLite file in a temporary directory, removed after).
-        /// One that already holds at least `--submissions` submissions is measured as it is.
-        #[arg(long)]
-        db: Option<String>,
-        #[arg(long)]
-        task_dir: Option<PathBuf>,
-    },
+    Leaderboard(super::bench_leaderboard::Args),
     /// The service's overhead: a built-in planner's evaluation timed in-process (`vb eval`) and through the whole
     /// service (`vb serve --evaluate ... --exit-when-done`), one after the other, with the same results checked.
     Service {
@@ -181,23 +159,7 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
             tasks,
             slots,
         } => super::bench_service::run(&planner, &tasks, slots.max(1)),
-        BenchCmd::Leaderboard {
-            submissions,
-            episodes,
-            trajectory_rows,
-            rate,
-            seconds,
-            db,
-            task_dir,
-        } => super::bench_leaderboard::run(super::bench_leaderboard::Args {
-            submissions,
-            episodes,
-            trajectory_rows,
-            rate,
-            seconds,
-            db,
-            task_dir,
-        }),
+        BenchCmd::Leaderboard(a) => super::bench_leaderboard::run(a),
         BenchCmd::Planner {
             tasks,
             task_dir,

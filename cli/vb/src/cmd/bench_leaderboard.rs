@@ -3,13 +3,28 @@
 use std::path::PathBuf;
 
 /// What the command was asked for.
+#[derive(clap::Args)]
 pub struct Args {
+    /// Finished submissions to seed.
+    #[arg(long, default_value_t = 100)]
     pub submissions: usize,
+    /// Episodes per submission.
+    #[arg(long, default_value_t = 1000)]
     pub episodes: usize,
+    /// Rows of each episode's trajectory (a 60 s episode logged at 10 Hz has 600).
+    #[arg(long, default_value_t = 600)]
     pub trajectory_rows: usize,
+    /// Requests per second, per path.
+    #[arg(long, default_value_t = 500.0)]
     pub rate: f64,
+    /// Seconds of load per path.
+    #[arg(long, default_value_t = 10.0)]
     pub seconds: f64,
+    /// Store to seed: a throw-away database (default: a new SQLite file in a temporary directory, removed after).
+    /// One that already holds at least `--submissions` submissions is measured as it is.
+    #[arg(long)]
     pub db: Option<String>,
+    #[arg(long)]
     pub task_dir: Option<PathBuf>,
 }
 
