@@ -348,6 +348,48 @@ async fn a_planner_finds_no_token_in_proc_and_its_log_is_its_owner_s() -> anyhow
 
 /// Issue 58, point 6: against a server that accepts and closes every connection at once, `vb-submit` fails with a
 /// message every time (it exited 141, silently, by SIGPIPE in 6 of 10 tries).
+/// A server that accepts connections and never says anything: every `vb-submit` call ends with a clear error
+/// within its limits (the connection's 10 s, the call's `VB_SUBMIT_RPC_TIMEOUT_S`), never a hang.
+#[test]
+fn vb_submit_gives_up_on_a_silent_server() {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("a port");
+    let port = listener.local_addr().expect("addr").port();
+    std::thread::spawn(move || {
+        let mut held = Vec::new();
+        for s in listener.incoming().flatten() {
+            held.push(s);
+        }
+    });
+    let url = format!("http://127.0.0.1:{port}");
+    let bin = vb_submit_bin();
+    for args in [&["status", "s-1"][..], &["status"][..]] {
+        let started = std::time::Instant::now();
+        let out = std::process::Command::new(&bin)
+            .args(args)
+            .args(["--coordinator", &url, "--token", "t"])
+            .env("VB_SUBMIT_RPC_TIMEOUT_S", "2")
+            .output()
+            .expect("vb-submit");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(
+            out.status.code(),
+            Some(1),
+            "{args:?}: {:?} {err}",
+            out.status
+        );
+        assert!(
+            err.contains("no answer from the coordinator within 2 s")
+                || err.contains("no connection within 10 s"),
+            "{args:?}: {err}"
+        );
+        assert!(
+            started.elapsed() < Duration::from_secs(30),
+            "{args:?} took {:?}",
+            started.elapsed()
+        );
+    }
+}
+
 #[test]
 fn vb_submit_says_why_when_the_server_closes_at_once() {
     let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("a port");

@@ -63,6 +63,14 @@ pub fn describe(s: &Status) -> String {
         tonic::Code::ResourceExhausted => "request too large",
         tonic::Code::Unavailable => "coordinator unavailable",
         tonic::Code::DeadlineExceeded => "timed out",
+        // tonic's own deadline ([`rpc_timeout`]) ends a call as cancelled, "Timeout expired".
+        tonic::Code::Cancelled if s.message() == "Timeout expired" => {
+            return format!(
+                "no answer from the coordinator within {:.0} s (is it overloaded, or not a vertibench coordinator? \
+                 {RPC_TIMEOUT_ENV} sets the limit)",
+                rpc_timeout().as_secs_f64()
+            )
+        }
         _ => "coordinator error",
     };
     format!("{what}: {}", s.message())
@@ -95,19 +103,48 @@ fn error_chain(e: &dyn std::error::Error) -> String {
 
 pub type Client = CoordinatorClient<InterceptedService<Channel, Auth>>;
 
+/// How long a connection (TCP and HTTP/2) may take.
+pub const CONNECT_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// How long a call may wait for the coordinator's answer (a streamed call: for its headers), 60 s unless
+/// [`RPC_TIMEOUT_ENV`] says otherwise: a server that accepts and never answers, or drops the connection in a way
+/// the client misses, is an error, not a hang.
+pub fn rpc_timeout() -> std::time::Duration {
+    std::env::var(RPC_TIMEOUT_ENV)
+        .ok()
+        .and_then(|v| v.trim().parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s > 0.0 && *s < 1e6)
+        .map_or(
+            std::time::Duration::from_secs(60),
+            std::time::Duration::from_secs_f64,
+        )
+}
+
+/// The variable that sets [`rpc_timeout`], in seconds.
+pub const RPC_TIMEOUT_ENV: &str = "VB_SUBMIT_RPC_TIMEOUT_S";
+
 /// Connects to the coordinator's public API with a token; `https://` URLs use TLS, verified against `ca` (PEM) when
 /// given, else against the public web PKI roots.
 pub async fn connect(url: &str, token: &str, ca: Option<&Path>) -> Result<Client, SubmitError> {
     let header: MetadataValue<_> = format!("Bearer {}", token.trim()).parse().map_err(|_| {
         SubmitError::Usage("the token contains characters that cannot be sent in a header".into())
     })?;
-    let channel = vb_proto::tls::endpoint(url, ca)
+    let endpoint = vb_proto::tls::endpoint(url, ca)
         .map_err(|message| SubmitError::Connect {
             url: url.into(),
             message,
         })?
-        .connect()
+        .timeout(rpc_timeout());
+    let connecting = tokio::time::timeout(CONNECT_TIMEOUT, endpoint.connect());
+    let channel = connecting
         .await
+        .map_err(|_| SubmitError::Connect {
+            url: url.into(),
+            message: format!(
+                "no connection within {} s (is `vb serve` or `vb coordinator` running there?)",
+                CONNECT_TIMEOUT.as_secs()
+            ),
+        })?
         .map_err(|e| SubmitError::Connect {
             url: url.into(),
             message: format!(
