@@ -5,7 +5,9 @@
 //!
 //! Task selection (`--tasks` of `vb eval`, `vb-submit` and the Python SDK) is here too: it reads only the factors.
 
-use crate::{ElevationLevel, ObstacleDensity, SemanticsKind, TaskId};
+use crate::{
+    ElevationLevel, ObstacleDensity, PlannerName, SemanticsKind, SimVersion, TaskId, VehicleId,
+};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// Start/goal pairs of every world.
@@ -25,13 +27,13 @@ pub struct WorldFacts {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Catalog {
     /// The simulator every result must have been produced with.
-    pub sim_version: String,
+    pub sim_version: SimVersion,
     pub task_set_version: String,
     pub worlds: BTreeMap<u32, WorldFacts>,
     /// The vehicles a submission may name, each with its own scale.
-    pub vehicles: BTreeMap<String, f64>,
+    pub vehicles: BTreeMap<VehicleId, f64>,
     /// Names of the built-in planners.
-    pub builtin_planners: Vec<String>,
+    pub builtin_planners: Vec<PlannerName>,
 }
 
 impl Catalog {

@@ -1,7 +1,8 @@
 //! Values that cross crates, with one string form each: a world's factors ([`ElevationLevel`],
 //! [`SemanticsKind`], [`ObstacleDensity`]), how an episode ended ([`Outcome`], [`EndReason`], and
 //! [`RecordedOutcome`] as the service records it), how a submission gives its planner ([`PlannerKind`]), under which rules ([`Rules`]), its metrics
-//! ([`EpisodeMetrics`]), a task's id ([`TaskId`], `wNNN-tK`), the states of the service's episodes and submissions
+//! ([`EpisodeMetrics`]), a task's id ([`TaskId`], `wNNN-tK`), the simulator's version, a vehicle's and a planner's name ([`SimVersion`],
+//! [`VehicleId`], [`PlannerName`]), the states of the service's episodes and submissions
 //! ([`EpisodeState`], [`SubmissionState`]), the trajectory codec ([`trajectory`]), and the checks of user-given
 //! names and image references ([`input`]).
 //!
@@ -12,6 +13,7 @@
 mod named;
 pub mod catalog;
 pub mod input;
+mod names;
 mod service_error;
 mod state;
 mod task_id;
@@ -20,6 +22,7 @@ mod vocab;
 
 pub use catalog::{Catalog, TaskGeometry, WorldFacts, WorldPicture};
 pub use named::UnknownName;
+pub use names::{PerceptionId, PlannerName, SimVersion, VehicleId};
 pub use service_error::{ServiceError, ServiceErrorCode};
 pub use state::{EpisodeState, RecordedOutcome, SubmissionState};
 pub use task_id::{TaskId, TaskIdError};

@@ -158,9 +158,9 @@ pub fn write_episodes(
         Data::OptBool(rows.iter().map(|r| fail(r).map(|f| f.short)).collect()),
         Data::ListF64(rows.iter().flat_map(|r| r.meta.final_state).collect()),
         Data::ListF64(rows.iter().flat_map(|r| r.meta.final_goal).collect()),
-        strs(&|_| spec.vehicle.clone()),
+        strs(&|_| spec.vehicle.to_string()),
         f64s(&|_| spec.scale),
-        strs(&|_| spec.sim_version.clone()),
+        strs(&|_| spec.sim_version.to_string()),
         strs(&|_| spec.task_set_version.clone()),
     ];
     let cols = columns()

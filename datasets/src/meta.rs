@@ -170,7 +170,7 @@ pub fn info(vertibench: VertibenchInfo, total_tasks: u64) -> Info {
     let (spec, layout, totals) = (&vertibench.spec, &vertibench.layout, &vertibench.totals);
     Info {
         codebase_version: CODEBASE_VERSION.into(),
-        robot_type: spec.vehicle.clone(),
+        robot_type: spec.vehicle.to_string(),
         total_episodes: totals.episodes,
         total_frames: totals.frames,
         total_tasks,

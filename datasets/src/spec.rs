@@ -45,7 +45,7 @@ pub struct DatasetSpec {
     pub kind: DatasetKind,
     pub variant: Variant,
     /// Vehicle name (LeRobot's `robot_type`) and its number of wheels (track contacts): the wheel features' rows.
-    pub vehicle: String,
+    pub vehicle: contracts::VehicleId,
     pub wheels: usize,
     /// World scale.
     pub scale: f64,
@@ -53,7 +53,7 @@ pub struct DatasetSpec {
     pub control_rate_hz: f64,
     /// The crops' geometry: the full variant stores them, the lite one says how to rebuild them.
     pub crop: CropSpec,
-    pub sim_version: String,
+    pub sim_version: contracts::SimVersion,
     pub task_set_version: String,
     /// The task set's master seed (`None` for imported sets).
     pub task_set_seed: Option<u64>,

@@ -65,14 +65,42 @@ impl From<registry::RegistryError> for EvalError {
 /// worlds, the built-in vehicles (each with its own scale) and the built-in planners.
 pub fn catalog(set: &tasks::TaskSet) -> Catalog {
     Catalog {
-        sim_version: SIM_VERSION.to_string(),
+        sim_version: SIM_VERSION.into(),
         task_set_version: set.version().to_string(),
         worlds: set.world_facts(),
         vehicles: sim_core::vehicle::builtin_vehicles()
             .into_iter()
-            .map(|v| (v.name, v.scale))
+            .map(|v| (v.name.into(), v.scale))
             .collect(),
-        builtin_planners: registry::names().iter().map(|n| n.to_string()).collect(),
+        builtin_planners: registry::names().iter().map(|&n| n.into()).collect(),
+    }
+}
+
+/// A perception profile by name (`ideal`, `nominal`, `degraded`) or from a TOML file (named by its stem unless it
+/// names itself); `vb eval --perception`, `vb dataset generate` and Python take it so.
+pub fn perception_profile(spec: &str) -> Result<perception::Profile, EvalError> {
+    if perception::BUILTIN.contains(&spec) {
+        return perception::Profile::builtin(spec).map_err(|e| perception_err(e.to_string()));
+    }
+    let path = std::path::Path::new(spec);
+    if !path.is_file() {
+        return Err(perception_err(
+            perception::ProfileError::Unknown(spec.into()).to_string(),
+        ));
+    }
+    let text = std::fs::read_to_string(path).map_err(|e| io_err(path, e))?;
+    let stem = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("custom");
+    perception::Profile::from_toml(stem, &text)
+        .map_err(|e| perception_err(format!("{}: {e}", path.display())))
+}
+
+fn perception_err(message: String) -> EvalError {
+    EvalError::Param {
+        field: "perception".into(),
+        message,
     }
 }
 

@@ -24,19 +24,21 @@ pub use sim_core::SIM_VERSION;
 #[derive(Clone, Debug)]
 pub struct EvalConfig {
     /// The planner's label in the rows: a built-in's name (for [`run`]) or the planner's own `name`.
-    pub planner: String,
+    pub planner: contracts::PlannerName,
     /// Which planner runs, checked against the `planner.json` of `out` on resume; `None`: the built-in `planner`.
     pub identity: Option<PlannerIdentity>,
     pub task_dir: PathBuf,
     /// `all`, or a comma-separated list of world ids (`17`), task ids (`w017-t3`) and named splits ([`SPLITS`]).
     pub tasks: String,
-    pub vehicle: String,
+    pub vehicle: contracts::VehicleId,
     /// World scale; `None` = the vehicle's own scale.
     pub scale: Option<f64>,
     pub out: PathBuf,
     /// How the caller names `out` in messages: `--out` (`vb eval`), `out=` (Python).
     pub out_param: String,
     pub episode: EpisodeConfig,
+    /// What the planner perceives (`Profile::ideal()`: the truth, as always).
+    pub perception: perception::Profile,
 }
 
 // Task selection (`--tasks`) is the task set's: one parser for `vb eval`, the service and Python.
@@ -158,15 +160,17 @@ pub fn prepare(cfg: &EvalConfig) -> Result<Prepared<'_>, EvalError> {
             || r.task_set_version != set.version()
             || r.sim_version != SIM_VERSION
             || r.rules != cfg.episode.rules()
+            || r.perception != cfg.perception.id()
         {
             return Err(again(format!(
-                "planner {} / vehicle {} / scale {} / task set {} / {} / {} rules",
+                "planner {} / vehicle {} / scale {} / task set {} / {} / {} rules / perception {}",
                 r.planner,
                 r.vehicle,
                 r.scale,
                 r.task_set_version,
                 r.sim_version,
-                r.rules.as_str()
+                r.rules.as_str(),
+                r.perception
             )));
         }
     }
@@ -259,6 +263,16 @@ impl Prepared<'_> {
             results_path,
             file,
         } = self;
+        if cfg.perception.degrades_maps() && make().reads_world_maps() {
+            return Err(EvalError::Param {
+                field: "perception".into(),
+                message: format!(
+                    "planner {} reads the world's ground-truth maps, and profile {} degrades them: it runs under \
+                     profiles that degrade only the state and the actuation",
+                    cfg.planner, cfg.perception.name
+                ),
+            });
+        }
         let file = Mutex::new(file);
         let total = selected.len();
         let finished = AtomicUsize::new(total - todo.len());
@@ -277,13 +291,27 @@ impl Prepared<'_> {
                     .ok_or(tasks::TasksError::UnknownWorld(w))?;
                 let mut planner = make();
                 let t0 = Instant::now();
-                let r = sim_core::run_episode_observed(
+                let mut hook: Box<dyn sim_core::ControlHook> = if cfg.perception.is_ideal() {
+                    Box::new(sim_core::Truth)
+                } else {
+                    Box::new(perception::Perception::new(
+                        &cfg.perception,
+                        &world,
+                        TaskId::new(w, t),
+                        task.start,
+                        cfg.episode.seed,
+                        vehicle.info().max_steer,
+                        1.0 / planner.control_rate_hz(),
+                    ))
+                };
+                let r = sim_core::run_episode_hooked(
                     &world,
                     &task,
                     &vehicle,
                     planner.as_mut(),
                     &cfg.episode,
                     &mut CancelOnFlag(cancel),
+                    hook.as_mut(),
                 );
                 if cancel.load(Ordering::SeqCst) {
                     return Ok(None);
@@ -297,12 +325,13 @@ impl Prepared<'_> {
                     density: world.density,
                     terrain: set.world_meta(w)?.terrain,
                     planner: cfg.planner.clone(),
-                    vehicle: vehicle.name.clone(),
+                    vehicle: vehicle.name.as_str().into(),
                     scale,
                     seed: cfg.episode.seed,
                     task_set_version: set.version().into(),
                     sim_version: SIM_VERSION.into(),
                     rules: cfg.episode.rules(),
+                    perception: cfg.perception.id(),
                     outcome: RecordedOutcome::Episode(r.outcome),
                     reason: r.reason,
                     detail: r.detail,

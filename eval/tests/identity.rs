@@ -21,6 +21,7 @@ fn cfg(out: &Path, tasks: &str) -> EvalConfig {
             max_time: 20.0,
             ..Default::default()
         },
+        perception: perception::Profile::ideal(),
     }
 }
 

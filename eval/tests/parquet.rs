@@ -36,6 +36,7 @@ fn row(task: u32, outcome: &str, time: f64) -> EpisodeRow {
         task_set_version: "v1-abc".into(),
         sim_version: "sim-core 0.1.0".into(),
         rules: Default::default(),
+        perception: Default::default(),
         outcome: outcome.parse().unwrap(),
         reason: outcome.parse().unwrap(),
         detail: String::new(),

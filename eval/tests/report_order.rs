@@ -19,6 +19,7 @@ fn row(task: &str, level: &str, semantics: &str, density: &str) -> EpisodeRow {
         task_set_version: "v".into(),
         sim_version: "s".into(),
         rules: Default::default(),
+        perception: Default::default(),
         outcome: "success".parse().unwrap(),
         reason: "success".parse().unwrap(),
         detail: String::new(),

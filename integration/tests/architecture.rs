@@ -79,9 +79,13 @@ fn sim_core_has_no_io_async_or_service_dependencies() {
 
 #[test]
 fn sim_core_sources_do_no_io_and_use_no_clock_or_global_rng() {
+    // The perception layer keeps the same rules: its noise is part of a run's identity.
     let mut files = Vec::new();
     rust_files(&repo_root().join("sim-core/src"), &mut files);
     assert!(files.len() >= 3, "sim-core sources not found");
+    let before = files.len();
+    rust_files(&repo_root().join("perception/src"), &mut files);
+    assert!(files.len() >= before + 3, "perception sources not found");
     let forbidden = [
         "std::fs",
         "std::net",
@@ -187,6 +191,7 @@ fn only_the_coordinator_writes_the_store_and_workers_never_touch_it() {
 fn protobuf_types_stay_at_the_service_edge() {
     for dir in [
         "sim-core",
+        "perception",
         "tasks",
         "swae",
         "planners/baselines",

@@ -1,5 +1,6 @@
 """In-process evaluation: a Python planner on the benchmark's runner, with ``vb eval``'s results and files."""
 
+import json
 import os
 import subprocess
 
@@ -111,3 +112,18 @@ def test_an_evaluation_resumes_and_refuses_another_planners_directory(tmp_path):
     assert list(df.task_id) == ["w001-t0", "w001-t1"]
     with pytest.raises(ValueError, match="holds results of planner pid"):
         vb.evaluate(PID(), "w001-t0", out=tmp_path / "r", progress=False)
+
+
+def test_a_perception_profile_reaches_the_runner_and_the_summary(tmp_path):
+    """``perception=``: the built-in PID under ``degraded`` drives differently from ``ideal`` and its summary names
+    the profile; a map-reading planner is refused by a map-degrading profile with the reason."""
+    ideal, _ = vb.evaluate("pid", "w001-t0,w040-t1", out=tmp_path / "ideal", progress=False)
+    noisy, summary = vb.evaluate("pid", "w001-t0,w040-t1", out=tmp_path / "degraded", progress=False,
+                                 perception="degraded")
+    assert summary["perception"].startswith("degraded@")
+    assert "perception" not in json.loads((tmp_path / "ideal" / "summary.json").read_text())
+    assert not ideal.path_length_m.equals(noisy.path_length_m)
+    with pytest.raises(ValueError, match="ground-truth maps"):
+        vb.evaluate("eh", "w001-t0", out=tmp_path / "eh", progress=False, perception="nominal")
+    with pytest.raises(ValueError, match="unknown perception profile"):
+        vb.evaluate("pid", "w001-t0", out=tmp_path / "fog", progress=False, perception="foggy")

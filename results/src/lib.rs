@@ -15,8 +15,8 @@ pub mod report;
 pub mod summary;
 
 use contracts::{
-    ElevationLevel, EndReason, EpisodeMetrics, ObstacleDensity, Outcome, RecordedOutcome, Rules,
-    SemanticsKind, TaskId,
+    ElevationLevel, EndReason, EpisodeMetrics, ObstacleDensity, Outcome, PerceptionId, PlannerName,
+    RecordedOutcome, Rules, SemanticsKind, SimVersion, TaskId, VehicleId,
 };
 use serde::{Deserialize, Serialize};
 
@@ -48,15 +48,19 @@ pub struct EpisodeRow {
     /// density (nested layouts). `None` for sets without groups (imported worlds).
     #[serde(default)]
     pub terrain: Option<u32>,
-    pub planner: String,
-    pub vehicle: String,
+    pub planner: PlannerName,
+    pub vehicle: VehicleId,
     pub scale: f64,
     pub seed: u64,
     pub task_set_version: String,
-    pub sim_version: String,
+    pub sim_version: SimVersion,
     /// The episode rules (`--release-rules`: release); older rows without it followed the paper's.
     #[serde(default)]
     pub rules: Rules,
+    /// The perception profile the planner saw the world through; omitted for ground truth (`ideal`), so rows of
+    /// ideal runs read as they always have.
+    #[serde(default, skip_serializing_if = "PerceptionId::is_ideal")]
+    pub perception: PerceptionId,
     /// The episode's outcome, or the service's infrastructure error (`error`).
     pub outcome: RecordedOutcome,
     pub reason: EndReason,
@@ -93,6 +97,7 @@ impl EpisodeRow {
             task_set_version: "v".into(),
             sim_version: "s".into(),
             rules: Default::default(),
+            perception: PerceptionId::ideal(),
             outcome,
             reason: outcome.plain_reason(),
             detail: String::new(),
@@ -107,13 +112,14 @@ impl EpisodeRow {
 /// `vb-submit results`' alike).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunFacts {
-    pub planner: String,
-    pub vehicle: String,
+    pub planner: PlannerName,
+    pub vehicle: VehicleId,
     pub scale: f64,
     pub seed: u64,
     pub task_set_version: String,
-    pub sim_version: String,
+    pub sim_version: SimVersion,
     pub rules: Rules,
+    pub perception: PerceptionId,
 }
 
 /// One finished episode's own values, as the service keeps them; [`RunFacts::row`] adds what the run shares.
@@ -124,7 +130,7 @@ pub struct EpisodeValues {
     pub semantics: SemanticsKind,
     pub density: ObstacleDensity,
     pub terrain: Option<u32>,
-    pub sim_version: Option<String>,
+    pub sim_version: Option<SimVersion>,
     pub outcome: RecordedOutcome,
     pub reason: EndReason,
     pub detail: String,
@@ -151,6 +157,7 @@ impl RunFacts {
             task_set_version: self.task_set_version.clone(),
             sim_version: e.sim_version.unwrap_or_else(|| self.sim_version.clone()),
             rules: self.rules,
+            perception: self.perception.clone(),
             outcome: e.outcome,
             reason: e.reason,
             detail: e.detail,
@@ -168,6 +175,7 @@ impl RunFacts {
             task_set_version: self.task_set_version.clone(),
             sim_version: self.sim_version.clone(),
             rules: self.rules,
+            perception: self.perception.clone(),
             ..summary::summarise(rows)
         }
     }

@@ -65,8 +65,8 @@ pub fn episode_columns(rows: &[EpisodeRow]) -> Vec<Column> {
             name: "terrain",
             values: ColumnValues::OptInt(rows.iter().map(|r| r.terrain.map(i64::from)).collect()),
         },
-        text("planner", rows, |r| r.planner.clone()),
-        text("vehicle", rows, |r| r.vehicle.clone()),
+        text("planner", rows, |r| r.planner.to_string()),
+        text("vehicle", rows, |r| r.vehicle.to_string()),
         // Full precision in CSV (`{}` of an f64 round-trips).
         Column {
             name: "scale",
@@ -74,7 +74,7 @@ pub fn episode_columns(rows: &[EpisodeRow]) -> Vec<Column> {
         },
         int("seed", rows, |r| r.seed as i64),
         text("task_set_version", rows, |r| r.task_set_version.clone()),
-        text("sim_version", rows, |r| r.sim_version.clone()),
+        text("sim_version", rows, |r| r.sim_version.to_string()),
         text("outcome", rows, |r| r.outcome.as_str().to_string()),
         text("reason", rows, |r| r.reason.to_string()),
         float("time_s", 3, rows, |r| r.metrics.time),
@@ -178,6 +178,9 @@ pub fn summary_text(s: &Summary) -> String {
         s.sim_version,
         s.rules.as_str()
     );
+    if !s.perception.is_ideal() {
+        t.insert_str(t.len() - 1, &format!(" | perception {}", s.perception));
+    }
     t += "(time: traversal time of successes, s, mean and variance; roll, pitch: per-episode mean |angle|, deg, mean and variance over episodes)\n";
     t += "group          tasks success  [95% CI]      time  time_var   roll roll_var  pitch pitch_var rollover  stuck  timeout  other\n";
     t += &line("overall", &s.overall);

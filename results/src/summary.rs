@@ -176,14 +176,17 @@ pub fn density_matched(rows: &[EpisodeRow]) -> Vec<DensityContrast> {
 /// The whole summary.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
-    pub planner: String,
-    pub vehicle: String,
+    pub planner: contracts::PlannerName,
+    pub vehicle: contracts::VehicleId,
     pub scale: f64,
     pub task_set_version: String,
-    pub sim_version: String,
+    pub sim_version: contracts::SimVersion,
     /// The episode rules the rows followed (older summaries without it: the paper's).
     #[serde(default)]
     pub rules: contracts::Rules,
+    /// The perception profile (omitted for ground truth, `ideal`).
+    #[serde(default, skip_serializing_if = "contracts::PerceptionId::is_ideal")]
+    pub perception: contracts::PerceptionId,
     pub overall: Aggregate,
     /// Each breakdown is keyed by the vocabulary's values, in their canonical order (low, medium, high; rigid,
     /// deformable, mixed; sparse, medium, dense).
@@ -262,6 +265,7 @@ pub fn summarise(rows: &[EpisodeRow]) -> Summary {
             .unwrap_or_default(),
         sim_version: first.map(|r| r.sim_version.clone()).unwrap_or_default(),
         rules: first.map(|r| r.rules).unwrap_or_default(),
+        perception: first.map(|r| r.perception.clone()).unwrap_or_default(),
         overall: aggregate(rows),
         by_level: breakdown(rows, |r| r.level),
         by_semantics: breakdown(rows, |r| r.semantics),

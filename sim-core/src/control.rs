@@ -115,4 +115,7 @@ impl Planner for PurePursuit {
             brake,
         })
     }
+    fn reads_world_maps(&self) -> bool {
+        false
+    }
 }

@@ -30,7 +30,9 @@ pub use contracts::trajectory;
 pub mod vehicle;
 
 pub use episode_run::{EpisodeRun, Transition};
-pub use runner::{run_episode, run_episode_observed, EpisodeObserver};
+pub use runner::{
+    run_episode, run_episode_hooked, run_episode_observed, ControlHook, EpisodeObserver, Truth,
+};
 
 /// Identifies the physics that produced a result: the crate version and a revision bumped with every change that
 /// alters trajectories (results carry it; the coordinator refuses workers of another one, and `vb eval` will not

@@ -65,10 +65,13 @@ pub fn semantics_crop(world: &World, state: &VehicleState, spec: &CropSpec, out:
 
 /// Whether a world point lies inside an obstacle's footprint.
 pub fn occupied(world: &World, x: f64, y: f64) -> bool {
-    world.obstacles.iter().any(|o| {
-        let top = Vector3::new(x, y, o.z + o.half_extents[2]);
-        sphere_obstacle(o, &top, 0.0).is_some()
-    })
+    world.obstacles.iter().any(|o| occupied_by(o, x, y))
+}
+
+/// Whether a world point lies inside the footprint of obstacle `o`.
+pub fn occupied_by(o: &crate::world::Obstacle, x: f64, y: f64) -> bool {
+    let top = Vector3::new(x, y, o.z + o.half_extents[2]);
+    sphere_obstacle(o, &top, 0.0).is_some()
 }
 
 /// Heading-aligned obstacle crop (1 = occupied or off the map). Each obstacle is tested only on the cells its

@@ -67,4 +67,10 @@ pub trait Planner: Send {
     fn reset(&mut self, ctx: &PlannerContext<'_>) -> Result<(), PlannerError>;
     /// Choose the next action.
     fn act(&mut self, obs: &Observation) -> Result<Action, PlannerError>;
+    /// Whether the planner reads the world's maps (heights, patches, obstacles) from [`PlannerContext::world`]:
+    /// a perception profile that degrades the maps refuses such a planner, which would see the truth through the
+    /// context. Planners that follow only the task's path and the state (PID, pure pursuit) say `false`.
+    fn reads_world_maps(&self) -> bool {
+        true
+    }
 }

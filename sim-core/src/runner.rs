@@ -10,7 +10,7 @@
 
 use crate::episode::{EndReason, EpisodeConfig, EpisodeMetrics, EpisodeResult, Outcome};
 use crate::episode_run::EpisodeRun;
-use crate::planner::{Action, Planner, PlannerContext, VehicleState};
+use crate::planner::{Action, Observation, Planner, PlannerContext, VehicleState};
 use crate::vehicle::VehicleSpec;
 use crate::world::{Task, World};
 use std::ops::ControlFlow;
@@ -29,6 +29,27 @@ pub struct NoObserver;
 impl EpisodeObserver for NoObserver {
     fn on_control_step(&mut self, _: &VehicleState, _: &Action) -> ControlFlow<()> {
         ControlFlow::Continue(())
+    }
+}
+
+/// What stands between the truth and the planner at each control step (the perception layer of the `perception`
+/// crate; nothing of it lives here): what the planner observes, and what the vehicle applies of its command.
+/// [`Truth`] passes both through unchanged.
+pub trait ControlHook {
+    /// Turns the true observation into what the planner perceives (called once per control step, in order).
+    fn observe(&mut self, world: &World, obs: &mut Observation);
+    /// The action the vehicle applies for the planner's command (called once per control step).
+    fn actuate(&mut self, command: Action) -> Action;
+}
+
+/// Ground truth: the planner sees the state as it is and the vehicle applies its command as given.
+pub struct Truth;
+
+impl ControlHook for Truth {
+    fn observe(&mut self, _: &World, _: &mut Observation) {}
+
+    fn actuate(&mut self, command: Action) -> Action {
+        command
     }
 }
 
@@ -63,6 +84,21 @@ pub fn run_episode_observed(
     cfg: &EpisodeConfig,
     observer: &mut dyn EpisodeObserver,
 ) -> EpisodeResult {
+    run_episode_hooked(world, task, vehicle, planner, cfg, observer, &mut Truth)
+}
+
+/// [`run_episode_observed`] with `hook` between the truth and the planner: the planner sees what `hook.observe`
+/// makes of each observation, the vehicle applies what `hook.actuate` makes of each command, and `observer` sees
+/// the perceived state and the command.
+pub fn run_episode_hooked(
+    world: &World,
+    task: &Task,
+    vehicle: &VehicleSpec,
+    planner: &mut dyn Planner,
+    cfg: &EpisodeConfig,
+    observer: &mut dyn EpisodeObserver,
+    hook: &mut dyn ControlHook,
+) -> EpisodeResult {
     let mut run = EpisodeRun::new(world, task, vehicle, cfg);
     let info = vehicle.info();
     let ctx = PlannerContext {
@@ -79,7 +115,8 @@ pub fn run_episode_observed(
         return failed_at_start(EndReason::PlannerError, detail);
     }
     loop {
-        let obs = run.observation();
+        let mut obs = run.observation();
+        hook.observe(world, &mut obs);
         let action = match planner.act(&obs) {
             Ok(a) => a,
             Err(e) => {
@@ -87,7 +124,13 @@ pub fn run_episode_observed(
                 break;
             }
         };
-        if run.control(action).is_err() {
+        // An invalid command reaches the run as given, which refuses it; a valid one goes through the actuation.
+        let applied = if action.validate().is_ok() {
+            hook.actuate(action)
+        } else {
+            action
+        };
+        if run.control(applied).is_err() {
             break;
         }
         if observer.on_control_step(&obs.state, &action).is_break() {

@@ -395,7 +395,7 @@ async fn results_cmd(
     match out {
         Some(dir) => {
             let mut s = vb_submit::results::write_dir(dir, &r)?;
-            s.planner = shown(&s.planner).into_owned();
+            s.planner = shown(&s.planner).into_owned().into();
             print!("{}", results::report::summary_text(&s));
             if logs {
                 let n = vb_submit::write_logs(&mut client, &r, &dir.join("logs")).await?;

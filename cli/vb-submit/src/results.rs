@@ -19,13 +19,15 @@ fn facts(r: &pb::ResultsResponse) -> Result<RunFacts, SubmitError> {
     let rules = Rules::from_wire(s.rules)
         .map_err(|e| SubmitError::Protocol(format!("the submission's episode rules: {e}")))?;
     Ok(RunFacts {
-        planner: s.name,
-        vehicle: s.vehicle,
+        planner: s.name.into(),
+        vehicle: s.vehicle.into(),
         scale: s.scale,
         seed: s.seed,
         task_set_version: s.task_set_version,
-        sim_version: s.sim_version,
+        sim_version: s.sim_version.into(),
         rules,
+        // The service evaluates under ground truth.
+        perception: contracts::PerceptionId::ideal(),
     })
 }
 
@@ -51,7 +53,7 @@ pub fn rows(r: &pb::ResultsResponse) -> Result<Vec<EpisodeRow>, SubmitError> {
                 SemanticsKind::from_wire(e.semantics).map_err(|err| bad("semantics", &err))?,
             density: ObstacleDensity::from_wire(e.density).map_err(|err| bad("density", &err))?,
             terrain: e.terrain,
-            sim_version: (!e.sim_version.is_empty()).then(|| e.sim_version.clone()),
+            sim_version: (!e.sim_version.is_empty()).then(|| e.sim_version.as_str().into()),
             outcome: RecordedOutcome::from_wire(outcome).map_err(|err| bad("outcome", &err))?,
             reason: EndReason::from_wire(reason).map_err(|err| bad("reason", &err))?,
             detail: e.detail.clone(),

@@ -64,7 +64,7 @@ pub struct GenerateConfig {
     /// Simulated hours to keep in the main sink (the run ends at the first episode that reaches them; a
     /// `failures` run also ends when its evaluation runs are done).
     pub hours: f64,
-    pub vehicle: String,
+    pub vehicle: contracts::VehicleId,
     /// World scale; `None`: the vehicle's own.
     pub scale: Option<f64>,
     /// The run's seed: episode `i` draws from [`episode_seed`]`(seed, i)` alone.

@@ -151,6 +151,9 @@ impl Planner for Pid {
         let e = self.t.path_error(obs);
         Ok(self.t.act(obs, e))
     }
+    fn reads_world_maps(&self) -> bool {
+        false
+    }
 }
 
 /// The elevation-heuristics baseline.

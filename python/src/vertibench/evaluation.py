@@ -80,6 +80,7 @@ def evaluate(
     step_timeout: float | None = 1.0,
     num_threads: int | None = None,
     progress: bool = True,
+    perception: str | os.PathLike[str] = "ideal",
 ) -> tuple[pd.DataFrame, dict]:
     """Evaluates ``planner`` on the benchmark's tasks and returns ``(episodes, summary)``: a pandas DataFrame with
     ``vb eval``'s ``episodes.csv`` columns at full precision and the failure ``detail`` (one row per episode), and
@@ -108,6 +109,10 @@ def evaluate(
     on stderr that Ctrl-C cannot stop it. Calling again with the same ``out`` resumes: it says so on
     stderr and runs only the missing episodes; ``out`` holding another planner's (or configuration's) results is
     refused with a ValueError.
+
+    ``perception`` is what the planner perceives: ``"ideal"`` (ground truth, the default), ``"nominal"``,
+    ``"degraded"`` or a profile's TOML file (``perception/PROFILES.md``), as ``vb eval --perception``; the rows
+    carry it, and a planner that reads the ground-truth maps is refused by a profile that degrades them.
     """
     import pandas as pd  # a core dependency
 
@@ -140,6 +145,7 @@ def evaluate(
             identity=None if isinstance(planner, str) else json.dumps(identity(planner)),
             step_timeout=step_timeout,
             num_threads=num_threads,
+            perception=str(perception),
         )
     episodes = pd.DataFrame(table)
     summary = json.loads((out / "summary.json").read_text())

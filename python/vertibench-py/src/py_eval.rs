@@ -188,7 +188,7 @@ const THREAD_FAILED: &str = "the evaluation thread failed (a bug: please report 
 /// interrupted run) reads in order here.
 #[pyfunction]
 #[pyo3(signature = (planner, out, task_dir, tasks="all", vehicle="hmmwv", scale=None, rules="paper",
-    progress=true, identity=None, step_timeout=None, num_threads=None))]
+    progress=true, identity=None, step_timeout=None, num_threads=None, perception="ideal"))]
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate<'py>(
     py: Python<'py>,
@@ -203,8 +203,10 @@ pub fn evaluate<'py>(
     identity: Option<&str>,
     step_timeout: Option<f64>,
     num_threads: Option<usize>,
+    perception: &str,
 ) -> PyResult<(Bound<'py, PyDict>, bool)> {
     let episode = rules_named(rules)?;
+    let perception = eval::perception_profile(perception).map_err(py_error)?;
     let step_timeout = step_timeout_of(step_timeout)?;
     if num_threads == Some(0) {
         return Err(PyValueError::new_err("num_threads must be at least 1"));
@@ -222,15 +224,16 @@ pub fn evaluate<'py>(
         }
     };
     let cfg = eval::EvalConfig {
-        planner: name,
+        planner: name.into(),
         identity: Some(identity),
         task_dir,
         tasks: tasks.to_string(),
-        vehicle: vehicle.to_string(),
+        vehicle: vehicle.into(),
         scale,
         out: out.clone(),
         out_param: "out=".into(),
         episode,
+        perception,
     };
     let threads = match &builtin {
         Some(_) => num_threads.unwrap_or(0),

@@ -2,40 +2,35 @@
 //! vocabulary's enums and the metrics convert through `vb_proto::convert`; the store keeps their string forms and
 //! the metrics as JSON.
 
-use contracts::{EndReason, EpisodeMetrics, PlannerKind, RecordedOutcome};
+use contracts::{EndReason, EpisodeMetrics, RecordedOutcome};
 use std::io::Read;
 use tonic::Status;
 use vb_proto::v1 as pb;
 use vb_proto::ProtoEnum;
-use vb_store::{EpisodeRecord, EpisodeResultIn, Lease, Progress, Submission};
+use vb_store::{EpisodeRecord, EpisodeResultIn, Lease, PlannerSpec, Progress, Submission};
 
-/// Rebuilds the planner reference a submission was made with from the store's kind and spec (an exec planner's
-/// argv is stored as a JSON list; anything else there is a corrupt row, said as such).
-pub fn planner_ref_from_parts(kind: PlannerKind, spec: &str) -> Result<pb::PlannerRef, String> {
+/// The planner reference a submission was made with, as the worker gets it (the store has already read its spec
+/// strictly: a corrupt stored argv never reaches here).
+pub fn planner_ref(spec: &PlannerSpec) -> pb::PlannerRef {
     use pb::planner_ref::Kind;
-    let kind = match kind {
-        PlannerKind::Builtin => Kind::Builtin(spec.into()),
-        PlannerKind::Endpoint => Kind::Endpoint(spec.into()),
-        PlannerKind::Image => Kind::Image(spec.into()),
-        PlannerKind::Exec => Kind::Exec(pb::ExecPlanner {
-            argv: serde_json::from_str(spec)
-                .map_err(|e| format!("the stored exec planner is not a JSON argv: {e}"))?,
-        }),
+    let kind = match spec {
+        PlannerSpec::Builtin(name) => Kind::Builtin(name.to_string()),
+        PlannerSpec::Endpoint(url) => Kind::Endpoint(url.clone()),
+        PlannerSpec::Image(image) => Kind::Image(image.clone()),
+        PlannerSpec::Exec(argv) => Kind::Exec(pb::ExecPlanner { argv: argv.clone() }),
     };
-    Ok(pb::PlannerRef { kind: Some(kind) })
+    pb::PlannerRef { kind: Some(kind) }
 }
 
-/// A lease as the worker gets it; INTERNAL if the submission's stored planner is corrupt.
+/// A lease as the worker gets it.
 pub fn lease(l: &Lease) -> Result<pb::EpisodeLease, Status> {
     let s = &l.submission;
-    let planner = planner_ref_from_parts(s.planner_kind, &s.planner_spec)
-        .map_err(|e| Status::internal(format!("submission {}: {e}", s.id)))?;
     Ok(pb::EpisodeLease {
         lease_id: l.lease_id.clone(),
         submission_id: s.id.clone(),
         task_id: l.task_id.to_string(),
-        planner: Some(planner),
-        vehicle: s.vehicle.clone(),
+        planner: Some(planner_ref(&s.planner)),
+        vehicle: s.vehicle.to_string(),
         scale: s.scale,
         seed: s.seed,
         step_deadline_s: s.step_deadline_s,
@@ -70,11 +65,11 @@ pub fn status(s: &Submission, p: &Progress, throughput_per_s: Option<f64>) -> pb
             0.0
         },
         name: s.name.clone(),
-        planner: format!("{}:{}", s.planner_kind, s.planner_spec),
+        planner: s.planner.to_string(),
         planner_identity: s.planner_identity.clone(),
         task_set_version: s.task_set_version.clone(),
-        sim_version: s.sim_version.clone(),
-        vehicle: s.vehicle.clone(),
+        sim_version: s.sim_version.to_string(),
+        vehicle: s.vehicle.to_string(),
         queued: p.queued,
         eta_known,
         scale: s.scale,
@@ -101,7 +96,11 @@ pub fn result_row(e: &EpisodeRecord, terrain: Option<u32>) -> pb::EpisodeResultR
         wall_time_s: e.wall_time_s.unwrap_or(0.0),
         attempts: e.attempts.max(0) as u32,
         planner_identity: e.planner_identity.clone().unwrap_or_default(),
-        sim_version: e.sim_version.clone().unwrap_or_default(),
+        sim_version: e
+            .sim_version
+            .as_ref()
+            .map(|v| v.to_string())
+            .unwrap_or_default(),
         terrain,
     }
 }
@@ -148,7 +147,7 @@ pub fn report(
         trajectory_csv: String::new(),
         trajectory_gz: (!r.trajectory.is_empty()).then(|| r.trajectory.clone()),
         planner_log: truncate(&r.planner_log, max_log),
-        sim_version: r.sim_version.clone(),
+        sim_version: r.sim_version.as_str().into(),
         planner_identity: r.planner_identity.clone(),
         wall_time_s: r.wall_time_s,
     })
@@ -171,21 +170,23 @@ fn flate2_decode(bytes: &[u8], max: usize, out: &mut String) -> Result<(), Statu
 #[cfg(test)]
 mod tests {
     use super::*;
-    use contracts::{ElevationLevel, EpisodeState, ObstacleDensity, Outcome, SemanticsKind};
+    use contracts::{
+        ElevationLevel, EpisodeState, ObstacleDensity, Outcome, PlannerKind, SemanticsKind,
+    };
 
-    /// An exec planner's stored argv comes back as it was submitted; a stored spec that is not a JSON argv is an
-    /// error, never a one-word command made of it.
+    /// An exec planner's stored argv reaches the worker as it was submitted, each argument whole (the store's
+    /// read refuses a spec that is not a JSON argv: `vb_store::PlannerSpec`'s test).
     #[test]
-    fn a_stored_exec_planner_is_its_argv_or_an_error() {
+    fn a_stored_exec_planner_is_its_argv() {
         use pb::planner_ref::Kind;
-        let r = planner_ref_from_parts(PlannerKind::Exec, r#"["python3","-m","planner"]"#).unwrap();
-        let Some(Kind::Exec(e)) = r.kind else {
-            panic!("{r:?}")
+        let stored =
+            PlannerSpec::from_columns(PlannerKind::Exec, r#"["python3","-m","my planner"]"#)
+                .unwrap();
+        let Some(Kind::Exec(e)) = planner_ref(&stored).kind else {
+            panic!("{stored:?}")
         };
-        assert_eq!(e.argv, ["python3", "-m", "planner"]);
-        let bad = planner_ref_from_parts(PlannerKind::Exec, "python3 -m planner").unwrap_err();
-        assert!(bad.contains("not a JSON argv"), "{bad}");
-        let b = planner_ref_from_parts(PlannerKind::Builtin, "pid").unwrap();
+        assert_eq!(e.argv, ["python3", "-m", "my planner"]);
+        let b = planner_ref(&PlannerSpec::Builtin("pid".into()));
         assert_eq!(b.kind, Some(Kind::Builtin("pid".into())));
     }
 

@@ -20,7 +20,7 @@ use tonic::{Request, Response, Status};
 use vb_proto::v1 as pb;
 use vb_store::{NewEpisode, NewSubmission, Store, StoreError, Submission, Token, TokenRole};
 
-pub use convert::planner_ref_from_parts;
+pub use convert::planner_ref;
 
 /// Largest gRPC message the coordinator accepts (a report carries a trajectory and a log).
 pub const MAX_MESSAGE_BYTES: usize = 8 << 20;

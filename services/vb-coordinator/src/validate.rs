@@ -3,7 +3,8 @@
 //! an image reference by Docker's grammar), vehicle, scale, deadline and task selection.
 
 use crate::*;
-use contracts::{input, Catalog, PlannerKind};
+use contracts::{input, Catalog, VehicleId};
+use vb_store::PlannerSpec;
 
 pub(crate) struct ValidSubmit {
     pub(crate) sub: NewSubmission,
@@ -14,7 +15,7 @@ impl Coordinator {
     pub(crate) fn validate_submit(&self, r: &pb::SubmitRequest) -> Result<ValidSubmit, Status> {
         let catalog = &self.cfg.catalog;
         let name = check_name(&r.name)?;
-        let (kind, spec) = self.planner(r.planner.as_ref())?;
+        let planner = self.planner(r.planner.as_ref())?;
         let (vehicle, scale) = vehicle_and_scale(catalog, &r.vehicle, r.scale)?;
         let deadline = step_deadline(r.step_deadline_s)?;
         let episodes = episodes(catalog, &r.task_ids)?;
@@ -23,12 +24,11 @@ impl Coordinator {
                 name: name.to_string(),
                 owner: String::new(),
                 owner_token: String::new(),
-                planner_kind: kind,
-                planner_identity: match kind {
-                    PlannerKind::Builtin => format!("builtin:{spec} ({})", catalog.sim_version),
-                    _ => format!("{kind}:{spec}"),
+                planner_identity: match &planner {
+                    PlannerSpec::Builtin(_) => format!("{planner} ({})", catalog.sim_version),
+                    _ => planner.to_string(),
                 },
-                planner_spec: spec,
+                planner,
                 vehicle,
                 scale,
                 seed: r.seed,
@@ -40,9 +40,8 @@ impl Coordinator {
         })
     }
 
-    /// The planner's kind and its spec as the store keeps it (a builtin's name, the URL, the argv as JSON, the
-    /// image reference); exec and image planners only where this coordinator runs them.
-    fn planner(&self, planner: Option<&pb::PlannerRef>) -> Result<(PlannerKind, String), Status> {
+    /// The planner as the store keeps it; exec and image planners only where this coordinator runs them.
+    fn planner(&self, planner: Option<&pb::PlannerRef>) -> Result<PlannerSpec, Status> {
         let catalog = &self.cfg.catalog;
         let refuse = |what: &str| {
             Status::permission_denied(format!("this coordinator does not run {what} planners"))
@@ -55,34 +54,32 @@ impl Coordinator {
             }
             Some(pb::planner_ref::Kind::Builtin(b)) => {
                 let names = &catalog.builtin_planners;
-                if !names.contains(b) {
+                if !names.iter().any(|n| n == b) {
+                    let names: Vec<&str> = names.iter().map(|n| n.as_str()).collect();
                     return Err(bad(format!(
                         "unknown builtin planner `{b}` (available: {})",
                         names.join(", ")
                     )));
                 }
-                (PlannerKind::Builtin, b.clone())
+                PlannerSpec::Builtin(b.into())
             }
             Some(pb::planner_ref::Kind::Endpoint(u)) => {
                 check_endpoint(u).map_err(bad)?;
-                (PlannerKind::Endpoint, u.clone())
+                PlannerSpec::Endpoint(u.clone())
             }
             Some(pb::planner_ref::Kind::Exec(e)) => {
                 if !self.cfg.allow_exec {
                     return Err(refuse("exec"));
                 }
                 check_argv(&e.argv)?;
-                (
-                    PlannerKind::Exec,
-                    serde_json::to_string(&e.argv).map_err(|e| Status::internal(e.to_string()))?,
-                )
+                PlannerSpec::Exec(e.argv.clone())
             }
             Some(pb::planner_ref::Kind::Image(i)) => {
                 if !self.cfg.allow_exec {
                     return Err(refuse("container"));
                 }
                 input::check_image_ref(i).map_err(|e| bad(e.to_string()))?;
-                (PlannerKind::Image, i.clone())
+                PlannerSpec::Image(i.clone())
             }
         })
     }
@@ -123,10 +120,10 @@ fn vehicle_and_scale(
     catalog: &Catalog,
     vehicle: &str,
     scale: f64,
-) -> Result<(String, f64), Status> {
+) -> Result<(VehicleId, f64), Status> {
     let name = if vehicle.is_empty() { "hmmwv" } else { vehicle };
     let Some(&own) = catalog.vehicles.get(name) else {
-        let names: Vec<&str> = catalog.vehicles.keys().map(String::as_str).collect();
+        let names: Vec<&str> = catalog.vehicles.keys().map(|v| v.as_str()).collect();
         return Err(bad(format!(
             "vehicle: unknown vehicle `{name}` (available: {})",
             names.join(", ")
@@ -138,7 +135,7 @@ fn vehicle_and_scale(
             "scale {scale} must be in (0, 1] (0 = the vehicle's own)"
         )));
     }
-    Ok((name.to_string(), s))
+    Ok((name.into(), s))
 }
 
 /// The per-step deadline (0: the default, 1 s), in (0, 60] s.

@@ -42,7 +42,7 @@ fn side(s: &PublicSubmission, rows: &[EpisodeRow]) -> Side {
         planner: crate::pages::submission::planner_label(s),
         state: s.state,
         task_set_version: s.task_set_version.clone(),
-        sim_version: s.sim_version.clone(),
+        sim_version: s.sim_version.to_string(),
         rules: rows.first().map(|r| r.rules).unwrap_or_default(),
         finished: rows.len(),
     }

@@ -5,11 +5,13 @@
 //! output: the public gets the reason's own sentence ([`contracts::EndReason::public_sentence`]) instead, and the
 //! owner the whole detail (`vb-submit results`). Every read of the store by the leaderboard goes through here.
 
-use contracts::PlannerKind;
+use contracts::{PlannerKind, SimVersion, VehicleId};
 use results::RunFacts;
 use serde::Serialize;
 use sha2::{Digest, Sha256};
-use vb_store::{EpisodeRecord, Reader, StoreError, StoredSummary, Submission, SubmissionState};
+use vb_store::{
+    EpisodeRecord, PlannerSpec, Reader, StoreError, StoredSummary, Submission, SubmissionState,
+};
 
 /// One episode as the public sees it: its record and trajectory (the recorded samples, decoded), without the
 /// planner's log.
@@ -27,11 +29,10 @@ pub fn identity_hash(identity: &str) -> String {
 }
 
 /// The planner as the public sees it: a built-in's name, or the kind and the identity's hash.
-fn public_planner(kind: PlannerKind, spec: &str, identity: &str) -> (String, String) {
-    if kind == PlannerKind::Builtin {
-        (spec.to_string(), identity.to_string())
-    } else {
-        (String::new(), identity_hash(identity))
+fn public_planner(spec: &PlannerSpec, identity: &str) -> (String, String) {
+    match spec {
+        PlannerSpec::Builtin(name) => (name.to_string(), identity.to_string()),
+        _ => (String::new(), identity_hash(identity)),
     }
 }
 
@@ -46,12 +47,12 @@ pub struct PublicSubmission {
     pub planner_kind: PlannerKind,
     pub planner_spec: String,
     pub planner_identity: String,
-    pub vehicle: String,
+    pub vehicle: VehicleId,
     pub scale: f64,
     pub seed: u64,
     pub step_deadline_s: f64,
     pub task_set_version: String,
-    pub sim_version: String,
+    pub sim_version: SimVersion,
     pub state: SubmissionState,
     pub created_at: f64,
     pub finished_at: Option<f64>,
@@ -62,8 +63,7 @@ pub struct PublicSubmission {
 }
 
 fn redact(s: Submission) -> PublicSubmission {
-    let (planner_spec, planner_identity) =
-        public_planner(s.planner_kind, &s.planner_spec, &s.planner_identity);
+    let (planner_spec, planner_identity) = public_planner(&s.planner, &s.planner_identity);
     PublicSubmission {
         facts: vb_store::aggregate::facts(&s),
         planner_spec,
@@ -72,7 +72,7 @@ fn redact(s: Submission) -> PublicSubmission {
         seq: s.seq,
         name: s.name,
         owner: s.owner,
-        planner_kind: s.planner_kind,
+        planner_kind: s.planner.kind(),
         vehicle: s.vehicle,
         scale: s.scale,
         seed: s.seed,
@@ -143,7 +143,7 @@ pub async fn episode_detail(
     id: &str,
     task: contracts::TaskId,
 ) -> Result<PublicEpisode, StoreError> {
-    let kind = r.submission(id).await?.planner_kind;
+    let kind = r.submission(id).await?.planner.kind();
     let d = r.episode_detail(id, task).await?;
     // An episode without a trajectory (not finished, or failed at its start) has none.
     let trajectory = if d.trajectory_csv.is_empty() {

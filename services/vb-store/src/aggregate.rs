@@ -10,13 +10,14 @@ use results::{EpisodeRow, EpisodeValues, RunFacts};
 /// The facts every row of a submission shares (the service runs every episode under [`SERVICE_RULES`]).
 pub fn facts(sub: &Submission) -> RunFacts {
     RunFacts {
-        planner: sub.name.clone(),
+        planner: sub.name.as_str().into(),
         vehicle: sub.vehicle.clone(),
         scale: sub.scale,
         seed: sub.seed,
         task_set_version: sub.task_set_version.clone(),
         sim_version: sub.sim_version.clone(),
         rules: SERVICE_RULES,
+        perception: contracts::PerceptionId::ideal(),
     }
 }
 

@@ -68,6 +68,7 @@ pub type Result<T> = std::result::Result<T, StoreError>;
 pub mod aggregate;
 mod blobs;
 mod metrics;
+mod planner_spec;
 mod reader;
 mod report;
 mod schedule;

@@ -54,7 +54,7 @@ impl Store {
         .bind(r.reason.as_str())
         .bind(&r.detail)
         .bind(metrics_json)
-        .bind(&r.sim_version)
+        .bind(r.sim_version.as_str())
         .bind(&r.planner_identity)
         .bind(r.wall_time_s)
         .bind(now)

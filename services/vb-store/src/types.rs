@@ -1,8 +1,10 @@
 //! The store's values: tokens, submissions, episodes, leases, reports and progress, and how rows become them.
 
+pub use crate::planner_spec::PlannerSpec;
 use crate::{Result, StoreError};
 use contracts::{
-    ElevationLevel, EndReason, EpisodeMetrics, ObstacleDensity, SemanticsKind, TaskId,
+    ElevationLevel, EndReason, EpisodeMetrics, ObstacleDensity, SemanticsKind, SimVersion, TaskId,
+    VehicleId,
 };
 pub use contracts::{EpisodeState, PlannerKind, RecordedOutcome, SubmissionState};
 use serde::{Deserialize, Serialize};
@@ -65,15 +67,14 @@ pub struct NewSubmission {
     pub owner: String,
     /// Id of the token that submitted it: only that token (and admins) may see and cancel it.
     pub owner_token: String,
-    pub planner_kind: PlannerKind,
-    pub planner_spec: String,
+    pub planner: PlannerSpec,
     pub planner_identity: String,
-    pub vehicle: String,
+    pub vehicle: VehicleId,
     pub scale: f64,
     pub seed: u64,
     pub step_deadline_s: f64,
     pub task_set_version: String,
-    pub sim_version: String,
+    pub sim_version: SimVersion,
 }
 
 /// One task of a new submission, with the factors the leaderboard breaks results down by.
@@ -98,29 +99,26 @@ impl NewEpisode {
     }
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Submission {
     pub id: String,
     pub seq: i64,
     pub name: String,
     pub owner: String,
     /// Id of the token that submitted it (empty for submissions made before owners were recorded).
-    #[serde(default)]
     pub owner_token: String,
-    pub planner_kind: PlannerKind,
-    pub planner_spec: String,
+    pub planner: PlannerSpec,
     pub planner_identity: String,
-    pub vehicle: String,
+    pub vehicle: VehicleId,
     pub scale: f64,
     pub seed: u64,
     pub step_deadline_s: f64,
     pub task_set_version: String,
-    pub sim_version: String,
+    pub sim_version: SimVersion,
     pub state: SubmissionState,
     pub created_at: f64,
     pub finished_at: Option<f64>,
     /// How many tasks it has (episodes, whatever their state).
-    #[serde(default)]
     pub tasks: u32,
 }
 
@@ -176,7 +174,7 @@ pub struct EpisodeResultIn {
     /// `trajectory_csv`.
     pub trajectory_gz: Option<Vec<u8>>,
     pub planner_log: String,
-    pub sim_version: String,
+    pub sim_version: SimVersion,
     pub planner_identity: String,
     pub wall_time_s: f64,
 }
@@ -209,7 +207,7 @@ pub struct EpisodeRecord {
     pub reason: Option<EndReason>,
     pub detail: Option<String>,
     pub metrics: Option<EpisodeMetrics>,
-    pub sim_version: Option<String>,
+    pub sim_version: Option<SimVersion>,
     pub planner_identity: Option<String>,
     pub wall_time_s: Option<f64>,
     pub finished_at: Option<f64>,
@@ -230,16 +228,18 @@ pub(crate) fn submission_from_row(r: &AnyRow) -> Result<Submission> {
         name: r.try_get("name")?,
         owner: r.try_get("owner")?,
         owner_token: r.try_get("owner_token")?,
-        planner_kind: PlannerKind::parse(&r.try_get::<String, _>("planner_kind")?)
-            .map_err(|e| StoreError::Corrupt(e.to_string()))?,
-        planner_spec: r.try_get("planner_spec")?,
+        planner: PlannerSpec::from_columns(
+            PlannerKind::parse(&r.try_get::<String, _>("planner_kind")?)
+                .map_err(|e| StoreError::Corrupt(e.to_string()))?,
+            &r.try_get::<String, _>("planner_spec")?,
+        )?,
         planner_identity: r.try_get("planner_identity")?,
-        vehicle: r.try_get("vehicle")?,
+        vehicle: r.try_get::<String, _>("vehicle")?.into(),
         scale: r.try_get("scale")?,
         seed: r.try_get::<i64, _>("seed")? as u64,
         step_deadline_s: r.try_get("step_deadline_s")?,
         task_set_version: r.try_get("task_set_version")?,
-        sim_version: r.try_get("sim_version")?,
+        sim_version: r.try_get::<String, _>("sim_version")?.into(),
         state: SubmissionState::parse(&r.try_get::<String, _>("state")?)
             .map_err(|e| StoreError::Corrupt(e.to_string()))?,
         created_at: r.try_get("created_at")?,
@@ -304,7 +304,9 @@ pub(crate) fn episode_from_row(r: &AnyRow) -> Result<EpisodeRecord> {
         reason,
         detail: r.try_get("detail")?,
         metrics,
-        sim_version: r.try_get("sim_version")?,
+        sim_version: r
+            .try_get::<Option<String>, _>("sim_version")?
+            .map(SimVersion::from),
         planner_identity: r.try_get("planner_identity")?,
         wall_time_s: r.try_get("wall_time_s")?,
         finished_at: r.try_get("finished_at")?,

@@ -13,7 +13,7 @@ async fn workers_that_do_not_run_exec_planners_get_none() -> anyhow::Result<()> 
     for url in backends("noexec").await? {
         let store = Store::open(&url).await?;
         let mut exec = new_submission("exec");
-        exec.planner_kind = "exec".parse().unwrap();
+        exec.planner = vb_store::PlannerSpec::Exec(vec!["planner".into()]);
         store.create_submission(&exec, &episodes(1), 0.0).await?;
         let builtin = store
             .create_submission(&new_submission("builtin"), &episodes(1), 1.0)
@@ -36,10 +36,10 @@ async fn image_planners_wait_for_a_worker_that_runs_them() -> anyhow::Result<()>
     for url in backends("images").await? {
         let store = Store::open(&url).await?;
         let mut image = new_submission("image");
-        image.planner_kind = "image".parse().unwrap();
+        image.planner = vb_store::PlannerSpec::Image("planner:latest".into());
         let image = store.create_submission(&image, &episodes(2), 0.0).await?;
         let mut exec = new_submission("exec");
-        exec.planner_kind = "exec".parse().unwrap();
+        exec.planner = vb_store::PlannerSpec::Exec(vec!["planner".into()]);
         let exec = store.create_submission(&exec, &episodes(1), 1.0).await?;
         let w = store
             .register_worker("w", 4, "sim-core test", "tk", 2.0)
@@ -75,7 +75,7 @@ async fn a_refused_submission_waits_for_a_worker_that_can_run_it() -> anyhow::Re
     for url in backends("refuse").await? {
         let store = Store::open(&url).await?;
         let mut image = new_submission("image");
-        image.planner_kind = "image".parse().unwrap();
+        image.planner = vb_store::PlannerSpec::Image("planner:latest".into());
         let id = store.create_submission(&image, &episodes(1), 0.0).await?;
         let docker = PlannerKinds {
             exec: true,

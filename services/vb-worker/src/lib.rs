@@ -119,7 +119,7 @@ pub fn trajectory_gzip(r: &EpisodeResult) -> Vec<u8> {
 pub struct EpisodeSpec {
     pub task_id: contracts::TaskId,
     pub planner: pb::PlannerRef,
-    pub vehicle: String,
+    pub vehicle: contracts::VehicleId,
     pub scale: f64,
     pub seed: u64,
     pub step_deadline_s: f64,

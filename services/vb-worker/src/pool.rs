@@ -388,7 +388,7 @@ async fn run_lease(
     let spec = EpisodeSpec {
         task_id,
         planner: lease.planner.clone().unwrap_or_default(),
-        vehicle: lease.vehicle.clone(),
+        vehicle: lease.vehicle.as_str().into(),
         scale: lease.scale,
         seed: lease.seed,
         step_deadline_s: lease.step_deadline_s,

@@ -116,7 +116,7 @@ pub fn run(cmd: DatasetCmd) -> anyhow::Result<()> {
                 Kind::Failures => DatasetKind::Failures,
             };
             let mut cfg = GenerateConfig::new(kind, &task_set, hours);
-            cfg.vehicle = vehicle;
+            cfg.vehicle = vehicle.into();
             cfg.scale = scale;
             cfg.seed = seed;
             cfg.control_rate_hz = control_rate;

@@ -37,6 +37,10 @@ pub struct EvalArgs {
     /// rollover classification (a failed trial whose |roll| or |pitch| ever exceeded 30 degrees).
     #[arg(long)]
     release_rules: bool,
+    /// What the planner perceives: ideal (ground truth, the default), nominal, degraded, or a profile's TOML file
+    /// (docs: perception/profiles/). Results carry the profile; a directory of another profile is not resumed.
+    #[arg(long, default_value = "ideal")]
+    perception: String,
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -54,19 +58,21 @@ pub fn run(a: EvalArgs) -> anyhow::Result<()> {
         EpisodeConfig::default()
     };
     let builtin = eval::Builtin::resolve(&a.planner, a.weights.as_deref())?;
+    let perception = eval::perception_profile(&a.perception)?;
     let cfg = eval::EvalConfig {
         identity: Some(eval::PlannerIdentity::of_builtin(&builtin)),
-        planner: a.planner,
+        planner: a.planner.into(),
         task_dir: a
             .task_dir
             .clone()
             .unwrap_or_else(tasks::embedded::default_dir),
         tasks: a.tasks,
-        vehicle: a.vehicle,
+        vehicle: a.vehicle.into(),
         scale: a.scale,
         out: a.out.clone(),
         out_param: "--out".into(),
         episode,
+        perception,
     };
     let start = std::time::Instant::now();
     let progress = |done: usize, total: usize, secs: f64| {

@@ -79,8 +79,8 @@ fn row(rank: Option<usize>, name: &str, s: &Summary) -> Row {
         rank: rank.map_or("-".into(), |r| r.to_string()),
         name: name.to_string(),
         href: None,
-        planner: s.planner.clone(),
-        vehicle: s.vehicle.clone(),
+        planner: s.planner.to_string(),
+        vehicle: s.vehicle.to_string(),
         state: String::new(),
         progress: String::new(),
         coverage: String::new(),
@@ -90,7 +90,7 @@ fn row(rank: Option<usize>, name: &str, s: &Summary) -> Row {
         by_semantics: trio(&s.by_semantics),
         by_density: trio(&s.by_density),
         task_set: s.task_set_version.clone(),
-        simulator: s.sim_version.clone(),
+        simulator: s.sim_version.to_string(),
         rules: s.rules.as_str().to_string(),
     }
 }

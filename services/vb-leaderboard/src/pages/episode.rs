@@ -173,7 +173,10 @@ pub fn page(sub: &PublicSubmission, d: &PublicEpisode, map: Option<&WorldPicture
             ("detail", opt(&r.detail)),
             ("attempts", r.attempts.to_string()),
             ("planner identity", opt(&r.planner_identity)),
-            ("simulator", opt(&r.sim_version)),
+            (
+                "simulator",
+                opt(&r.sim_version.as_ref().map(|v| v.to_string())),
+            ),
             (
                 "worker wall time",
                 r.wall_time_s.map_or("-".into(), |t| format!("{t:.2} s")),

@@ -110,7 +110,7 @@ fn repro(s: &PublicSubmission) -> Vec<(&'static str, String)> {
         ("seed", s.seed.to_string()),
         ("per-step deadline", format!("{} s", s.step_deadline_s)),
         ("task set", s.task_set_version.clone()),
-        ("simulator", s.sim_version.clone()),
+        ("simulator", s.sim_version.to_string()),
     ]
 }
 
