@@ -103,6 +103,8 @@ pub struct Mapper {
     scans: u32,
     /// Each ray's steepest slope so far (`+inf`: it left the map), reused across scans.
     steepest: Vec<f64>,
+    /// `1 / r` of each step of a scan, reused across scans.
+    inv_r: Vec<f64>,
     rng: ChaCha8Rng,
 }
 
@@ -134,6 +136,7 @@ impl Mapper {
             surface,
             scans: 0,
             steepest: Vec::new(),
+            inv_r: Vec::new(),
             rng,
         }
     }
@@ -156,6 +159,10 @@ impl Mapper {
         };
         let [sx, sy, sz] = scan.origin;
         let (half_x, half_y) = ((h.nx - 1) as f64 * 0.5, (h.ny - 1) as f64 * 0.5);
+        let (nx, ny, inv_cell) = (h.nx as f64, h.ny as f64, 1.0 / h.cell);
+        let mut inv_r = std::mem::take(&mut self.inv_r);
+        inv_r.clear();
+        inv_r.extend((0..=steps).map(|j| 1.0 / (j.max(1) as f64 * step)));
         let mut rays = ((2.0 * fov).ceil() as usize).max(2);
         self.steepest.clear();
         self.steepest.resize(rays, f64::NEG_INFINITY);
@@ -171,26 +178,26 @@ impl Mapper {
                 }
                 let a = first + fov * (k as f64 + 0.5) / rays as f64;
                 let (dy, dx) = a.sin_cos();
-                for jj in j..=end {
-                    let r = jj as f64 * step;
-                    let (ix, iy) = (
-                        ((sx + r * dx) / h.cell + half_x).round(),
-                        ((sy + r * dy) / h.cell + half_y).round(),
-                    );
-                    if ix < 0.0 || iy < 0.0 || ix as usize >= h.nx || iy as usize >= h.ny {
+                // Grid coordinates (plus a half, so truncation rounds) along the ray, one step at a time.
+                let (gx0, gy0) = (sx * inv_cell + half_x + 0.5, sy * inv_cell + half_y + 0.5);
+                let (ux, uy) = (dx * step * inv_cell, dy * step * inv_cell);
+                for (jj, inv_r) in inv_r.iter().enumerate().take(end + 1).skip(j) {
+                    let (fx, fy) = (gx0 + jj as f64 * ux, gy0 + jj as f64 * uy);
+                    if !(fx >= 0.0 && fy >= 0.0 && fx < nx && fy < ny) {
                         // Off the map: this ray and its children are done.
                         steepest = f64::INFINITY;
                         break;
                     }
-                    let idx = iy as usize * h.nx + ix as usize;
-                    let slope = (f64::from(self.surface[idx]) - sz) / r;
+                    let (ix, iy) = (fx as usize, fy as usize);
+                    let idx = iy * h.nx + ix;
+                    let slope = (f64::from(self.surface[idx]) - sz) * inv_r;
                     if slope < steepest {
                         continue;
                     }
                     steepest = slope;
                     if self.stamp[idx] != self.scans {
                         self.stamp[idx] = self.scans;
-                        self.measure(h, idx, scan);
+                        self.measure(h, ix, iy, scan);
                         measured += 1;
                     }
                 }
@@ -208,18 +215,20 @@ impl Mapper {
                 rays *= 2;
             }
         }
+        self.inv_r = inv_r;
         measured
     }
 
     /// Fuses one measurement of cell `idx`, its variance `k d^2` from the sensor to the cell's centre.
-    fn measure(&mut self, h: &sim_core::world::Heightmap, idx: usize, scan: &Scan) {
+    fn measure(&mut self, h: &sim_core::world::Heightmap, ix: usize, iy: usize, scan: &Scan) {
+        let idx = iy * h.nx + ix;
         let truth = f64::from(h.heights[idx]);
         if scan.noise_k <= 0.0 {
             self.map.fuse(idx, truth, 0.0);
             return;
         }
         let [sx, sy, sz] = scan.origin;
-        let (cx, cy) = h.sample_position(idx % h.nx, idx / h.nx);
+        let (cx, cy) = h.sample_position(ix, iy);
         let d2 = (cx - sx).powi(2) + (cy - sy).powi(2) + (truth - sz).powi(2);
         let var = scan.noise_k * d2;
         let z = truth + var.sqrt() * normal(&mut self.rng);

@@ -47,12 +47,11 @@ pub fn stream(key: &EpisodeKey, channel: Channel) -> ChaCha8Rng {
     ChaCha8Rng::from_seed(seed)
 }
 
-/// A standard normal draw (Box-Muller on two uniforms in (0, 1]: no tables, the same on every machine).
+/// A standard normal draw (rand_distr's ziggurat: a table lookup for almost every draw, `exp` and `ln` in the
+/// tails; the same sequence on every machine).
 pub fn normal(rng: &mut ChaCha8Rng) -> f64 {
     use rand::Rng;
-    let u1: f64 = 1.0 - rng.gen::<f64>();
-    let u2: f64 = rng.gen::<f64>();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    rng.sample::<f64, _>(rand_distr::StandardNormal)
 }
 
 /// A uniform draw in [0, 1).
