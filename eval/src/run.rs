@@ -263,16 +263,7 @@ impl Prepared<'_> {
             results_path,
             file,
         } = self;
-        if cfg.perception.degrades_maps() && make().reads_world_maps() {
-            return Err(EvalError::Param {
-                field: "perception".into(),
-                message: format!(
-                    "planner {} reads the world's ground-truth maps, and profile {} degrades them: it runs under \
-                     profiles that degrade only the state and the actuation",
-                    cfg.planner, cfg.perception.name
-                ),
-            });
-        }
+        refuse_map_reading(cfg, make)?;
         let file = Mutex::new(file);
         let total = selected.len();
         let finished = AtomicUsize::new(total - todo.len());
@@ -283,60 +274,10 @@ impl Prepared<'_> {
                 if cancel.load(Ordering::SeqCst) {
                     return Ok(None);
                 }
-                let world = set.world(w, scale)?;
-                let task = set
-                    .tasks(w, scale)?
-                    .into_iter()
-                    .nth(t as usize)
-                    .ok_or(tasks::TasksError::UnknownWorld(w))?;
-                let mut planner = make();
-                let t0 = Instant::now();
-                let mut hook: Box<dyn sim_core::ControlHook> = if cfg.perception.is_ideal() {
-                    Box::new(sim_core::Truth)
-                } else {
-                    Box::new(perception::Perception::new(
-                        &cfg.perception,
-                        &world,
-                        TaskId::new(w, t),
-                        task.start,
-                        cfg.episode.seed,
-                        vehicle.info().max_steer,
-                        1.0 / planner.control_rate_hz(),
-                    ))
-                };
-                let r = sim_core::run_episode_hooked(
-                    &world,
-                    &task,
-                    &vehicle,
-                    planner.as_mut(),
-                    &cfg.episode,
-                    &mut CancelOnFlag(cancel),
-                    hook.as_mut(),
-                );
-                if cancel.load(Ordering::SeqCst) {
+                let Some(row) =
+                    run_task(cfg, &set, &vehicle, scale, make, cancel, TaskId::new(w, t))?
+                else {
                     return Ok(None);
-                }
-                let row = EpisodeRow {
-                    task_id: TaskId::new(w, t),
-                    world_id: w,
-                    task_index: t,
-                    level: world.level,
-                    semantics: world.semantics,
-                    density: world.density,
-                    terrain: set.world_meta(w)?.terrain,
-                    planner: cfg.planner.clone(),
-                    vehicle: vehicle.name.as_str().into(),
-                    scale,
-                    seed: cfg.episode.seed,
-                    task_set_version: set.version().into(),
-                    sim_version: SIM_VERSION.into(),
-                    rules: cfg.episode.rules(),
-                    perception: cfg.perception.id(),
-                    outcome: RecordedOutcome::Episode(r.outcome),
-                    reason: r.reason,
-                    detail: r.detail,
-                    metrics: r.metrics,
-                    wall_time_s: t0.elapsed().as_secs_f64(),
                 };
                 let line =
                     serde_json::to_string(&row).map_err(|e| io_err(&results_path, e))? + "\n";
@@ -361,4 +302,88 @@ impl Prepared<'_> {
         rows.sort_by_key(|r| (r.world_id, r.task_index));
         Ok(rows)
     }
+}
+
+/// A map-degrading perception profile refuses a planner that reads the world's ground-truth maps.
+fn refuse_map_reading(cfg: &EvalConfig, make: PlannerFactory<'_>) -> Result<(), EvalError> {
+    if cfg.perception.degrades_maps() && make().reads_world_maps() {
+        return Err(EvalError::Param {
+            field: "perception".into(),
+            message: format!(
+                "planner {} reads the world's ground-truth maps, and profile {} degrades them: it runs under \
+                 profiles that degrade only the state and the actuation",
+                cfg.planner, cfg.perception.name
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// One task's episode with a planner from `make`, under the run's perception profile, as its row (`None` once
+/// the evaluation is cancelled).
+fn run_task(
+    cfg: &EvalConfig,
+    set: &TaskSet,
+    vehicle: &VehicleSpec,
+    scale: f64,
+    make: PlannerFactory<'_>,
+    cancel: &AtomicBool,
+    id: TaskId,
+) -> Result<Option<EpisodeRow>, EvalError> {
+    let (w, t) = (id.world, id.index);
+    let world = set.world(w, scale)?;
+    let task = set
+        .tasks(w, scale)?
+        .into_iter()
+        .nth(t as usize)
+        .ok_or(tasks::TasksError::UnknownWorld(w))?;
+    let mut planner = make();
+    let t0 = Instant::now();
+    let mut hook: Box<dyn sim_core::ControlHook> = if cfg.perception.is_ideal() {
+        Box::new(sim_core::Truth)
+    } else {
+        Box::new(perception::Perception::new(
+            &cfg.perception,
+            &world,
+            id,
+            task.start,
+            cfg.episode.seed,
+            vehicle.info().max_steer,
+            1.0 / planner.control_rate_hz(),
+        ))
+    };
+    let r = sim_core::run_episode_hooked(
+        &world,
+        &task,
+        vehicle,
+        planner.as_mut(),
+        &cfg.episode,
+        &mut CancelOnFlag(cancel),
+        hook.as_mut(),
+    );
+    if cancel.load(Ordering::SeqCst) {
+        return Ok(None);
+    }
+    Ok(Some(EpisodeRow {
+        task_id: id,
+        world_id: w,
+        task_index: t,
+        level: world.level,
+        semantics: world.semantics,
+        density: world.density,
+        terrain: set.world_meta(w)?.terrain,
+        planner: cfg.planner.clone(),
+        vehicle: vehicle.name.as_str().into(),
+        scale,
+        seed: cfg.episode.seed,
+        task_set_version: set.version().into(),
+        sim_version: SIM_VERSION.into(),
+        rules: cfg.episode.rules(),
+        perception: cfg.perception.id(),
+        outcome: RecordedOutcome::Episode(r.outcome),
+        reason: r.reason,
+        detail: r.detail,
+        metrics: r.metrics,
+        wall_time_s: t0.elapsed().as_secs_f64(),
+    }))
 }

@@ -11,6 +11,7 @@
 //! Deterministic and free of IO (callers read profile files): the same rules as `sim-core` (`clippy.toml`).
 
 pub mod actuation;
+pub mod belief;
 pub mod map;
 pub mod obstacles;
 pub mod profile;
@@ -37,6 +38,8 @@ pub struct Perceived<'a> {
     pub patches: &'a [Patch],
     /// The obstacles the planner knows of: those detected so far and this scan's phantoms.
     pub obstacles: &'a [Obstacle],
+    /// All of it as one believed world (`belief::Belief`): what map-reading planners and crops read.
+    pub belief: &'a belief::Belief,
 }
 
 /// One episode's perception layer.
@@ -47,6 +50,7 @@ pub struct Perception {
     actuator: actuation::Actuator,
     patches: Vec<Patch>,
     obstacles: Vec<Obstacle>,
+    belief: belief::Belief,
     /// Obstacles are the truth (detection perfect and the map given whole): no scans.
     obstacles_exact: bool,
     scan_period: f64,
@@ -112,6 +116,7 @@ impl Perception {
                 max_steer,
                 control_dt,
             ),
+            belief: belief::Belief::new(world, &patches, e.online),
             patches,
             obstacles: if obstacles_exact {
                 world.obstacles.clone()
@@ -147,6 +152,7 @@ impl Perception {
             map: self.mapper.as_ref().map(|m| &m.map),
             patches: &self.patches,
             obstacles: &self.obstacles,
+            belief: &self.belief,
         }
     }
 
@@ -165,9 +171,14 @@ impl Perception {
         if let Some(m) = &mut self.mapper {
             m.scan(world, &scan);
         }
-        if self.obstacles_exact {
-            return;
+        if !self.obstacles_exact {
+            self.detect(world, truth, &scan);
         }
+        self.belief
+            .update(self.mapper.as_ref().map(|m| &m.map), &self.obstacles);
+    }
+
+    fn detect(&mut self, world: &World, truth: &VehicleState, scan: &map::Scan) {
         let sensor = [truth.position[0], truth.position[1]];
         self.detector
             .scan(world, sensor, self.range, |x, y| scan.in_view(x, y));

@@ -221,3 +221,65 @@ fn the_layer_is_deterministic_across_threads() {
     assert_ne!(serial[0], serial[1]);
     assert_eq!(serial[2], run(2));
 }
+
+/// The believed world holds what was seen, as the crops read it: behind a crest the elevation crop reads `NaN`
+/// (unknown), in front it reads the truth (noise off); patches are the classified ones and obstacles the detected.
+#[test]
+fn the_belief_is_what_was_seen() {
+    let mut w = world(|x, _| (3.0 - (x - 10.0).abs()).max(0.0));
+    w.obstacles.push(Obstacle {
+        kind: ObstacleKind::Rock,
+        x: -8.0,
+        y: 0.0,
+        z: 0.0,
+        yaw: 0.0,
+        half_extents: [0.5, 0.5, 0.5],
+    });
+    w.obstacles.push(Obstacle {
+        kind: ObstacleKind::Rock,
+        x: 50.0,
+        y: 0.0,
+        z: 0.0,
+        yaw: 0.0,
+        half_extents: [0.5, 0.5, 0.5],
+    });
+    let profile = Profile::from_toml(
+        "seen",
+        "[elevation]\nonline = true\nrange = 30.0\nfov_deg = 360.0\nmount_height = 4.0\nupdate_hz = 5.0\n\
+         [obstacles]\ndetection_max = 1.0\n[semantics]\nerror_rate = 0.5\n",
+    )
+    .unwrap();
+    let mut p = Perception::new(&profile, &w, TaskId::new(1, 0), [0.0, 0.0], 0, 0.6, 0.1);
+    let truth = VehicleState {
+        position: [0.0, 0.0, 1.0],
+        ..Default::default()
+    };
+    let seen = p.observe(&w, &truth);
+    let belief = seen.belief.world();
+    assert_eq!(seen.belief.revision(), 1);
+    // Front: known and true; behind the crest (x 11..23 with the sensor 5 m up): unknown.
+    for x in [2.0, 5.0, 8.5] {
+        assert!(seen.belief.is_known(x, 0.0));
+        assert_eq!(
+            belief.heightmap.height_bilinear(x, 0.0),
+            w.heightmap.height_bilinear(x, 0.0)
+        );
+    }
+    for x in [12.0, 16.5, 21.0] {
+        assert!(!seen.belief.is_known(x, 0.0), "x = {x}");
+    }
+    let spec = sim_core::observe::CropSpec {
+        size: 33,
+        resolution: 1.0,
+    };
+    let mut crop = vec![0f32; 33 * 33];
+    sim_core::observe::elevation_crop(belief, &truth, &spec, &mut crop);
+    // Row 0 lies 16 m ahead (behind the crest), row 32 16 m behind (seen); column 16 is the centre line.
+    let row = |r: usize, c: usize| crop[r * 33 + c];
+    assert!(row(0, 16).is_nan() && !row(32, 16).is_nan());
+    // The near rock is detected, the one 50 m away is not; patches are the classified ones.
+    assert_eq!(belief.obstacles.len(), 1);
+    assert_eq!(belief.obstacles[0].x, -8.0);
+    assert_eq!(belief.patches, seen.patches);
+    assert!(belief.patches.iter().any(|b| b.semantic != Semantic::Dirt));
+}
