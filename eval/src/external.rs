@@ -241,7 +241,10 @@ fn act(
             detail,
         )))
     };
-    match planner.act(&Observation { state: *s }) {
+    match planner.act(&Observation {
+        state: *s,
+        belief: None,
+    }) {
         Ok(a) => match a.validate() {
             Ok(()) => {
                 writeln!(output, "act {} {} {}", a.steering, a.throttle, a.brake)?;

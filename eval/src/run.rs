@@ -304,9 +304,11 @@ impl Prepared<'_> {
     }
 }
 
-/// A map-degrading perception profile refuses a planner that reads the world's ground-truth maps.
+/// A map-degrading perception profile refuses a planner that reads the world's ground-truth maps and not the
+/// believed world its observations carry.
 fn refuse_map_reading(cfg: &EvalConfig, make: PlannerFactory<'_>) -> Result<(), EvalError> {
-    if cfg.perception.degrades_maps() && make().reads_world_maps() {
+    let probe = make();
+    if cfg.perception.degrades_maps() && probe.reads_world_maps() && !probe.reads_belief() {
         return Err(EvalError::Param {
             field: "perception".into(),
             message: format!(

@@ -108,12 +108,13 @@ fn results_of_another_profile_are_never_resumed() {
     std::fs::remove_dir_all(&out).unwrap();
 }
 
-/// The elevation heuristic reads the world's heights from its context: a profile that degrades the maps refuses
-/// it with the reason, one that degrades only the state does not; an unknown profile is a clear error.
+/// MPPI reads the world's heights from its context and not the believed world: a profile that degrades the maps
+/// refuses it with the reason, one that degrades only the state does not (shown with EH); an unknown profile is a
+/// clear error.
 #[test]
 fn map_reading_planners_are_refused_by_map_degrading_profiles() {
-    let out = temp("eh");
-    let e = run(&cfg(&out, "eh", "nominal"), &|_, _, _| {})
+    let out = temp("mppi");
+    let e = run(&cfg(&out, "mppi", "nominal"), &|_, _, _| {})
         .unwrap_err()
         .to_string();
     assert!(
@@ -135,4 +136,23 @@ fn map_reading_planners_are_refused_by_map_degrading_profiles() {
         let _ = std::fs::remove_dir_all(d);
     }
     let _ = std::fs::remove_file(file);
+}
+
+/// The elevation heuristic reads the believed map its observations carry: under `nominal` it runs, and what it
+/// saw (unknown regions skipped, the map built as it drives) changes its episodes from those under the truth.
+#[test]
+fn the_elevation_heuristic_drives_on_what_it_has_seen() {
+    let (ideal_dir, nominal_dir) = (temp("eh-ideal"), temp("eh-nominal"));
+    let ideal = run(&cfg(&ideal_dir, "eh", "ideal"), &|_, _, _| {}).unwrap();
+    let nominal = run(&cfg(&nominal_dir, "eh", "nominal"), &|_, _, _| {}).unwrap();
+    assert_eq!(nominal.len(), 4);
+    let path = |rows: &[eval::EpisodeRow]| {
+        rows.iter()
+            .map(|r| r.metrics.path_length)
+            .collect::<Vec<_>>()
+    };
+    assert_ne!(path(&ideal), path(&nominal));
+    for d in [ideal_dir, nominal_dir] {
+        std::fs::remove_dir_all(d).unwrap();
+    }
 }

@@ -5,11 +5,13 @@
 
 use crate::map::OnlineMap;
 use sim_core::world::{Obstacle, Patch, World};
+use std::sync::Arc;
 
-/// One episode's believed world; [`Belief::revision`] counts its updates.
+/// One episode's believed world, shared with the planner's observations (an update copies it only while a planner
+/// still holds the previous one); [`Belief::revision`] counts its updates.
 #[derive(Clone, Debug)]
 pub struct Belief {
-    world: World,
+    world: Arc<World>,
     revision: u64,
 }
 
@@ -22,21 +24,30 @@ impl Belief {
         if online {
             world.heightmap.heights.fill(f32::NAN);
         }
-        Belief { world, revision: 0 }
+        Belief {
+            world: Arc::new(world),
+            revision: 0,
+        }
     }
 
     /// Takes a scan's result: the fused heights (when built online) and the obstacles known now.
     pub fn update(&mut self, map: Option<&OnlineMap>, obstacles: &[Obstacle]) {
+        let world = Arc::make_mut(&mut self.world);
         if let Some(m) = map {
-            self.world.heightmap.heights.copy_from_slice(&m.height);
+            world.heightmap.heights.copy_from_slice(&m.height);
         }
-        self.world.obstacles.clear();
-        self.world.obstacles.extend_from_slice(obstacles);
+        world.obstacles.clear();
+        world.obstacles.extend_from_slice(obstacles);
         self.revision += 1;
     }
 
     pub fn world(&self) -> &World {
         &self.world
+    }
+
+    /// The believed world as an observation carries it.
+    pub fn shared(&self) -> Arc<World> {
+        self.world.clone()
     }
 
     pub fn revision(&self) -> u64 {

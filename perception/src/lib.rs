@@ -51,6 +51,8 @@ pub struct Perception {
     patches: Vec<Patch>,
     obstacles: Vec<Obstacle>,
     belief: belief::Belief,
+    /// The profile degrades the maps: observations carry the belief.
+    degrades_maps: bool,
     /// Obstacles are the truth (detection perfect and the map given whole): no scans.
     obstacles_exact: bool,
     scan_period: f64,
@@ -117,6 +119,7 @@ impl Perception {
                 control_dt,
             ),
             belief: belief::Belief::new(world, &patches, e.online),
+            degrades_maps: profile.degrades_maps(),
             patches,
             obstacles: if obstacles_exact {
                 world.obstacles.clone()
@@ -204,11 +207,16 @@ impl Perception {
     }
 }
 
-/// The layer as the episode runner's hook: the planner sees the estimated state, the vehicle applies the actuated
-/// command.
+/// The layer as the episode runner's hook: the planner sees the estimated state and, under a profile that degrades
+/// the maps, the believed world; the vehicle applies the actuated command.
 impl sim_core::ControlHook for Perception {
     fn observe(&mut self, world: &World, obs: &mut sim_core::planner::Observation) {
-        obs.state = Perception::observe(self, world, &obs.state).state;
+        let degrades_maps = self.degrades_maps;
+        let seen = Perception::observe(self, world, &obs.state);
+        obs.state = seen.state;
+        if degrades_maps {
+            obs.belief = Some(seen.belief.shared());
+        }
     }
 
     fn actuate(&mut self, command: Action) -> Action {

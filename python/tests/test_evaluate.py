@@ -124,6 +124,6 @@ def test_a_perception_profile_reaches_the_runner_and_the_summary(tmp_path):
     assert "perception" not in json.loads((tmp_path / "ideal" / "summary.json").read_text())
     assert not ideal.path_length_m.equals(noisy.path_length_m)
     with pytest.raises(ValueError, match="ground-truth maps"):
-        vb.evaluate("eh", "w001-t0", out=tmp_path / "eh", progress=False, perception="nominal")
+        vb.evaluate("mppi", "w001-t0", out=tmp_path / "mppi", progress=False, perception="nominal")
     with pytest.raises(ValueError, match="unknown perception profile"):
         vb.evaluate("pid", "w001-t0", out=tmp_path / "fog", progress=False, perception="foggy")

@@ -188,6 +188,7 @@ impl EpisodeRun {
     pub fn observation(&self) -> Observation {
         Observation {
             state: self.sim.state(),
+            belief: None,
         }
     }
 

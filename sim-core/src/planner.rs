@@ -17,6 +17,11 @@ pub use crate::vehicle::{Action, VehicleInfo, VehicleState};
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Observation {
     pub state: VehicleState,
+    /// The world as the planner perceives it under a perception profile that degrades the maps (the `perception`
+    /// crate's believed world: heights `NaN` where not yet seen, classified patches, the obstacles known); `None`
+    /// under ground truth, where the context's world is the truth. Not serialised.
+    #[serde(skip)]
+    pub belief: Option<std::sync::Arc<World>>,
 }
 
 /// Everything a planner gets at the start of an episode.
@@ -72,5 +77,10 @@ pub trait Planner: Send {
     /// context. Planners that follow only the task's path and the state (PID, pure pursuit) say `false`.
     fn reads_world_maps(&self) -> bool {
         true
+    }
+    /// Whether the planner reads the maps from [`Observation::belief`] when it is given, and copes with its unknown
+    /// cells: a profile that degrades the maps then runs it.
+    fn reads_belief(&self) -> bool {
+        false
     }
 }

@@ -105,7 +105,10 @@ pub fn drive(
     let mut rec = Recorder::new(frame_capacity(max_time, period), wheels, cells, crop);
     loop {
         let s = run.state();
-        let action = match planner.act(&Observation { state: s }) {
+        let action = match planner.act(&Observation {
+            state: s,
+            belief: None,
+        }) {
             Ok(a) => a,
             Err(e) => {
                 run.stop(Outcome::PlannerFailure, e.reason(), e.to_string());

@@ -168,21 +168,28 @@ impl ElevationHeuristic {
         Self::default()
     }
 
-    /// Mean and variance of the heights in a square region of side `side` centred at `(x, y)` (5 x 5 samples).
-    fn region(world: &World, x: f64, y: f64, side: f64) -> (f64, f64) {
-        let (mut s, mut s2) = (0.0, 0.0);
+    /// Mean and variance of the heights in a square region of side `side` centred at `(x, y)` (5 x 5 samples),
+    /// over the samples that are known (a perceived map's unseen cells read `NaN`); `None` when none is.
+    fn region(world: &World, x: f64, y: f64, side: f64) -> Option<(f64, f64)> {
+        let (mut s, mut s2, mut n) = (0.0, 0.0, 0u32);
         for i in 0..5 {
             for j in 0..5 {
                 let h = world.heightmap.height_bilinear(
                     x + side * (i as f64 / 4.0 - 0.5),
                     y + side * (j as f64 / 4.0 - 0.5),
                 );
-                s += h;
-                s2 += h * h;
+                if h.is_finite() {
+                    s += h;
+                    s2 += h * h;
+                    n += 1;
+                }
             }
         }
-        let m = s / 25.0;
-        (m, s2 / 25.0 - m * m)
+        if n == 0 {
+            return None;
+        }
+        let m = s / f64::from(n);
+        Some((m, s2 / f64::from(n) - m * m))
     }
 }
 
@@ -198,32 +205,42 @@ impl Planner for ElevationHeuristic {
         self.world = Some(ctx.world.clone());
         Ok(())
     }
+    /// Under a perception profile it reads the believed map: a region is judged by its seen samples, a region
+    /// not seen at all is never chosen, and with nothing seen around it follows the path.
     fn act(&mut self, obs: &Observation) -> Result<Action, PlannerError> {
         let path_error = self.t.path_error(obs);
-        let world = self
-            .world
-            .as_ref()
-            .ok_or_else(|| PlannerError::Other("act before reset".into()))?;
+        let world = match (&obs.belief, &self.world) {
+            (Some(b), _) => b.as_ref(),
+            (None, Some(w)) => w,
+            (None, None) => return Err(PlannerError::Other("act before reset".into())),
+        };
         let s = &obs.state;
         let side = 6.4 * world.scale;
-        let (here, _) = Self::region(world, s.position[0], s.position[1], side);
+        let Some((here, _)) = Self::region(world, s.position[0], s.position[1], side) else {
+            return Ok(self.t.act(obs, path_error));
+        };
         // Five regions 6.4 m ahead at -60, -30, 0, 30, 60 degrees from the heading.
         let mut best = (f64::INFINITY, f64::INFINITY, 0.0);
         // Straight ahead first, so ties keep the heading.
         for k in [0, -1, 1, -2, 2] {
             let a = s.yaw + k as f64 * 30f64.to_radians();
-            let (m, v) = Self::region(
+            let Some((m, v)) = Self::region(
                 world,
                 s.position[0] + side * a.cos(),
                 s.position[1] + side * a.sin(),
                 side,
-            );
+            ) else {
+                continue;
+            };
             let d = (m - here).abs();
             if d < best.0 - 1e-9 || ((d - best.0).abs() <= 1e-9 && v < best.1) {
                 best = (d, v, k as f64 * 30f64.to_radians());
             }
         }
         Ok(self.t.act(obs, 0.2 * best.2 + 0.8 * path_error))
+    }
+    fn reads_belief(&self) -> bool {
+        true
     }
 }
 
@@ -267,6 +284,7 @@ pub(crate) mod tests {
 
     fn obs(x: f64, y: f64, yaw: f64, speed: f64) -> Observation {
         Observation {
+            belief: None,
             state: VehicleState {
                 position: [x, y, 0.0],
                 yaw,
@@ -417,6 +435,60 @@ pub(crate) mod tests {
                 a.steering.signum()
             };
             assert_eq!(got, sign, "mound {mound}: {a:?}");
+        }
+    }
+
+    /// Under a perception profile EH reads the believed world its observation carries, not its context's: with
+    /// the region ahead unseen (its samples `NaN`) it never picks it and turns to the first seen one (-30 degrees,
+    /// as the search order has it), never reading the unseen as flat; with nothing seen at all it follows the path
+    /// like PID.
+    #[test]
+    fn eh_judges_only_what_it_has_seen() {
+        let task = Task {
+            world_id: 1,
+            index: 0,
+            start: [0.0, 0.0],
+            goal: [60.0, 0.0],
+            path: vec![[0.0, 0.0], [60.0, 0.0]],
+        };
+        let truth = world(true);
+        let ctx = PlannerContext {
+            world: &truth,
+            task: &task,
+            vehicle: &info(),
+            spec: &spec(),
+            sim_dt: 0.002,
+        };
+        let mut unseen_mound = truth.clone();
+        for (i, h) in unseen_mound.heightmap.heights.iter_mut().enumerate() {
+            let (x, y) = truth.heightmap.sample_position(i % 129, i / 129);
+            if (x - 6.4).hypot(y) < 5.0 {
+                *h = f32::NAN;
+            }
+        }
+        let mut nothing_seen = truth.clone();
+        nothing_seen.heightmap.heights.fill(f32::NAN);
+        for (belief, seen_around) in [(unseen_mound, true), (nothing_seen, false)] {
+            let mut eh = ElevationHeuristic::new();
+            eh.reset(&ctx).unwrap();
+            let mut pid = Pid::new();
+            pid.reset(&ctx).unwrap();
+            let o = Observation {
+                belief: Some(std::sync::Arc::new(belief)),
+                ..obs(0.0, 2.0, 0.0, 4.0)
+            };
+            let (a, p) = (eh.act(&o).unwrap(), pid.act(&o).unwrap());
+            a.validate().unwrap();
+            if seen_around {
+                // Straight ahead judged flat by its seen samples: 0.8 of PID's heading error and no turn (the
+                // steering is that error here, within the rate limit), where the truth's mound turns it.
+                assert!(
+                    (a.steering - 0.8 * p.steering).abs() < 1e-12,
+                    "{a:?} vs {p:?}"
+                );
+            } else {
+                assert_eq!(a, p);
+            }
         }
     }
 }

@@ -259,6 +259,7 @@ mod tests {
                 yaw: pose[2],
                 ..Default::default()
             },
+            belief: None,
         };
         let mut a = Action::default();
         for _ in 0..steps {
