@@ -17,9 +17,9 @@ pub struct Belief {
 
 impl Belief {
     /// The belief before the first scan: every cell unknown when the map is built online.
-    pub fn new(truth: &World, patches: &[Patch], online: bool) -> Belief {
+    pub fn new(truth: &World, patches: Vec<Patch>, online: bool) -> Belief {
         let mut world = truth.clone();
-        world.patches = patches.to_vec();
+        world.patches = patches;
         world.obstacles.clear();
         if online {
             world.heightmap.heights.fill(f32::NAN);

@@ -48,8 +48,8 @@ pub struct Perception {
     mapper: Option<map::Mapper>,
     detector: obstacles::Detector,
     actuator: actuation::Actuator,
-    patches: Vec<Patch>,
     obstacles: Vec<Obstacle>,
+    /// The believed world; it holds the classified patches.
     belief: belief::Belief,
     /// The profile degrades the maps: observations carry the belief.
     degrades_maps: bool,
@@ -118,9 +118,8 @@ impl Perception {
                 max_steer,
                 control_dt,
             ),
-            belief: belief::Belief::new(world, &patches, e.online),
+            belief: belief::Belief::new(world, patches, e.online),
             degrades_maps: profile.degrades_maps(),
-            patches,
             obstacles: if obstacles_exact {
                 world.obstacles.clone()
             } else {
@@ -153,7 +152,7 @@ impl Perception {
         Perceived {
             state: self.estimator.estimate(truth),
             map: self.mapper.as_ref().map(|m| &m.map),
-            patches: &self.patches,
+            patches: &self.belief.world().patches,
             obstacles: &self.obstacles,
             belief: &self.belief,
         }
@@ -199,11 +198,6 @@ impl Perception {
     /// The action the vehicle applies for the planner's command (call once per control step).
     pub fn actuate(&mut self, command: Action) -> Action {
         self.actuator.apply(command)
-    }
-
-    /// The state estimator (its drift, for tests and diagnostics).
-    pub fn estimator(&self) -> &state::StateEstimator {
-        &self.estimator
     }
 }
 

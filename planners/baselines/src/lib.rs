@@ -361,13 +361,7 @@ pub(crate) mod tests {
 
     #[test]
     fn mppi_steers_around_an_obstacle_on_the_path_and_goes_straight_without_it() {
-        let task = Task {
-            world_id: 1,
-            index: 0,
-            start: [0.0, 0.0],
-            goal: [60.0, 0.0],
-            path: vec![[0.0, 0.0], [60.0, 0.0]],
-        };
+        let task = east_60m();
         let mut w = world(false);
         let mut p = mppi::Mppi::new();
         p.reset(&PlannerContext {
@@ -408,15 +402,20 @@ pub(crate) mod tests {
         a.validate().unwrap();
     }
 
-    #[test]
-    fn eh_steers_around_a_mound_ahead_and_keeps_straight_on_flat_ground() {
-        let task = Task {
+    /// A task 60 m due east along a straight path.
+    fn east_60m() -> Task {
+        Task {
             world_id: 1,
             index: 0,
             start: [0.0, 0.0],
             goal: [60.0, 0.0],
             path: vec![[0.0, 0.0], [60.0, 0.0]],
-        };
+        }
+    }
+
+    #[test]
+    fn eh_steers_around_a_mound_ahead_and_keeps_straight_on_flat_ground() {
+        let task = east_60m();
         for (mound, sign) in [(true, -1.0), (false, 0.0)] {
             let w = world(mound);
             let mut p = ElevationHeuristic::new();
@@ -444,13 +443,7 @@ pub(crate) mod tests {
     /// like PID.
     #[test]
     fn eh_judges_only_what_it_has_seen() {
-        let task = Task {
-            world_id: 1,
-            index: 0,
-            start: [0.0, 0.0],
-            goal: [60.0, 0.0],
-            path: vec![[0.0, 0.0], [60.0, 0.0]],
-        };
+        let task = east_60m();
         let truth = world(true);
         let ctx = PlannerContext {
             world: &truth,
