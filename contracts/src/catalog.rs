@@ -6,7 +6,8 @@
 //! Task selection (`--tasks` of `vb eval`, `vb-submit` and the Python SDK) is here too: it reads only the factors.
 
 use crate::{
-    ElevationLevel, ObstacleDensity, PlannerName, SemanticsKind, SimVersion, TaskId, VehicleId,
+    ElevationLevel, ObstacleDensity, PerceptionId, PlannerName, SemanticsKind, SimVersion, TaskId,
+    VehicleId,
 };
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -34,6 +35,27 @@ pub struct Catalog {
     pub vehicles: BTreeMap<VehicleId, f64>,
     /// Names of the built-in planners.
     pub builtin_planners: Vec<PlannerName>,
+    /// The perception profiles a submission may name, by name (`ideal`, `nominal`, `degraded`).
+    pub perception: BTreeMap<String, CatalogProfile>,
+    /// The built-in planners that run under a profile that degrades the maps (they read no ground-truth maps, or
+    /// read the believed world); the others run under ground-truth maps only.
+    pub belief_planners: Vec<PlannerName>,
+}
+
+/// A perception profile as the service carries it: its identity, and its parameters as the `perception` crate's
+/// canonical JSON (empty for `ideal`), which workers parse.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct PerceptionEntry {
+    pub id: PerceptionId,
+    pub params: String,
+}
+
+/// A profile of the catalogue.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct CatalogProfile {
+    pub entry: PerceptionEntry,
+    /// The profile degrades the maps (an online elevation map, semantic or obstacle errors).
+    pub degrades_maps: bool,
 }
 
 impl Catalog {
@@ -45,6 +67,24 @@ impl Catalog {
     /// The tasks a selection names (see [`select`]).
     pub fn select(&self, spec: &str) -> Result<Vec<TaskId>, SelectionError> {
         select(&self.worlds, spec)
+    }
+
+    /// The profile a submission names (empty: `ideal`), or the names there are.
+    pub fn perception_profile(&self, name: &str) -> Result<CatalogProfile, String> {
+        let name = if name.is_empty() { "ideal" } else { name };
+        if name == "ideal" {
+            return Ok(CatalogProfile::default());
+        }
+        self.perception.get(name).cloned().ok_or_else(|| {
+            let mut names: Vec<&str> = self.perception.keys().map(|k| k.as_str()).collect();
+            if !names.contains(&"ideal") {
+                names.insert(0, "ideal");
+            }
+            format!(
+                "unknown perception profile `{name}` (this service runs: {})",
+                names.join(", ")
+            )
+        })
     }
 
     /// The terrain group of `world` when results of `task_set_version` are read against this catalog.

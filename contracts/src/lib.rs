@@ -20,7 +20,9 @@ mod task_id;
 pub mod trajectory;
 mod vocab;
 
-pub use catalog::{Catalog, TaskGeometry, WorldFacts, WorldPicture};
+pub use catalog::{
+    Catalog, CatalogProfile, PerceptionEntry, TaskGeometry, WorldFacts, WorldPicture,
+};
 pub use named::UnknownName;
 pub use names::{PerceptionId, PlannerName, SimVersion, VehicleId};
 pub use service_error::{ServiceError, ServiceErrorCode};

@@ -365,6 +365,7 @@ fn check_with_planner(
         vehicle: &info,
         spec: vehicle,
         sim_dt: run.dt(),
+        believed: false,
     })?;
     let crop = CropSpec {
         size: 4,

@@ -162,6 +162,7 @@ pub fn drive(
         vehicle: &info,
         spec,
         sim_dt: dt,
+        believed: false,
     };
     let rate = planner.control_rate_hz();
     let identity = DriverIdentity {

@@ -73,6 +73,32 @@ pub fn catalog(set: &tasks::TaskSet) -> Catalog {
             .map(|v| (v.name.into(), v.scale))
             .collect(),
         builtin_planners: registry::names().iter().map(|&n| n.into()).collect(),
+        perception: perception::BUILTIN
+            .iter()
+            .filter_map(|&n| perception::Profile::builtin(n).ok())
+            .map(|p| {
+                let params = if p.is_ideal() {
+                    String::new()
+                } else {
+                    p.to_json()
+                };
+                let profile = contracts::CatalogProfile {
+                    entry: contracts::PerceptionEntry { id: p.id(), params },
+                    degrades_maps: p.degrades_maps(),
+                };
+                (p.name.clone(), profile)
+            })
+            .collect(),
+        belief_planners: registry::names()
+            .into_iter()
+            .filter(|n| {
+                registry::Builtin::resolve(n, None).is_ok_and(|b| {
+                    let p = b.make();
+                    !p.reads_world_maps() || p.reads_belief()
+                })
+            })
+            .map(Into::into)
+            .collect(),
     }
 }
 

@@ -345,19 +345,15 @@ fn run_task(
         .ok_or(tasks::TasksError::UnknownWorld(w))?;
     let mut planner = make();
     let t0 = Instant::now();
-    let mut hook: Box<dyn sim_core::ControlHook> = if cfg.perception.is_ideal() {
-        Box::new(sim_core::Truth)
-    } else {
-        Box::new(perception::Perception::new(
-            &cfg.perception,
-            &world,
-            id,
-            task.start,
-            cfg.episode.seed,
-            vehicle.info().max_steer,
-            1.0 / planner.control_rate_hz(),
-        ))
-    };
+    let mut hook = perception::hook(
+        &cfg.perception,
+        &world,
+        id,
+        task.start,
+        cfg.episode.seed,
+        vehicle.info().max_steer,
+        1.0 / planner.control_rate_hz(),
+    );
     let r = sim_core::run_episode_hooked(
         &world,
         &task,

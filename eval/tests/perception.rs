@@ -108,13 +108,13 @@ fn results_of_another_profile_are_never_resumed() {
     std::fs::remove_dir_all(&out).unwrap();
 }
 
-/// MPPI reads the world's heights from its context and not the believed world: a profile that degrades the maps
-/// refuses it with the reason, one that degrades only the state does not (shown with EH); an unknown profile is a
+/// MPPI-6 (the oracle) simulates the world's heights from its context and not the believed world: a profile that
+/// degrades the maps refuses it with the reason, one that degrades only the state does not (shown with EH); an unknown profile is a
 /// clear error.
 #[test]
 fn map_reading_planners_are_refused_by_map_degrading_profiles() {
-    let out = temp("mppi");
-    let e = run(&cfg(&out, "mppi", "nominal"), &|_, _, _| {})
+    let out = temp("mppi6");
+    let e = run(&cfg(&out, "mppi6-oracle", "nominal"), &|_, _, _| {})
         .unwrap_err()
         .to_string();
     assert!(

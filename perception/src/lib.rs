@@ -18,6 +18,7 @@ pub mod profile;
 pub mod rng;
 pub mod semantics;
 pub mod state;
+pub mod sync;
 
 pub use map::OnlineMap;
 pub use profile::{Profile, ProfileError, BUILTIN};
@@ -215,5 +216,29 @@ impl sim_core::ControlHook for Perception {
 
     fn actuate(&mut self, command: Action) -> Action {
         Perception::actuate(self, command)
+    }
+
+    fn believed_world(&self) -> Option<&World> {
+        self.degrades_maps.then(|| self.belief.world())
+    }
+}
+
+/// The control hook of one episode under `profile`: [`sim_core::Truth`] under a profile that perturbs nothing
+/// (every existing result stays bit-identical), else the episode's [`Perception`] (arguments as [`Perception::new`]).
+pub fn hook(
+    profile: &Profile,
+    world: &World,
+    task: TaskId,
+    start: [f64; 2],
+    seed: u64,
+    max_steer: f64,
+    control_dt: f64,
+) -> Box<dyn sim_core::ControlHook> {
+    if profile.is_ideal() {
+        Box::new(sim_core::Truth)
+    } else {
+        Box::new(Perception::new(
+            profile, world, task, start, seed, max_steer, control_dt,
+        ))
     }
 }

@@ -190,10 +190,23 @@ impl Profile {
         format!("{}@{:016x}", self.name, self.hash())
     }
 
+    /// The profile's parameters as canonical JSON (what its hash is over): how the service carries a profile to
+    /// its workers.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).unwrap_or_default()
+    }
+
+    /// A profile from [`Profile::to_json`]'s text, validated as a TOML file is.
+    pub fn from_json(text: &str) -> Result<Profile, ProfileError> {
+        let p: Profile =
+            serde_json::from_str(text).map_err(|e| ProfileError::Toml(e.to_string()))?;
+        p.validate()?;
+        Ok(p)
+    }
+
     /// FNV-1a 64 of the profile's canonical JSON (field order is the structs'; floats round-trip exactly).
     pub fn hash(&self) -> u64 {
-        let json = serde_json::to_string(self).unwrap_or_default();
-        json.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        self.to_json().bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
             (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
         })
     }
@@ -308,6 +321,24 @@ fn check_confusion(m: &[Vec<f64>]) -> Result<(), ProfileError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The service carries a profile to its workers as JSON: the round trip keeps every parameter and the identity,
+    /// and a tampered one is validated like a file.
+    #[test]
+    fn json_round_trips_exactly_and_is_validated() {
+        for n in BUILTIN {
+            let p = Profile::builtin(n).unwrap();
+            let back = Profile::from_json(&p.to_json()).unwrap();
+            assert_eq!(back, p);
+            assert_eq!(back.identity(), p.identity());
+        }
+        let bad = Profile::builtin("nominal")
+            .unwrap()
+            .to_json()
+            .replace("\"range\":", "\"range\":-");
+        assert!(Profile::from_json(&bad).is_err(), "{bad}");
+        assert!(Profile::from_json("{\"nonsense\": 1}").is_err());
+    }
 
     #[test]
     fn builtins_parse_and_have_distinct_identities() {

@@ -124,6 +124,32 @@ def test_a_perception_profile_reaches_the_runner_and_the_summary(tmp_path):
     assert "perception" not in json.loads((tmp_path / "ideal" / "summary.json").read_text())
     assert not ideal.path_length_m.equals(noisy.path_length_m)
     with pytest.raises(ValueError, match="ground-truth maps"):
-        vb.evaluate("mppi", "w001-t0", out=tmp_path / "mppi", progress=False, perception="nominal")
+        vb.evaluate("mppi6-oracle", "w001-t0", out=tmp_path / "mppi", progress=False, perception="nominal")
     with pytest.raises(ValueError, match="unknown perception profile"):
         vb.evaluate("pid", "w001-t0", out=tmp_path / "fog", progress=False, perception="foggy")
+
+
+class Mapping(PID):
+    """PID that records, at every step, how much of the map it was given at reset it knows."""
+
+    def reset(self, task, vehicle, maps):
+        super().reset(task, vehicle, maps)
+        self.maps, self.known = maps, []
+
+    def act(self, obs):
+        self.known.append(int(self.maps.known.sum()))
+        return super().act(obs)
+
+
+def test_a_python_planner_keeps_the_map_the_sensor_builds_under_nominal(tmp_path):
+    """Under ``nominal`` a Python planner's ``Maps`` are its belief: unknown at the start, filled in place as the
+    vehicle drives (never all known, never shrinking); under ``ideal`` they are the whole truth."""
+    p = Mapping()
+    vb.evaluate(p, "w001-t0", out=tmp_path / "nominal", progress=False, perception="nominal")
+    assert p.maps.believed
+    cells = p.maps.known.size
+    assert 0 < p.known[1] < p.known[-1] < cells, (p.known[:3], p.known[-1], cells)
+    assert all(a <= b for a, b in zip(p.known, p.known[1:]))
+    assert np.isnan(p.maps.elevation).any() and np.isfinite(p.maps.elevation).any()
+    vb.evaluate(p, "w001-t0", out=tmp_path / "ideal", progress=False)
+    assert not p.maps.believed and set(p.known) == {cells}

@@ -196,3 +196,56 @@ def test_wait_fails_when_the_planner_never_worked(service, tmp_path):
     )
     assert r.returncode != 0, r.stdout + r.stderr
     assert "2 of 2 finished episodes failed because of the planner or the infrastructure" in r.stderr, r.stderr
+
+
+MAPPING_PLANNER = """
+import sys
+from vertibench.baselines import PID
+from vertibench.serve import serve
+
+
+class Mapping(PID):
+    # PID that reports what it knows of the map it was given at reset (updated in place by serve()).
+    def reset(self, task, vehicle, maps):
+        super().reset(task, vehicle, maps)
+        self.maps, self.steps = maps, 0
+
+    def act(self, obs):
+        self.steps += 1
+        if self.steps % 100 == 0:
+            known = self.maps.known
+            print(f"believed={self.maps.believed} known={int(known.sum())} cells={known.size}", file=sys.stderr,
+                  flush=True)
+        return super().act(obs)
+
+
+serve(Mapping())
+"""
+
+
+def test_a_python_planner_under_nominal_perception_keeps_the_map_the_sensor_builds(service, tmp_path):
+    """`vb-submit --perception nominal`: the planner's Maps start unknown and fill in as the vehicle drives
+    (serve() pastes each observation's MapUpdate into them), never all known."""
+    url, token = service
+    env = dict(os.environ, VB_COORDINATOR=url, VB_TOKEN=token)
+    script = tmp_path / "mapping.py"
+    script.write_text(MAPPING_PLANNER)
+    r = subprocess.run(
+        [binary("VB_SUBMIT_BIN"), "exec", "--tasks", "w001-t0", "--perception", "nominal", "--wait", "--",
+         sys.executable, str(script)],
+        capture_output=True, text=True, timeout=600, env=env,
+    )
+    assert r.returncode == 0, r.stdout + r.stderr
+    sid = re.search(r"submitted (\S+)", r.stdout).group(1)
+    log = subprocess.run([binary("VB_SUBMIT_BIN"), "log", sid, "w001-t0"], capture_output=True, text=True,
+                         timeout=60, env=env)
+    assert log.returncode == 0, log.stderr
+    reports = [tuple(int(v) for v in m.groups()) for m in
+               re.finditer(r"believed=True known=(\d+) cells=(\d+)", log.stdout)]
+    assert len(reports) >= 2, log.stdout
+    assert 0 < reports[0][0] < reports[-1][0] < reports[-1][1], reports
+    results = subprocess.run([binary("VB_SUBMIT_BIN"), "results", sid, "--format", "json"], capture_output=True,
+                             text=True, timeout=60, env=env)
+    import json
+
+    assert json.loads(results.stdout)["perception"].startswith("nominal@")

@@ -35,6 +35,10 @@ pub struct PlannerContext<'a> {
     pub spec: &'a VehicleSpec,
     /// Physics step of the simulator, s (informative).
     pub sim_dt: f64,
+    /// `world` is the planner's belief at the start, not the truth (a perception profile that degrades the maps:
+    /// heights `NaN` until seen, patches as classified, no obstacles yet), and each observation's `belief` is the
+    /// world as perceived so far.
+    pub believed: bool,
 }
 
 /// Why a planner could not act. The episode runner records the kind as the failure reason.

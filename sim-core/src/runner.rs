@@ -40,6 +40,11 @@ pub trait ControlHook {
     fn observe(&mut self, world: &World, obs: &mut Observation);
     /// The action the vehicle applies for the planner's command (called once per control step).
     fn actuate(&mut self, command: Action) -> Action;
+    /// The world the planner is given at its reset, when it is not the truth (the perception layer's belief before
+    /// its first scan); `None`: the truth.
+    fn believed_world(&self) -> Option<&World> {
+        None
+    }
 }
 
 /// Ground truth: the planner sees the state as it is and the vehicle applies its command as given.
@@ -101,12 +106,14 @@ pub fn run_episode_hooked(
 ) -> EpisodeResult {
     let mut run = EpisodeRun::new(world, task, vehicle, cfg);
     let info = vehicle.info();
+    let believed = hook.believed_world();
     let ctx = PlannerContext {
-        world,
+        world: believed.unwrap_or(world),
         task,
         vehicle: &info,
         spec: vehicle,
         sim_dt: run.dt(),
+        believed: believed.is_some(),
     };
     if let Err(e) = planner.reset(&ctx) {
         return failed_at_start(e.reason(), e.to_string());

@@ -66,9 +66,13 @@ struct SubmitOpts {
     /// Per-control-step deadline of the planner, s.
     #[arg(long, default_value_t = 1.0)]
     step_deadline: f64,
-    /// Seed of the episodes (none of the default physics is random).
+    /// Seed of the episodes (none of the default physics is random; it seeds the perception noise).
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Perception profiles, comma-separated (ideal, nominal, degraded): one submission per profile, in one
+    /// family, whose page shows each profile's success and its paired drop from ideal. Default: ideal.
+    #[arg(long, value_delimiter = ',', default_value = "ideal")]
+    perception: Vec<String>,
     /// Follow the progress until the submission ends.
     #[arg(long)]
     wait: bool,
@@ -223,52 +227,69 @@ async fn do_submit(
             task_ids,
             step_deadline_s: o.step_deadline,
             seed: o.seed,
+            perception: o.perception.clone(),
         },
     )
     .await?;
     println!("submitted {} ({} episodes)", r.submission_id, r.episodes);
-    if o.wait {
-        let last = vb_submit::watch(&mut client, &r.submission_id, |s| {
-            eprint!("\r{}   ", vb_submit::status_line(s))
-        })
-        .await?;
-        eprintln!();
-        println!("{}", vb_submit::status_line(&last));
-        // Episodes that failed because of the planner or the infrastructure (not by how the vehicle drove) make
-        // the command fail: a script waiting on it must not take them for results.
-        let results = vb_submit::results(&mut client, &r.submission_id).await?;
-        let finished = results
-            .episodes
-            .iter()
-            .filter(|e| e.outcome.is_some())
-            .count();
-        let broken: Vec<_> = results
-            .episodes
-            .iter()
-            .filter(|e| {
-                e.outcome
-                    .and_then(|o| contracts::RecordedOutcome::from_wire(o).ok())
-                    .is_some_and(|o| o.is_failure_of_planner_or_infrastructure())
-            })
-            .collect();
-        if let Some(first) = broken.first() {
-            bail!(
-                "{} of {finished} finished episodes failed because of the planner or the infrastructure (first: {} \
-                 {}: {}): see `vb-submit results {} --format json`",
-                broken.len(),
-                first.task_id,
-                first
-                    .reason
-                    .and_then(|r| contracts::EndReason::from_wire(r).ok())
-                    .map_or("unknown reason", contracts::EndReason::as_str),
-                shown(&first.detail),
-                r.submission_id
-            );
+    if r.submission_ids.len() > 1 {
+        for (id, profile) in r.submission_ids.iter().zip(&o.perception) {
+            println!("  {id}: perception {profile}");
         }
+    }
+    let ids = if r.submission_ids.is_empty() {
+        vec![r.submission_id.clone()]
     } else {
-        println!(
-            "follow it with: vb-submit status {} --watch",
-            r.submission_id
+        r.submission_ids.clone()
+    };
+    for id in &ids {
+        if o.wait {
+            wait_for(&mut client, id).await?;
+        } else {
+            println!("follow it with: vb-submit status {id} --watch");
+        }
+    }
+    Ok(())
+}
+
+/// Follows submission `id` until it ends; fails when any of its episodes failed because of the planner or the
+/// infrastructure.
+async fn wait_for(client: &mut vb_submit::Client, id: &str) -> anyhow::Result<()> {
+    let last = vb_submit::watch(client, id, |s| {
+        eprint!("\r{}   ", vb_submit::status_line(s))
+    })
+    .await?;
+    eprintln!();
+    println!("{}", vb_submit::status_line(&last));
+    // Episodes that failed because of the planner or the infrastructure (not by how the vehicle drove) make
+    // the command fail: a script waiting on it must not take them for results.
+    let results = vb_submit::results(client, id).await?;
+    let finished = results
+        .episodes
+        .iter()
+        .filter(|e| e.outcome.is_some())
+        .count();
+    let broken: Vec<_> = results
+        .episodes
+        .iter()
+        .filter(|e| {
+            e.outcome
+                .and_then(|o| contracts::RecordedOutcome::from_wire(o).ok())
+                .is_some_and(|o| o.is_failure_of_planner_or_infrastructure())
+        })
+        .collect();
+    if let Some(first) = broken.first() {
+        bail!(
+            "{} of {finished} finished episodes failed because of the planner or the infrastructure (first: {} \
+             {}: {}): see `vb-submit results {} --format json`",
+            broken.len(),
+            first.task_id,
+            first
+                .reason
+                .and_then(|r| contracts::EndReason::from_wire(r).ok())
+                .map_or("unknown reason", contracts::EndReason::as_str),
+            shown(&first.detail),
+            id
         );
     }
     Ok(())

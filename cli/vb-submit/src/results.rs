@@ -26,8 +26,12 @@ fn facts(r: &pb::ResultsResponse) -> Result<RunFacts, SubmitError> {
         task_set_version: s.task_set_version,
         sim_version: s.sim_version.into(),
         rules,
-        // The service evaluates under ground truth.
-        perception: contracts::PerceptionId::ideal(),
+        // Empty from a coordinator that predates perception profiles: it evaluated under ground truth.
+        perception: if s.perception.is_empty() {
+            contracts::PerceptionId::ideal()
+        } else {
+            s.perception.into()
+        },
     })
 }
 
@@ -127,6 +131,7 @@ pub fn json(r: &pb::ResultsResponse) -> Result<String, SubmitError> {
         "submission_id": s.submission_id, "name": s.name, "state": state, "planner": s.planner,
         "planner_identity": s.planner_identity, "vehicle": s.vehicle, "scale": s.scale, "seed": s.seed,
         "task_set_version": s.task_set_version, "sim_version": s.sim_version, "rules": rules,
+        "perception": facts(r)?.perception, "family": s.family,
         "total": s.total, "finished": s.finished, "not_run": s.not_run, "success_rate": s.success_rate,
         "episodes": rows(r)?, "unfinished": unfinished,
     });

@@ -63,6 +63,7 @@ pub async fn validate(
         step_deadline_s,
         max_time: Some(max_time),
         containment,
+        perception: vb_worker::perception::Profile::ideal(),
     };
     let run = vb_worker::run_leased(
         set,

@@ -76,6 +76,7 @@ pub fn drive(
         vehicle: &info,
         spec: &spec,
         sim_dt: run.dt(),
+        believed: false,
     };
     let observed = |run: &EpisodeRun| {
         let s = run.state();

@@ -41,6 +41,48 @@ struct Options {
     name: String,
 }
 
+/// The planner's believed heights under a perception profile that builds the map online (`EpisodeStart.believed`):
+/// `NaN` until the sensor sees a cell, then kept up to date from each observation's `MapUpdate`. This planner only
+/// follows its path; a planner that reads terrain keeps the map this way.
+struct BelievedMap {
+    nx: usize,
+    heights: Vec<f32>,
+    updates: usize,
+}
+
+impl BelievedMap {
+    fn new(start: &pb::EpisodeStart) -> Option<BelievedMap> {
+        let e = start.maps.as_ref()?.elevation.as_ref()?;
+        start.believed.then(|| BelievedMap {
+            nx: e.nx as usize,
+            heights: e.data.clone(),
+            updates: 0,
+        })
+    }
+
+    /// Pastes the update's rectangle of heights (ignoring one that does not fit the grid).
+    fn update(&mut self, u: &pb::MapUpdate) {
+        let Some(e) = &u.elevation else { return };
+        let (x0, y0, w) = (u.x0 as usize, u.y0 as usize, e.nx as usize);
+        for (r, row) in e.data.chunks(w.max(1)).enumerate() {
+            let at = (y0 + r) * self.nx + x0;
+            if x0 + w <= self.nx && at + w <= self.heights.len() {
+                self.heights[at..at + w].copy_from_slice(row);
+            }
+        }
+        self.updates += 1;
+    }
+
+    fn describe(&self) -> String {
+        let known = self.heights.iter().filter(|z| z.is_finite()).count();
+        format!(
+            "believed map: {known} of {} heights known after {} updates",
+            self.heights.len(),
+            self.updates
+        )
+    }
+}
+
 /// Per-episode state: the path, the vehicle's geometry and the cruising speed.
 struct Driver {
     path: Vec<(f64, f64)>,
@@ -122,6 +164,37 @@ fn wrap(a: f64) -> f64 {
     a
 }
 
+/// The answer to control step `steps`: the driver's action (made faulty as `--fault` asks), with what the planner
+/// knows of the map now and then (kept with the episode's log).
+fn answer(
+    opts: &Options,
+    steps: u64,
+    driver: Option<&mut Driver>,
+    believed: Option<&BelievedMap>,
+    state: Option<pb::VehicleState>,
+) -> Result<pb::PlannerMessage, Status> {
+    let (Some(d), Some(s)) = (driver, state) else {
+        return Err(Status::failed_precondition(
+            "observation before EpisodeStart",
+        ));
+    };
+    let mut a = d.act(&s);
+    if steps > opts.fault_after {
+        match opts.fault {
+            Fault::Nan => a.steering = f64::NAN,
+            Fault::Range => a.throttle = 5.0,
+            _ => {}
+        }
+    }
+    Ok(pb::PlannerMessage {
+        msg: Some(pb::planner_message::Msg::Action(a)),
+        log: match believed {
+            Some(b) if steps.is_multiple_of(50) => b.describe(),
+            _ => String::new(),
+        },
+    })
+}
+
 struct ExamplePlanner {
     opts: Options,
 }
@@ -151,6 +224,7 @@ impl Planner for ExamplePlanner {
         let (tx, rx) = tokio::sync::mpsc::channel(4);
         tokio::spawn(async move {
             let mut driver: Option<Driver> = None;
+            let mut believed: Option<BelievedMap> = None;
             let mut steps = 0u64;
             while let Some(msg) = inbound.next().await {
                 let msg = match msg {
@@ -161,9 +235,14 @@ impl Planner for ExamplePlanner {
                 let answer = match msg.msg {
                     Some(Msg::Start(start)) => match Driver::new(&start) {
                         Ok(d) => {
-                            let id = start.task.map(|t| t.task_id).unwrap_or_default();
+                            let id = start
+                                .task
+                                .as_ref()
+                                .map(|t| t.task_id.clone())
+                                .unwrap_or_default();
                             eprintln!("example-planner: episode {id} started");
                             driver = Some(d);
+                            believed = BelievedMap::new(&start);
                             Ok(pb::PlannerMessage {
                                 msg: Some(pb::planner_message::Msg::Ready(true)),
                                 log: format!("ready for {id}"),
@@ -173,6 +252,9 @@ impl Planner for ExamplePlanner {
                     },
                     Some(Msg::Observation(obs)) => {
                         steps += 1;
+                        if let (Some(b), Some(u)) = (&mut believed, &obs.map_update) {
+                            b.update(u);
+                        }
                         if steps > opts.fault_after {
                             match opts.fault {
                                 Fault::Crash => {
@@ -191,31 +273,16 @@ impl Planner for ExamplePlanner {
                         if !opts.delay.is_zero() {
                             tokio::time::sleep(opts.delay).await;
                         }
-                        match (&mut driver, obs.state) {
-                            (Some(d), Some(s)) => {
-                                let mut a = d.act(&s);
-                                if steps > opts.fault_after {
-                                    match opts.fault {
-                                        Fault::Nan => a.steering = f64::NAN,
-                                        Fault::Range => a.throttle = 5.0,
-                                        _ => {}
-                                    }
-                                }
-                                Ok(pb::PlannerMessage {
-                                    msg: Some(pb::planner_message::Msg::Action(a)),
-                                    log: String::new(),
-                                })
-                            }
-                            _ => Err(Status::failed_precondition(
-                                "observation before EpisodeStart",
-                            )),
-                        }
+                        answer(&opts, steps, driver.as_mut(), believed.as_ref(), obs.state)
                     }
                     Some(Msg::End(end)) => {
                         eprintln!(
                             "example-planner: episode ended: {} ({})",
                             end.outcome, end.reason
                         );
+                        if let Some(b) = &believed {
+                            eprintln!("example-planner: {}", b.describe());
+                        }
                         break;
                     }
                     None => Err(Status::invalid_argument("empty message")),

@@ -25,6 +25,23 @@ pub use mppi_core::inflated_obstacles;
 use sim_core::control::point_ahead;
 use sim_core::planner::{Action, Observation, Planner, PlannerContext, PlannerError};
 use sim_core::world::World;
+use std::sync::Arc;
+
+/// Under a perception profile that degrades the maps: the obstacle grid of the believed world inflated by `radius`
+/// when the belief changed since `seen` (after each of the layer's scans; obstacles not detected yet are free);
+/// `None` when it did not, and always under ground truth. The MPPI baselines read no heights, only obstacles.
+pub(crate) fn believed_obstacles(
+    seen: &mut Option<Arc<World>>,
+    obs: &Observation,
+    radius: f64,
+) -> Option<Vec<bool>> {
+    let b = obs.belief.as_ref()?;
+    if seen.as_ref().is_some_and(|s| Arc::ptr_eq(s, b)) {
+        return None;
+    }
+    *seen = Some(b.clone());
+    Some(inflated_obstacles(b, radius))
+}
 
 /// Names of the built-in planners.
 pub const NAMES: [&str; 5] = ["pid", "eh", "mppi", "mppi6-oracle", "mppi-release"];
@@ -311,6 +328,7 @@ pub(crate) mod tests {
             vehicle: &info(),
             spec: &spec(),
             sim_dt: 0.002,
+            believed: false,
         })
         .unwrap();
         let a = p.act(&obs(0.0, 0.0, 0.0, 0.0)).unwrap();
@@ -351,6 +369,7 @@ pub(crate) mod tests {
             vehicle: &info(),
             spec: &spec(),
             sim_dt: 0.002,
+            believed: false,
         })
         .unwrap();
         // At scale 1/10 the local goal is 1 m ahead: (1, 0) from the start, straight ahead -> no steering.
@@ -370,6 +389,7 @@ pub(crate) mod tests {
             vehicle: &info(),
             spec: &spec(),
             sim_dt: 0.002,
+            believed: false,
         })
         .unwrap();
         let free = p.act(&obs(0.0, 0.0, 0.0, 4.0)).unwrap();
@@ -389,6 +409,7 @@ pub(crate) mod tests {
             vehicle: &info(),
             spec: &spec(),
             sim_dt: 0.002,
+            believed: false,
         })
         .unwrap();
         let mut a = Action::default();
@@ -425,6 +446,7 @@ pub(crate) mod tests {
                 vehicle: &info(),
                 spec: &spec(),
                 sim_dt: 0.002,
+                believed: false,
             })
             .unwrap();
             let a = p.act(&obs(0.0, 0.0, 0.0, 4.0)).unwrap();
@@ -451,6 +473,7 @@ pub(crate) mod tests {
             vehicle: &info(),
             spec: &spec(),
             sim_dt: 0.002,
+            believed: false,
         };
         let mut unseen_mound = truth.clone();
         for (i, h) in unseen_mound.heightmap.heights.iter_mut().enumerate() {
@@ -481,6 +504,68 @@ pub(crate) mod tests {
                 );
             } else {
                 assert_eq!(a, p);
+            }
+        }
+    }
+
+    /// Under a map-degrading profile the MPPI baselines plan around the obstacles the belief holds, and around none
+    /// it does not (whatever the context's world held): a rock just left of the straight path.
+    #[test]
+    fn mppi_avoids_an_obstacle_once_the_belief_holds_it() {
+        let free = world(false);
+        let mut rocky = free.clone();
+        rocky.obstacles.push(Obstacle {
+            kind: ObstacleKind::Rock,
+            x: 7.0,
+            y: 1.0,
+            z: 0.0,
+            yaw: 0.0,
+            half_extents: [1.0, 1.0, 1.0],
+        });
+        let task = Task {
+            world_id: 1,
+            index: 0,
+            start: [0.0, 0.0],
+            goal: [40.0, 0.0],
+            path: vec![[0.0, 0.0], [40.0, 0.0]],
+        };
+        let (vehicle, spec) = (info(), spec());
+        let ctx = |w| PlannerContext {
+            world: w,
+            task: &task,
+            vehicle: &vehicle,
+            spec: &spec,
+            sim_dt: 0.002,
+            believed: true,
+        };
+        let believing = |w: &World| Observation {
+            belief: Some(std::sync::Arc::new(w.clone())),
+            ..obs(0.0, 0.0, 0.0, 4.0)
+        };
+        for mut p in [
+            Box::new(mppi::Mppi::new()) as Box<dyn Planner>,
+            Box::new(mppi_release::MppiRelease::new()),
+        ] {
+            assert!(p.reads_belief(), "{}", p.name());
+            p.reset(&ctx(&free)).unwrap();
+            let clear = p.act(&believing(&free)).unwrap().steering;
+            p.reset(&ctx(&free)).unwrap();
+            let around = p.act(&believing(&rocky)).unwrap().steering;
+            p.reset(&ctx(&rocky)).unwrap();
+            let unseen = p.act(&believing(&free)).unwrap().steering;
+            assert!(
+                (around - clear).abs() > 0.05,
+                "{}: steering {clear} on a clear path, {around} with the rock known",
+                p.name()
+            );
+            assert_eq!(
+                unseen,
+                clear,
+                "{}: a rock the belief lacks is not avoided",
+                p.name()
+            );
+            if p.name() == "mppi" {
+                assert!(around < clear, "MPPI steers right, away from the rock");
             }
         }
     }

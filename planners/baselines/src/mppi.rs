@@ -33,6 +33,9 @@ pub struct Mppi {
     max_steer: f64,
     /// Inflated obstacle grid: `blocked[iy * nx + ix]`, with the map geometry.
     blocked: Vec<bool>,
+    /// The inflation radius and the believed world `blocked` was made from (under a map-degrading profile).
+    inflate: f64,
+    seen: Option<std::sync::Arc<sim_core::world::World>>,
     nx: usize,
     ny: usize,
     cell: f64,
@@ -55,6 +58,8 @@ impl Mppi {
             wheelbase: 1.0,
             max_steer: 0.5,
             blocked: Vec::new(),
+            inflate: 0.0,
+            seen: None,
             nx: 0,
             ny: 0,
             cell: 1.0,
@@ -92,10 +97,19 @@ impl Planner for Mppi {
         let h = &ctx.world.heightmap;
         (self.nx, self.ny, self.cell) = (h.nx, h.ny, h.cell);
         // Inflate by the vehicle's half width.
-        self.blocked = crate::inflated_obstacles(ctx.world, 0.5 * ctx.vehicle.width);
+        self.inflate = 0.5 * ctx.vehicle.width;
+        self.blocked = crate::inflated_obstacles(ctx.world, self.inflate);
+        self.seen = None;
         Ok(())
     }
+    /// Under a map-degrading profile it avoids the obstacles detected so far (it reads no heights).
+    fn reads_belief(&self) -> bool {
+        true
+    }
     fn act(&mut self, obs: &Observation) -> Result<Action, PlannerError> {
+        if let Some(b) = crate::believed_obstacles(&mut self.seen, obs, self.inflate) {
+            self.blocked = b;
+        }
         let s = &obs.state;
         let (goal, progress) = point_ahead(
             &self.tracker.path,

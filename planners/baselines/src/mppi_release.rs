@@ -69,6 +69,8 @@ pub struct MppiRelease {
     goal_index: usize,
     goal: [f64; 2],
     obstacles: Vec<bool>,
+    /// The believed world `obstacles` was made from (under a map-degrading profile).
+    seen: Option<std::sync::Arc<sim_core::world::World>>,
     nx: usize,
     ny: usize,
     cell: f64,
@@ -93,6 +95,7 @@ impl MppiRelease {
             goal_index: 0,
             goal: [0.0; 2],
             obstacles: Vec::new(),
+            seen: None,
             nx: 0,
             ny: 0,
             cell: 1.0,
@@ -147,9 +150,17 @@ impl Planner for MppiRelease {
         let h = &ctx.world.heightmap;
         (self.nx, self.ny, self.cell) = (h.nx, h.ny, h.cell);
         self.obstacles = crate::inflated_obstacles(ctx.world, 0.0);
+        self.seen = None;
         Ok(())
     }
+    /// Under a map-degrading profile it avoids the obstacles detected so far (it reads no heights).
+    fn reads_belief(&self) -> bool {
+        true
+    }
     fn act(&mut self, obs: &Observation) -> Result<Action, PlannerError> {
+        if let Some(b) = crate::believed_obstacles(&mut self.seen, obs, 0.0) {
+            self.obstacles = b;
+        }
         let s = &obs.state;
         let pos = [s.position[0], s.position[1]];
         self.local_goal(pos, s.yaw, 10.0 * self.tracker.scale);
@@ -251,6 +262,7 @@ mod tests {
             vehicle: &vehicle,
             spec: &crate::tests::spec(),
             sim_dt: 0.002,
+            believed: false,
         })
         .unwrap();
         let obs = Observation {

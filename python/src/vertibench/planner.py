@@ -45,13 +45,30 @@ class Maps:
     """Ground-truth maps of the world, sampled on its heightmap grid: ``elevation[iy, ix]`` (m) at
     ``x = (ix - (nx - 1) / 2) * cell``, ``y = (iy - (ny - 1) / 2) * cell``; ``semantics`` (release label ids: clay 0
     ... snow 9), ``obstacles`` (1 = occupied) and ``friction`` (Coulomb friction of rigid ground, 0 where
-    deformable)."""
+    deformable).
+
+    Under a perception profile that degrades the maps (``believed``), they are what the planner believes: heights
+    ``NaN`` where the vehicle's sensor has not seen yet (``known`` is the mask), patches as classified, the obstacles
+    detected so far; the arrays are updated in place as the episode goes, so a planner that keeps them from
+    ``reset`` always reads the map built so far."""
 
     elevation: np.ndarray
     semantics: np.ndarray
     obstacles: np.ndarray
     friction: np.ndarray
     cell: float
+    believed: bool = False
+
+    @property
+    def known(self) -> np.ndarray:
+        """Where the height is known (always everywhere under ground truth)."""
+        return np.isfinite(self.elevation)
+
+    def update(self, x0: int, y0: int, elevation: np.ndarray, obstacles: np.ndarray) -> None:
+        """Pastes a rectangle of the believed maps from sample ``(x0, y0)`` (a ``MapUpdate``)."""
+        ny, nx = elevation.shape
+        self.elevation[y0:y0 + ny, x0:x0 + nx] = elevation
+        self.obstacles[y0:y0 + ny, x0:x0 + nx] = obstacles
 
     def position(self, ix, iy):
         """World position of sample ``(ix, iy)``."""
@@ -299,11 +316,20 @@ def serve(planner: Planner, address: str | None = None, **kwargs):
     return _serve(planner, address, **kwargs)
 
 
+#: The maps each planner object was given at its last reset (by id), which believed-map updates go into.
+_MAPS: dict[int, Maps] = {}
+
+
 def _core_reset(planner: Planner, task: dict, vehicle: dict, maps: dict, sim_dt: float) -> None:
     """Called by the native runner at the start of an episode."""
-    planner.reset(make_task(task), vehicle, Maps(**maps))
+    m = Maps(**maps)
+    _MAPS[id(planner)] = m
+    planner.reset(make_task(task), vehicle, m)
 
 
-def _core_act(planner: Planner, state, crops):
-    """Called by the native runner at every control step."""
+def _core_act(planner: Planner, state, crops, update=None):
+    """Called by the native runner at every control step; ``update``: the patch of believed maps that changed since
+    the last step (under a perception profile that degrades the maps), pasted into the planner's ``Maps``."""
+    if update is not None and id(planner) in _MAPS:
+        _MAPS[id(planner)].update(*update)
     return action_tuple(planner.act(make_observation(state, crops)))

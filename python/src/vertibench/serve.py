@@ -37,18 +37,28 @@ def _task(t) -> Task:
 
 
 def _grid(g, dtype):
-    data = np.frombuffer(g.data, dtype=np.uint8) if dtype == np.uint8 else np.asarray(g.data, dtype=dtype)
+    # A copy: believed maps are updated in place.
+    data = np.frombuffer(g.data, dtype=np.uint8).copy() if dtype == np.uint8 else np.asarray(g.data, dtype=dtype)
     return data.reshape(g.ny, g.nx)
 
 
-def _maps(m) -> Maps:
+def _maps(m, believed: bool = False) -> Maps:
     return Maps(
         elevation=_grid(m.elevation, np.float32),
         semantics=_grid(m.semantics, np.uint8),
         obstacles=_grid(m.obstacles, np.uint8),
         friction=_grid(m.friction, np.float32),
         cell=m.elevation.cell,
+        believed=believed,
     )
+
+
+def _update(maps: Maps | None, o) -> None:
+    """Pastes an observation's ``MapUpdate`` (what the sensor saw since the last one) into the believed maps."""
+    if maps is None or not o.HasField("map_update"):
+        return
+    u = o.map_update
+    maps.update(u.x0, u.y0, _grid(u.elevation, np.float32), _grid(u.obstacles, np.uint8))
 
 
 def _vehicle(v) -> dict:
@@ -71,6 +81,7 @@ class _Servicer:
     def __init__(self, planner: Planner, version: str):
         self.planner = planner
         self.version = version
+        self.maps: Maps | None = None
 
     def info(self, request, context):
         p = self.planner
@@ -90,9 +101,11 @@ class _Servicer:
             try:
                 if kind == "start":
                     st = msg.start
-                    self.planner.reset(_task(st.task), _vehicle(st.vehicle), _maps(st.maps))
+                    self.maps = _maps(st.maps, st.believed)
+                    self.planner.reset(_task(st.task), _vehicle(st.vehicle), self.maps)
                     yield pb.PlannerMessage(ready=True)
                 elif kind == "observation":
+                    _update(self.maps, msg.observation)
                     s, t, b = action_tuple(self.planner.act(_observation(msg.observation)))
                     yield pb.PlannerMessage(action=pb.Action(steering=s, throttle=t, brake=b))
                 else:

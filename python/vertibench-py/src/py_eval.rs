@@ -271,6 +271,7 @@ pub fn evaluate<'py>(
                 rate,
                 crop,
                 world: None,
+                sync: None,
             }),
         }
     };

@@ -60,6 +60,7 @@ pub async fn seed(
             step_deadline_s: 1.0,
             task_set_version: catalog.task_set_version.clone(),
             sim_version: "bench".into(),
+            perception: Default::default(),
         };
         let t = 1.0 + s as f64;
         let id = store.create_submission(&sub, &tasks, t).await?;

@@ -35,6 +35,8 @@ pub fn lease(l: &Lease) -> Result<pb::EpisodeLease, Status> {
         seed: s.seed,
         step_deadline_s: s.step_deadline_s,
         task_set_version: s.task_set_version.clone(),
+        perception: s.perception.id.to_string(),
+        perception_params: s.perception.params.clone(),
     })
 }
 
@@ -75,6 +77,8 @@ pub fn status(s: &Submission, p: &Progress, throughput_per_s: Option<f64>) -> pb
         scale: s.scale,
         seed: s.seed,
         rules: vb_store::SERVICE_RULES.wire(),
+        perception: s.perception.id.to_string(),
+        family: s.family.clone(),
     }
 }
 

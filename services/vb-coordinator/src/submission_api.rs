@@ -11,17 +11,20 @@ impl pb::coordinator_server::Coordinator for CoordinatorApi {
     ) -> Result<Response<pb::SubmitResponse>, Status> {
         let owner = self.0.user(&req).await?;
         let mut v = self.0.validate_submit(req.get_ref())?;
-        v.sub.owner = owner.name;
-        v.sub.owner_token = owner.id;
-        let id = self
+        for s in &mut v.subs {
+            s.owner = owner.name.clone();
+            s.owner_token = owner.id.clone();
+        }
+        let ids = self
             .0
             .store
-            .create_submission(&v.sub, &v.episodes, now())
+            .create_family(&v.subs, &v.episodes, now())
             .await
             .map_err(store_status)?;
         Ok(Response::new(pb::SubmitResponse {
-            submission_id: id,
+            submission_id: ids[0].clone(),
             episodes: v.episodes.len() as u32,
+            submission_ids: ids,
         }))
     }
 

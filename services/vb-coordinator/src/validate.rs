@@ -3,13 +3,17 @@
 //! an image reference by Docker's grammar), vehicle, scale, deadline and task selection.
 
 use crate::*;
-use contracts::{input, Catalog, VehicleId};
+use contracts::{input, Catalog, CatalogProfile, VehicleId};
 use vb_store::PlannerSpec;
 
 pub(crate) struct ValidSubmit {
-    pub(crate) sub: NewSubmission,
+    /// The request's submissions, one per perception profile (at least one), in its order.
+    pub(crate) subs: Vec<NewSubmission>,
     pub(crate) episodes: Vec<NewEpisode>,
 }
+
+/// Most perception profiles one request may name.
+const MAX_PROFILES: usize = 8;
 
 impl Coordinator {
     pub(crate) fn validate_submit(&self, r: &pb::SubmitRequest) -> Result<ValidSubmit, Status> {
@@ -19,25 +23,43 @@ impl Coordinator {
         let (vehicle, scale) = vehicle_and_scale(catalog, &r.vehicle, r.scale)?;
         let deadline = step_deadline(r.step_deadline_s)?;
         let episodes = episodes(catalog, &r.task_ids)?;
-        Ok(ValidSubmit {
-            sub: NewSubmission {
-                name: name.to_string(),
-                owner: String::new(),
-                owner_token: String::new(),
-                planner_identity: match &planner {
-                    PlannerSpec::Builtin(_) => format!("{planner} ({})", catalog.sim_version),
-                    _ => planner.to_string(),
-                },
-                planner,
-                vehicle,
-                scale,
-                seed: r.seed,
-                step_deadline_s: deadline,
-                task_set_version: catalog.task_set_version.clone(),
-                sim_version: catalog.sim_version.clone(),
+        let profiles = perception(catalog, &r.perception)?;
+        if let (PlannerSpec::Builtin(b), Some(p)) =
+            (&planner, profiles.iter().find(|p| p.degrades_maps))
+        {
+            if !catalog.belief_planners.iter().any(|n| n == b) {
+                return Err(bad(format!(
+                    "builtin planner `{b}` reads the world's ground-truth maps, and perception profile {} degrades \
+                     them: submit it under ideal",
+                    p.entry.id
+                )));
+            }
+        }
+        let sub = NewSubmission {
+            name: name.to_string(),
+            owner: String::new(),
+            owner_token: String::new(),
+            planner_identity: match &planner {
+                PlannerSpec::Builtin(_) => format!("{planner} ({})", catalog.sim_version),
+                _ => planner.to_string(),
             },
-            episodes,
-        })
+            planner,
+            vehicle,
+            scale,
+            seed: r.seed,
+            step_deadline_s: deadline,
+            task_set_version: catalog.task_set_version.clone(),
+            sim_version: catalog.sim_version.clone(),
+            perception: Default::default(),
+        };
+        let subs = profiles
+            .into_iter()
+            .map(|p| NewSubmission {
+                perception: p.entry,
+                ..sub.clone()
+            })
+            .collect();
+        Ok(ValidSubmit { subs, episodes })
     }
 
     /// The planner as the store keeps it; exec and image planners only where this coordinator runs them.
@@ -87,6 +109,28 @@ impl Coordinator {
 
 fn bad(m: String) -> Status {
     Status::invalid_argument(m)
+}
+
+/// The catalogue's profiles a request names (none: `ideal`), each at most once.
+fn perception(catalog: &Catalog, names: &[String]) -> Result<Vec<CatalogProfile>, Status> {
+    if names.len() > MAX_PROFILES {
+        return Err(bad(format!(
+            "at most {MAX_PROFILES} perception profiles per submission (got {})",
+            names.len()
+        )));
+    }
+    if names.is_empty() {
+        return Ok(vec![CatalogProfile::default()]);
+    }
+    let mut out: Vec<CatalogProfile> = Vec::with_capacity(names.len());
+    for n in names {
+        let entry = catalog.perception_profile(n.trim()).map_err(bad)?;
+        if out.iter().any(|e| e.entry.id == entry.entry.id) {
+            return Err(bad(format!("perception profile `{n}` is named twice")));
+        }
+        out.push(entry);
+    }
+    Ok(out)
 }
 
 /// The submission's name, trimmed: 1 to `MAX_NAME` characters of displayable text.

@@ -22,20 +22,23 @@ pub struct Snapshot {
     pub at: Instant,
     pub reference: crate::ranking::Reference,
     pub entries: Vec<SubmissionEntry>,
+    /// The families of submissions under several perception profiles.
+    pub robustness: Vec<crate::robustness::Robustness>,
     pub html: Bytes,
     pub json: Bytes,
 }
 
 impl Snapshot {
-    pub fn new(ranking: Ranking) -> Snapshot {
+    pub fn new(ranking: Ranking, robustness: Vec<crate::robustness::Robustness>) -> Snapshot {
         let Ranking { reference, entries } = ranking;
-        let html = crate::pages::board::index(&entries, &reference);
+        let html = crate::pages::board::index(&entries, &reference, &robustness);
         let json =
             serde_json::to_string(&entries).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"));
         Snapshot {
             at: Instant::now(),
             reference,
             entries,
+            robustness,
             html: html.into(),
             json: json.into(),
         }

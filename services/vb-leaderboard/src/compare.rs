@@ -101,7 +101,7 @@ pub fn pairwise(
 
 impl Leaderboard {
     /// A submission (as the public sees it) and its finished episodes as evaluation rows.
-    async fn finished_rows(
+    pub(crate) async fn finished_rows(
         &self,
         id: &str,
     ) -> Result<(PublicSubmission, Vec<EpisodeRow>), WebError> {

@@ -11,6 +11,7 @@ pub mod metrics;
 pub mod pages;
 pub mod public;
 pub mod ranking;
+pub mod robustness;
 
 use axum::extract::{Path, Query, State};
 use axum::http::{header, StatusCode};
@@ -174,6 +175,7 @@ impl Leaderboard {
             .route("/api/submissions", get(api_submissions))
             .route("/api/submissions/:id", get(api_submission))
             .route("/api/submissions/:id/episodes", get(api_episodes))
+            .route("/api/submissions/:id/robustness", get(api_robustness))
             .route("/api/submissions/:id/episodes/:task", get(api_episode))
             .route("/api/compare/:a/:b", get(api_compare))
             .fallback(not_found)
@@ -262,6 +264,7 @@ impl Leaderboard {
                 task_set_version: &e.submission.task_set_version,
                 sim_version: &e.submission.sim_version,
                 rules: e.summary.rules,
+                perception: &e.summary.perception,
             };
             e.unranked = run.unranked(&reference);
             e.coverage = run.coverage(&reference);
@@ -295,7 +298,9 @@ impl Leaderboard {
     async fn snapshot(&self, fresh: bool) -> Result<Arc<cache::Snapshot>, WebError> {
         self.snapshot
             .get(fresh, || async {
-                Ok(cache::Snapshot::new(self.ranked().await?))
+                let ranking = self.ranked().await?;
+                let families = self.all_robustness(&ranking.entries).await?;
+                Ok(cache::Snapshot::new(ranking, families))
             })
             .await
     }
@@ -368,7 +373,13 @@ async fn submission_page(
             let entry = lb.entry(sub, stored).await?;
             let snap = lb.snapshot(false).await?;
             let others = pages::submission::compare_links(&id, &snap.entries);
-            Ok(pages::submission::page(&entry, &eps, page, offset, &others))
+            let family = snap
+                .robustness
+                .iter()
+                .find(|r| r.family == entry.submission.family);
+            Ok(pages::submission::page(
+                &entry, &eps, page, offset, &others, family,
+            ))
         })
         .await?;
     Ok(Html(page))
@@ -458,6 +469,19 @@ async fn api_episode(
     Ok(Json(
         public::episode_detail(&lb.reader, &id, task_id(&id, &task)?).await?,
     ))
+}
+
+/// The robustness table of the submission's family (one profile when it was submitted alone).
+async fn api_robustness(
+    State(lb): St,
+    Path(id): Path<String>,
+) -> Result<Json<robustness::Robustness>, WebError> {
+    let entry = lb.ranked_entry(&id).await?;
+    let snap = lb.snapshot(false).await?;
+    lb.robustness(&entry.submission.family, &snap.entries)
+        .await?
+        .ok_or_else(|| WebError::NotFound(format!("no submission `{id}`")))
+        .map(Json)
 }
 
 async fn compare_page(

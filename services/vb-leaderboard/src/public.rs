@@ -57,6 +57,10 @@ pub struct PublicSubmission {
     pub created_at: f64,
     pub finished_at: Option<f64>,
     pub tasks: u32,
+    /// The perception profile it ran under (`ideal`: ground truth).
+    pub perception: contracts::PerceptionId,
+    /// The first submission of the request that made it (one per perception profile); its own id when alone.
+    pub family: String,
     /// What its results' rows share (name, vehicle, versions, rules), for their summaries.
     #[serde(skip)]
     pub facts: RunFacts,
@@ -83,6 +87,8 @@ fn redact(s: Submission) -> PublicSubmission {
         created_at: s.created_at,
         finished_at: s.finished_at,
         tasks: s.tasks,
+        perception: s.perception.id,
+        family: s.family,
     }
 }
 

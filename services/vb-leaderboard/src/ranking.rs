@@ -1,5 +1,6 @@
 //! Who is ranked. The main board ranks only runs comparable with each other: finished, every task of one task set,
-//! on this simulator, under the default (paper's) episode rules. Every other run is listed apart with why and its
+//! on this simulator, under the default (paper's) episode rules, with ground-truth perception (`ideal`; a run under
+//! another perception profile is read beside its family's ideal run, in the robustness table). Every other run is listed apart with why and its
 //! coverage (finished tasks over the full set), so three lucky episodes, a run on an older simulator or one under
 //! the release's rules never stand beside full runs. The service's `/` and `vb leaderboard-static` use the same
 //! rule.
@@ -51,6 +52,7 @@ pub struct Run<'a> {
     pub task_set_version: &'a str,
     pub sim_version: &'a str,
     pub rules: Rules,
+    pub perception: &'a contracts::PerceptionId,
 }
 
 /// Why a run is not ranked.
@@ -71,6 +73,10 @@ pub enum Unranked {
     OtherRules {
         rules: Rules,
     },
+    /// Ran under a perception profile other than ground truth.
+    OtherPerception {
+        perception: contracts::PerceptionId,
+    },
     /// Ran (or finished) fewer tasks than the full set.
     Partial {
         finished: u32,
@@ -90,6 +96,7 @@ impl std::fmt::Display for Unranked {
                 write!(f, "other simulator ({sim_version})")
             }
             Unranked::OtherRules { rules } => write!(f, "{} rules", rules.as_str()),
+            Unranked::OtherPerception { perception } => write!(f, "perception {perception}"),
             Unranked::Partial { finished, tasks } => {
                 write!(f, "partial: {finished} of {tasks} tasks")
             }
@@ -112,6 +119,10 @@ impl Run<'_> {
                     }
                 } else if self.rules != r.rules {
                     Unranked::OtherRules { rules: self.rules }
+                } else if !self.perception.is_ideal() {
+                    Unranked::OtherPerception {
+                        perception: self.perception.clone(),
+                    }
                 } else if self.tasks != r.tasks || self.finished != r.tasks {
                     Unranked::Partial {
                         finished: self.finished,
@@ -147,8 +158,12 @@ pub fn coverage_text(finished: u32, coverage: f64, r: &Reference) -> String {
 mod tests {
     use super::*;
 
+    static IDEAL: std::sync::LazyLock<contracts::PerceptionId> =
+        std::sync::LazyLock::new(contracts::PerceptionId::ideal);
+
     fn run(state: SubmissionState, finished: u32) -> Run<'static> {
         Run {
+            perception: &IDEAL,
             state,
             tasks: 1000,
             finished,
@@ -212,5 +227,14 @@ mod tests {
             Some(Unranked::OtherTaskSet { .. })
         ));
         assert_eq!(other_set.coverage(&r), 0.0);
+        let noisy = contracts::PerceptionId::new("nominal@0123456789abcdef");
+        let nominal = Run {
+            perception: &noisy,
+            ..run(SubmissionState::Done, 1000)
+        };
+        assert_eq!(
+            nominal.unranked(&r).map(|u| u.to_string()).as_deref(),
+            Some("perception nominal@0123456789abcdef")
+        );
     }
 }

@@ -51,6 +51,7 @@ async fn injected_markup_is_escaped_everywhere() -> anyhow::Result<()> {
         step_deadline_s: 1.0,
         task_set_version: set.version().into(),
         sim_version: "s".into(),
+        perception: Default::default(),
     };
     let episode = NewEpisode {
         task_id: contracts::TaskId::new(1, 0),

@@ -65,6 +65,7 @@ async fn hidden_characters_in_stored_names_are_shown_escaped_on_every_page() -> 
         step_deadline_s: 1.0,
         task_set_version: set.version().into(),
         sim_version: "s".into(),
+        perception: Default::default(),
     };
     let episode = NewEpisode {
         task_id: contracts::TaskId::new(1, 0),

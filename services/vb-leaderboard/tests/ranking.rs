@@ -47,6 +47,7 @@ async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
             step_deadline_s: 1.0,
             task_set_version: set.version().into(),
             sim_version: sim.into(),
+            perception: Default::default(),
         };
         let id = store.create_submission(&sub, &episodes, 1.0).await?;
         let mut k = 0;
@@ -124,7 +125,7 @@ async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
     );
     assert_eq!(old.summary.overall.success_rate, 1.0);
     // The board: the ranked table, then the runs listed apart with why and their coverage.
-    let board = vb_leaderboard::pages::board::index(ranked, &ranking.reference);
+    let board = vb_leaderboard::pages::board::index(ranked, &ranking.reference, &[]);
     let (ranked_table, apart_table) = board.split_once("Listed apart").expect("runs listed apart");
     assert!(ranked_table.contains(">full</a>") && !ranked_table.contains(">lucky</a>"));
     assert!(
@@ -174,7 +175,7 @@ async fn only_comparable_complete_runs_are_ranked() -> anyhow::Result<()> {
     let at = |n: usize| {
         let (page, from) = vb_leaderboard::pages::submission::page_offset(n, eps.len());
         let shown = &eps[from..(from + 100).min(eps.len())];
-        vb_leaderboard::pages::submission::page(full, shown, page, from, &[])
+        vb_leaderboard::pages::submission::page(full, shown, page, from, &[], None)
     };
     let first = at(1);
     assert_eq!(rows(&first), 100);

@@ -17,7 +17,7 @@ pub fn facts(sub: &Submission) -> RunFacts {
         task_set_version: sub.task_set_version.clone(),
         sim_version: sub.sim_version.clone(),
         rules: SERVICE_RULES,
-        perception: contracts::PerceptionId::ideal(),
+        perception: sub.perception.id.clone(),
     }
 }
 

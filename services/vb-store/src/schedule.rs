@@ -11,21 +11,55 @@ impl Store {
         episodes: &[NewEpisode],
         now: f64,
     ) -> Result<String> {
+        let mut ids = self
+            .create_family(std::slice::from_ref(s), episodes, now)
+            .await?;
+        Ok(ids.remove(0))
+    }
+
+    /// Stores the submissions of one request (one per perception profile, at least one), each with one queued
+    /// episode per task, atomically and in order; the first one's id is the family of all. Returns their ids.
+    pub async fn create_family(
+        &self,
+        subs: &[NewSubmission],
+        episodes: &[NewEpisode],
+        now: f64,
+    ) -> Result<Vec<String>> {
         let _w = self.write.lock().await;
-        let id = format!("sub-{}", random_hex(6)?);
         let mut tx = self.pool.begin().await?;
-        let seq: i64 = sqlx::query(
-            "SELECT CAST(COALESCE(MAX(seq), 0) + 1 AS BIGINT) AS next FROM submissions",
-        )
-        .fetch_one(&mut *tx)
-        .await?
-        .try_get("next")?;
-        sqlx::query(
-            "INSERT INTO submissions (id, seq, name, owner, planner_kind, planner_spec, planner_identity, vehicle, \
-             scale, seed, step_deadline_s, task_set_version, sim_version, state, created_at, owner_token, tasks) \
-             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, 'queued', $14, $15, $16)",
-        )
-        .bind(&id)
+        let mut ids: Vec<String> = Vec::with_capacity(subs.len());
+        for s in subs {
+            let id = format!("sub-{}", random_hex(6)?);
+            let family = ids.first().unwrap_or(&id).clone();
+            insert_submission(&mut tx, s, &id, &family, episodes, now).await?;
+            ids.push(id);
+        }
+        tx.commit().await?;
+        Ok(ids)
+    }
+}
+
+/// One submission (of family `family`) and its queued episodes, in `tx`.
+async fn insert_submission(
+    tx: &mut sqlx::Transaction<'_, sqlx::Any>,
+    s: &NewSubmission,
+    id: &str,
+    family: &str,
+    episodes: &[NewEpisode],
+    now: f64,
+) -> Result<()> {
+    let seq: i64 =
+        sqlx::query("SELECT CAST(COALESCE(MAX(seq), 0) + 1 AS BIGINT) AS next FROM submissions")
+            .fetch_one(&mut **tx)
+            .await?
+            .try_get("next")?;
+    sqlx::query(
+        "INSERT INTO submissions (id, seq, name, owner, planner_kind, planner_spec, planner_identity, vehicle, \
+         scale, seed, step_deadline_s, task_set_version, sim_version, state, created_at, owner_token, tasks, \
+         perception, perception_params, family) \
+         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, 'queued', $14, $15, $16, $17, $18, $19)",
+    )
+    .bind(id)
         .bind(seq)
         .bind(&s.name)
         .bind(&s.owner)
@@ -41,28 +75,31 @@ impl Store {
         .bind(now)
         .bind(&s.owner_token)
         .bind(episodes.len() as i64)
-        .execute(&mut *tx)
+        .bind(s.perception.id.as_str())
+        .bind(&s.perception.params)
+        .bind(family)
+        .execute(&mut **tx)
         .await?;
-        for (i, e) in episodes.iter().enumerate() {
-            sqlx::query(
-                "INSERT INTO episodes (submission_id, task_id, ord, world_id, task_index, level, semantics, density, \
-                 state, attempts) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, 'queued', 0)",
-            )
-            .bind(&id)
-            .bind(e.task_id.to_string())
-            .bind(i as i64)
-            .bind(i64::from(e.task_id.world))
-            .bind(i64::from(e.task_id.index))
-            .bind(e.level.as_str())
-            .bind(e.semantics.as_str())
-            .bind(e.density.as_str())
-            .execute(&mut *tx)
-            .await?;
-        }
-        tx.commit().await?;
-        Ok(id)
+    for (i, e) in episodes.iter().enumerate() {
+        sqlx::query(
+            "INSERT INTO episodes (submission_id, task_id, ord, world_id, task_index, level, semantics, density, \
+             state, attempts) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, 'queued', 0)",
+        )
+        .bind(id)
+        .bind(e.task_id.to_string())
+        .bind(i as i64)
+        .bind(i64::from(e.task_id.world))
+        .bind(i64::from(e.task_id.index))
+        .bind(e.level.as_str())
+        .bind(e.semantics.as_str())
+        .bind(e.density.as_str())
+        .execute(&mut **tx)
+        .await?;
     }
+    Ok(())
+}
 
+impl Store {
     /// Cancels a submission: queued episodes become `not_run`; leased ones may still report (their results are
     /// kept), and become `not_run` when their lease expires. Returns false when it had already ended.
     pub async fn cancel(&self, id: &str, now: f64) -> Result<bool> {

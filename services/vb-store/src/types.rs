@@ -3,8 +3,8 @@
 pub use crate::planner_spec::PlannerSpec;
 use crate::{Result, StoreError};
 use contracts::{
-    ElevationLevel, EndReason, EpisodeMetrics, ObstacleDensity, SemanticsKind, SimVersion, TaskId,
-    VehicleId,
+    ElevationLevel, EndReason, EpisodeMetrics, ObstacleDensity, PerceptionEntry, SemanticsKind,
+    SimVersion, TaskId, VehicleId,
 };
 pub use contracts::{EpisodeState, PlannerKind, RecordedOutcome, SubmissionState};
 use serde::{Deserialize, Serialize};
@@ -75,6 +75,8 @@ pub struct NewSubmission {
     pub step_deadline_s: f64,
     pub task_set_version: String,
     pub sim_version: SimVersion,
+    /// The perception profile its episodes run under.
+    pub perception: PerceptionEntry,
 }
 
 /// One task of a new submission, with the factors the leaderboard breaks results down by.
@@ -115,6 +117,10 @@ pub struct Submission {
     pub step_deadline_s: f64,
     pub task_set_version: String,
     pub sim_version: SimVersion,
+    pub perception: PerceptionEntry,
+    /// The id of the first submission of the request that made it (one per perception profile); its own id when
+    /// it was alone.
+    pub family: String,
     pub state: SubmissionState,
     pub created_at: f64,
     pub finished_at: Option<f64>,
@@ -222,8 +228,16 @@ pub struct EpisodeDetail {
 }
 
 pub(crate) fn submission_from_row(r: &AnyRow) -> Result<Submission> {
+    let id: String = r.try_get("id")?;
     Ok(Submission {
-        id: r.try_get("id")?,
+        family: r
+            .try_get::<Option<String>, _>("family")?
+            .unwrap_or_else(|| id.clone()),
+        id,
+        perception: PerceptionEntry {
+            id: r.try_get::<String, _>("perception")?.into(),
+            params: r.try_get("perception_params")?,
+        },
         seq: r.try_get("seq")?,
         name: r.try_get("name")?,
         owner: r.try_get("owner")?,

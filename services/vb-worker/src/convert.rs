@@ -112,7 +112,8 @@ pub fn world_maps(world: &World) -> pb::WorldMaps {
     }
 }
 
-/// An observation with heading-aligned crops when `crop` is given.
+/// An observation with heading-aligned crops of `world` (the truth, or the belief) when `crop` is given; with a
+/// belief the crops carry their known mask.
 pub fn observation(
     obs: &Observation,
     world: &World,
@@ -127,6 +128,12 @@ pub fn observation(
         sim_core::observe::semantics_crop(world, &obs.state, spec, &mut sem);
         sim_core::observe::obstacle_crop(world, &obs.state, spec, &mut occ);
         let size = spec.size as u32;
+        let known = obs.belief.is_some().then(|| pb::GridU8 {
+            nx: size,
+            ny: size,
+            cell: spec.resolution,
+            data: elev.iter().map(|z| u8::from(z.is_finite())).collect(),
+        });
         pb::LocalMaps {
             elevation: Some(pb::GridF32 {
                 nx: size,
@@ -146,10 +153,37 @@ pub fn observation(
                 cell: spec.resolution,
                 data: occ,
             }),
+            known,
         }
     });
     pb::Observation {
         state: Some(vehicle_state(&obs.state)),
         local,
+        map_update: None,
+    }
+}
+
+/// A patch of the believed maps as the protocol's `MapUpdate` (on `world`'s grid: its cell size).
+pub fn map_update(p: &perception::sync::MapPatch, world: &World) -> pb::MapUpdate {
+    let cell = world.heightmap.cell;
+    let grid_u = |data: Vec<u8>| pb::GridU8 {
+        nx: p.nx as u32,
+        ny: p.ny as u32,
+        cell,
+        data,
+    };
+    pb::MapUpdate {
+        x0: p.x0 as u32,
+        y0: p.y0 as u32,
+        elevation: Some(pb::GridF32 {
+            nx: p.nx as u32,
+            ny: p.ny as u32,
+            cell,
+            data: p.heights.clone(),
+        }),
+        obstacles: Some(grid_u(p.obstacles.clone())),
+        known: Some(grid_u(
+            p.heights.iter().map(|z| u8::from(z.is_finite())).collect(),
+        )),
     }
 }

@@ -22,6 +22,8 @@ mod startup;
 pub use vb_proto::tls;
 
 pub use pool::run_worker;
+// The perception layer an episode spec names (the CLIs that build specs use it through here).
+pub use perception;
 
 use remote::{PlannerLog, RemotePlanner, SharedLog};
 use sim_core::episode::{EndReason, EpisodeConfig, EpisodeResult, Outcome};
@@ -127,6 +129,26 @@ pub struct EpisodeSpec {
     pub max_time: Option<f64>,
     /// How exec planners are contained (namespaces, another user).
     pub containment: sandbox::Containment,
+    /// The perception profile between the truth and the planner (`Profile::ideal()`: ground truth).
+    pub perception: perception::Profile,
+}
+
+/// The lease's perception profile: ideal, or parsed from its parameters and checked against its identity (a
+/// worker whose `perception` crate differs from the coordinator's must not run it under another profile).
+pub fn lease_profile(identity: &str, params: &str) -> Result<perception::Profile, String> {
+    if params.is_empty() && (identity.is_empty() || identity == "ideal") {
+        return Ok(perception::Profile::ideal());
+    }
+    let p = perception::Profile::from_json(params)
+        .map_err(|e| format!("lease's perception profile {identity}: {e}"))?;
+    if p.identity() != identity {
+        return Err(format!(
+            "lease's perception profile is {identity} but its parameters are {} here (another build of the \
+             perception layer)",
+            p.identity()
+        ));
+    }
+    Ok(p)
 }
 
 /// A finished episode, ready to report.
@@ -218,13 +240,31 @@ pub async fn run_leased(
         let world = world_set.world(w, scale).map_err(|e| e.to_string())?;
         let mut planner = planner;
         let mut observer = CancelObserver(cancel);
-        let r = sim_core::runner::run_episode_observed(
+        let p = planner.as_dyn();
+        if spec.perception.degrades_maps() && p.reads_world_maps() && !p.reads_belief() {
+            return Err(format!(
+                "planner {} reads the world's ground-truth maps and profile {} degrades them",
+                p.name(),
+                spec.perception.name
+            ));
+        }
+        let mut hook = perception::hook(
+            &spec.perception,
+            &world,
+            spec.task_id,
+            task.start,
+            spec.seed,
+            vehicle.info().max_steer,
+            1.0 / p.control_rate_hz(),
+        );
+        let r = sim_core::runner::run_episode_hooked(
             &world,
             &task,
             &vehicle,
-            planner.as_dyn(),
+            p,
             &cfg,
             &mut observer,
+            hook.as_mut(),
         );
         let mut round_trips = Vec::new();
         if let AnyPlanner::Remote(p) = &mut planner {
@@ -301,6 +341,7 @@ async fn start_planner(
                 Ok(mut p) => {
                     p.set_log(log.clone());
                     p.set_episode_context(set.version(), spec.seed);
+                    p.set_perception(&spec.perception.identity());
                     Started::Ready(AnyPlanner::Remote(Box::new(p)), identity, None)
                 }
                 Err(e) => {
@@ -335,6 +376,7 @@ async fn start_planner(
                 Ok((proc_, mut p)) => {
                     p.set_log(proc_.output.clone());
                     p.set_episode_context(set.version(), spec.seed);
+                    p.set_perception(&spec.perception.identity());
                     Started::Ready(AnyPlanner::Remote(Box::new(p)), identity, Some(proc_))
                 }
                 Err((e, text)) => Started::Failed(failed(e.reason(), &e, text, identity, t0)),

@@ -385,8 +385,13 @@ async fn run_lease(
         Ok(t) => t,
         Err(e) => return Some(infra(e.to_string())),
     };
+    let perception = match crate::lease_profile(&lease.perception, &lease.perception_params) {
+        Ok(p) => p,
+        Err(e) => return Some(infra(e)),
+    };
     let spec = EpisodeSpec {
         task_id,
+        perception,
         planner: lease.planner.clone().unwrap_or_default(),
         vehicle: lease.vehicle.as_str().into(),
         scale: lease.scale,

@@ -6,6 +6,7 @@
 //! `planner_crash`, and simulated time is frozen meanwhile, so results do not depend on the planner's hardware.
 
 use crate::convert;
+use perception::sync::MapSync;
 use sim_core::observe::CropSpec;
 use sim_core::planner::{Action, Observation, Planner, PlannerContext, PlannerError};
 use sim_core::world::World;
@@ -103,13 +104,40 @@ pub struct RemotePlanner {
     start_deadline: Duration,
     session: Option<Session>,
     world: Option<World>,
+    /// The planner's believed maps under a map-degrading perception profile (`None` under ground truth).
+    sync: Option<MapSync>,
     task_set_version: String,
     seed: u64,
+    perception: String,
     log: SharedLog,
     /// Extra context for crash messages (e.g. the tail of a planner process's stderr).
     crash_context: Option<SharedLog>,
     /// Round-trip time of every control step, s (observation sent to action received).
     pub round_trips: Vec<f64>,
+}
+
+/// The crops a planner's `Info` asks for (`None`: none), checked.
+fn crop_spec(info: &pb::PlannerInfo) -> Result<Option<CropSpec>, PlannerError> {
+    Ok(match info.local_map_size {
+        0 => None,
+        n if n > 512 => {
+            return Err(PlannerError::Protocol(format!(
+                "planner announced local_map_size {n}; it must be at most 512"
+            )));
+        }
+        n => {
+            let r = info.local_map_resolution;
+            if !(r.is_finite() && r > 0.0) {
+                return Err(PlannerError::Protocol(format!(
+                    "planner announced local_map_resolution {r}; it must be positive when local_map_size is set"
+                )));
+            }
+            Some(CropSpec {
+                size: n as usize,
+                resolution: r,
+            })
+        }
+    })
 }
 
 fn status_error(what: &str, s: &tonic::Status) -> PlannerError {
@@ -188,26 +216,7 @@ impl RemotePlanner {
                 "planner announced a name that cannot be shown as it is ({e})"
             )));
         }
-        let crop = match info.local_map_size {
-            0 => None,
-            n if n > 512 => {
-                return Err(PlannerError::Protocol(format!(
-                    "planner announced local_map_size {n}; it must be at most 512"
-                )));
-            }
-            n => {
-                let r = info.local_map_resolution;
-                if !(r.is_finite() && r > 0.0) {
-                    return Err(PlannerError::Protocol(format!(
-                        "planner announced local_map_resolution {r}; it must be positive when local_map_size is set"
-                    )));
-                }
-                Some(CropSpec {
-                    size: n as usize,
-                    resolution: r,
-                })
-            }
-        };
+        let crop = crop_spec(&info)?;
         Ok(RemotePlanner {
             rt: Handle::current(),
             endpoint: endpoint.to_string(),
@@ -218,8 +227,10 @@ impl RemotePlanner {
             start_deadline,
             session: None,
             world: None,
+            sync: None,
             task_set_version: String::new(),
             seed: 0,
+            perception: "ideal".into(),
             log: Arc::new(Mutex::new(PlannerLog::default())),
             crash_context: None,
             round_trips: Vec::new(),
@@ -230,6 +241,11 @@ impl RemotePlanner {
     pub fn set_episode_context(&mut self, task_set_version: &str, seed: u64) {
         self.task_set_version = task_set_version.into();
         self.seed = seed;
+    }
+
+    /// The run's perception profile, as `EpisodeStart` names it (default `ideal`).
+    pub fn set_perception(&mut self, identity: &str) {
+        self.perception = identity.into();
     }
 
     /// Shares a log: the planner's `log` lines are appended to it.
@@ -347,6 +363,11 @@ impl Planner for RemotePlanner {
         self.info.control_rate_hz
     }
 
+    /// Its maps and crops are the believed world's under a map-degrading profile (`EpisodeStart.believed`).
+    fn reads_belief(&self) -> bool {
+        true
+    }
+
     fn reset(&mut self, ctx: &PlannerContext<'_>) -> Result<(), PlannerError> {
         self.finish("aborted", "reset");
         let start = pb::EpisodeStart {
@@ -359,6 +380,8 @@ impl Planner for RemotePlanner {
             maps: Some(convert::world_maps(ctx.world)),
             sim_dt: ctx.sim_dt,
             seed: self.seed,
+            believed: ctx.believed,
+            perception: self.perception.clone(),
         };
         let (tx, rx) = mpsc::channel::<pb::WorkerMessage>(2);
         // `EpisodeStart` is queued before the stream opens: a server may send its response headers only with its
@@ -384,6 +407,7 @@ impl Planner for RemotePlanner {
         };
         self.session = Some(Session { tx, rx: stream });
         self.world = Some(ctx.world.clone());
+        self.sync = ctx.believed.then(|| MapSync::new(ctx.world));
         let deadline = self.start_deadline;
         match self.exchange(None, deadline, "EpisodeStart")?.msg {
             Some(pb::planner_message::Msg::Ready(_)) => Ok(()),
@@ -394,16 +418,17 @@ impl Planner for RemotePlanner {
     }
 
     fn act(&mut self, obs: &Observation) -> Result<Action, PlannerError> {
-        let world = self
-            .world
-            .as_ref()
-            .ok_or_else(|| PlannerError::Protocol("act before reset".into()))?;
+        let world = match (&obs.belief, &self.world) {
+            (Some(b), _) => b.as_ref(),
+            (None, Some(w)) => w,
+            (None, None) => return Err(PlannerError::Protocol("act before reset".into())),
+        };
+        let mut observation = convert::observation(obs, world, self.crop.as_ref());
+        if let (Some(sync), Some(b)) = (&mut self.sync, &obs.belief) {
+            observation.map_update = sync.update(b).map(|p| convert::map_update(&p, world));
+        }
         let msg = pb::WorkerMessage {
-            msg: Some(pb::worker_message::Msg::Observation(convert::observation(
-                obs,
-                world,
-                self.crop.as_ref(),
-            ))),
+            msg: Some(pb::worker_message::Msg::Observation(observation)),
         };
         let t0 = Instant::now();
         let deadline = self.step_deadline;

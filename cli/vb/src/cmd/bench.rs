@@ -106,6 +106,7 @@ fn bench_planner(tasks_spec: &str, task_dir: PathBuf, command: Vec<String>) -> a
             step_deadline_s: 1.0,
             max_time: None,
             containment: Default::default(),
+            perception: vb_worker::perception::Profile::ideal(),
         };
         let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
         let run = rt

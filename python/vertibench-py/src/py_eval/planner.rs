@@ -125,6 +125,8 @@ pub struct Proxy<T: From<Call> + Send> {
     pub rate: f64,
     pub crop: Option<CropSpec>,
     pub world: Option<World>,
+    /// The planner's believed maps under a map-degrading perception profile (`None` under ground truth).
+    pub sync: Option<perception::sync::MapSync>,
 }
 
 impl<T: From<Call> + Send> Proxy<T> {
@@ -169,14 +171,18 @@ impl<T: From<Call> + Send> Proxy<T> {
         let (t, w) = (ctx.task, ctx.world);
         let task = crate::convert::task(py, t, w)?;
         let maps = crate::convert::maps(py, w)?;
+        maps.set_item("believed", ctx.believed)?;
         let vehicle = vehicle_info(py, ctx.vehicle)?;
         self.world = self.crop.map(|_| w.clone());
+        self.sync = ctx.believed.then(|| perception::sync::MapSync::new(w));
         Ok((self.obj.clone_ref(py), task, vehicle, maps, ctx.sim_dt)
             .into_pyobject(py)?
             .unbind())
     }
 
-    fn act_args(&self, py: Python<'_>, obs: &Observation) -> PyResult<Py<PyTuple>> {
+    /// The step's arguments: the state, the crops (of the believed world under a map-degrading profile) and the
+    /// patch of believed maps that changed since the last step (`None` when none did).
+    fn act_args(&mut self, py: Python<'_>, obs: &Observation) -> PyResult<Py<PyTuple>> {
         let s = &obs.state;
         let state = vec![
             s.time,
@@ -195,7 +201,8 @@ impl<T: From<Call> + Send> Proxy<T> {
             s.speed,
             s.steering,
         ];
-        let crops = match (&self.crop, &self.world) {
+        let world = obs.belief.as_deref().or(self.world.as_ref());
+        let crops = match (&self.crop, world) {
             (Some(c), Some(w)) => {
                 let n = c.size * c.size;
                 let (mut e, mut m, mut o) = (vec![0f32; n], vec![0u8; n], vec![0u8; n]);
@@ -212,10 +219,38 @@ impl<T: From<Call> + Send> Proxy<T> {
             }
             _ => None,
         };
-        Ok((self.obj.clone_ref(py), state, crops)
+        let update = match (&mut self.sync, &obs.belief) {
+            (Some(sync), Some(b)) => sync.update(b).map(|p| patch(py, p)).transpose()?,
+            _ => None,
+        };
+        Ok((self.obj.clone_ref(py), state, crops, update)
             .into_pyobject(py)?
             .unbind())
     }
+}
+
+/// `Maps.update`'s arguments: `(x0, y0, elevation, obstacles)`.
+type PatchArgs<'py> = (
+    usize,
+    usize,
+    Bound<'py, numpy::PyArray2<f32>>,
+    Bound<'py, numpy::PyArray2<u8>>,
+);
+
+/// A patch of believed maps as `Maps.update` takes it.
+fn patch(py: Python<'_>, p: perception::sync::MapPatch) -> PyResult<PatchArgs<'_>> {
+    let err = |e: numpy::ndarray::ShapeError| PyRuntimeError::new_err(e.to_string());
+    let shape = (p.ny, p.nx);
+    Ok((
+        p.x0,
+        p.y0,
+        Array2::from_shape_vec(shape, p.heights)
+            .map_err(err)?
+            .into_pyarray(py),
+        Array2::from_shape_vec(shape, p.obstacles)
+            .map_err(err)?
+            .into_pyarray(py),
+    ))
 }
 
 /// The arguments could not be made: a bug of ours or an exhausted machine, not the planner's doing.
@@ -229,6 +264,10 @@ impl<T: From<Call> + Send> Planner for Proxy<T> {
     }
     fn control_rate_hz(&self) -> f64 {
         self.rate
+    }
+    /// A Python planner's `Maps` are the believed ones under a map-degrading profile, updated in place.
+    fn reads_belief(&self) -> bool {
+        true
     }
     fn reset(&mut self, ctx: &PlannerContext<'_>) -> Result<(), PlannerError> {
         let args = Python::attach(|py| self.reset_args(py, ctx)).map_err(args_failed)?;

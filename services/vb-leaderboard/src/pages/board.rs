@@ -43,6 +43,8 @@ struct Board {
     live_columns: bool,
     ranked: Vec<Row>,
     apart: Vec<Row>,
+    /// Families of submissions under several perception profiles (the service's board).
+    robustness: Vec<super::robustness::RobustRow>,
 }
 
 impl Board {
@@ -56,6 +58,7 @@ impl Board {
             live_columns: true,
             ranked,
             apart,
+            robustness: Vec::new(),
         }
     }
 }
@@ -95,8 +98,12 @@ fn row(rank: Option<usize>, name: &str, s: &Summary) -> Row {
     }
 }
 
-/// The service's ranking page over its (already ranked) submissions.
-pub fn index(entries: &[SubmissionEntry], reference: &Reference) -> String {
+/// The service's ranking page over its (already ranked) submissions and their perception families.
+pub fn index(
+    entries: &[SubmissionEntry],
+    reference: &Reference,
+    families: &[crate::robustness::Robustness],
+) -> String {
     let mut running = false;
     let rows = entries
         .iter()
@@ -114,11 +121,10 @@ pub fn index(entries: &[SubmissionEntry], reference: &Reference) -> String {
             }
         })
         .collect();
-    render(&Board::new(
-        Frame::served("leaderboard", running),
-        reference,
-        rows,
-    ))
+    render(&Board {
+        robustness: super::robustness::rows(families),
+        ..Board::new(Frame::served("leaderboard", running), reference, rows)
+    })
 }
 
 /// One evaluation on a static board: what the board calls it (its directory's name) and its summary.
@@ -157,6 +163,7 @@ pub fn standalone(evals: &[Evaluation], sim_version: &str, reference: Option<Ref
             task_set_version: &e.summary.task_set_version,
             sim_version: &e.summary.sim_version,
             rules: e.summary.rules,
+            perception: &e.summary.perception,
         }
     }
     let mut order: Vec<(&Evaluation, Option<Unranked>)> = evals

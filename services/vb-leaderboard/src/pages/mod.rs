@@ -14,6 +14,7 @@
 pub mod board;
 pub mod compare;
 pub mod episode;
+pub mod robustness;
 pub mod submission;
 
 use askama::Template;

@@ -65,6 +65,8 @@ struct Page {
     episodes: Vec<EpisodeLine>,
     /// Links to comparisons with other submissions: (name, href).
     compare: Vec<(String, String)>,
+    /// Its family's profiles, when it was submitted under several.
+    robustness: Vec<super::robustness::RobustRow>,
 }
 
 /// Submissions a page offers to compare with: the ranked ones first, at most [`COMPARE_LINKS`], not `id` itself.
@@ -111,6 +113,7 @@ fn repro(s: &PublicSubmission) -> Vec<(&'static str, String)> {
         ("per-step deadline", format!("{} s", s.step_deadline_s)),
         ("task set", s.task_set_version.clone()),
         ("simulator", s.sim_version.to_string()),
+        ("perception", s.perception.to_string()),
     ]
 }
 
@@ -179,6 +182,7 @@ pub fn page(
     page: usize,
     from: usize,
     compare: &[(String, String)],
+    family: Option<&crate::robustness::Robustness>,
 ) -> String {
     let s = &e.submission;
     let p = &e.progress;
@@ -235,5 +239,6 @@ pub fn page(
         },
         episodes: shown.iter().map(|ep| episode_line(&s.id, ep)).collect(),
         compare: compare.to_vec(),
+        robustness: super::robustness::rows(family.map(std::slice::from_ref).unwrap_or_default()),
     })
 }

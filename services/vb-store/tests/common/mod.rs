@@ -46,6 +46,7 @@ pub fn new_submission(name: &str) -> NewSubmission {
         step_deadline_s: 1.0,
         task_set_version: "abc".into(),
         sim_version: "sim-core test".into(),
+        perception: Default::default(),
     }
 }
 
