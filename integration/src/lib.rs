@@ -243,6 +243,20 @@ pub fn start_coordinator_with(dir: &Path, name: &str, db: &str, port: u16, extra
     p
 }
 
+/// A `vb leaderboard` on a free port reading the store `db`, serving; returns it and its port.
+pub fn start_leaderboard(dir: &Path, db: &str) -> (Proc, u16) {
+    let port = free_port();
+    let listen = format!("127.0.0.1:{port}");
+    let p = Proc::start(
+        "leaderboard",
+        dir,
+        &vb(),
+        &["leaderboard", "--db", db, "--listen", &listen],
+    );
+    wait_port(port, Duration::from_secs(30));
+    (p, port)
+}
+
 /// A `vb worker` with a worker token of its own from the store `db`.
 pub fn start_worker(dir: &Path, name: &str, db: &str, port: u16, slots: usize) -> Proc {
     start_worker_with(dir, name, db, port, slots, &[])

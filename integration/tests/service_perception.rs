@@ -151,15 +151,7 @@ async fn a_family_of_profiles_runs_as_vb_eval_runs_it_and_the_board_shows_its_dr
     assert!(last[2] > first[2], "{log}");
 
     // The leaderboard: the nominal run is listed apart, the family's table shows the paired drop.
-    let lport = free_port();
-    let listen = format!("127.0.0.1:{lport}");
-    let _lb = Proc::start(
-        "leaderboard",
-        &dir,
-        &vb(),
-        &["leaderboard", "--db", &db, "--listen", &listen],
-    );
-    wait_port(lport, Duration::from_secs(30));
+    let (_lb, lport) = start_leaderboard(&dir, &db);
     let board = http_text(lport, "/");
     assert!(board.contains("id=\"robustness\""), "{board}");
     assert!(

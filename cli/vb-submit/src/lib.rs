@@ -320,6 +320,9 @@ pub fn status_line(s: &SubmissionStatus) -> String {
     if s.not_run > 0 {
         line += &format!(", {} not run", s.not_run);
     }
+    if !s.perception.is_empty() && s.perception != "ideal" {
+        line += &format!(", perception {}", s.perception);
+    }
     line
 }
 

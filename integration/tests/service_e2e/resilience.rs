@@ -76,15 +76,7 @@ async fn workers_die_and_the_coordinator_restarts_yet_every_task_has_exactly_one
     );
 
     // The leaderboard (a separate process reading the same store) shows the submission with its breakdowns.
-    let http = free_port();
-    let listen = format!("127.0.0.1:{http}");
-    let _lb = Proc::start(
-        "leaderboard",
-        &dir,
-        &vb(),
-        &["leaderboard", "--db", &db, "--listen", &listen],
-    );
-    wait_port(http, Duration::from_secs(30));
+    let (_lb, http) = start_leaderboard(&dir, &db);
     let index = http_text(http, "/");
     assert!(index.contains(&id) && index.contains("example"), "{index}");
     let page = http_text(http, &format!("/submissions/{id}"));
@@ -336,15 +328,7 @@ async fn misbehaving_planners_fail_their_own_episodes_and_nothing_else() -> anyh
         assert_ne!(y.outcome(), pb::Outcome::PlannerFailure);
     }
     // The crash's stderr is kept with the episode for its owner (above) and never on its public page (issue 58).
-    let http = free_port();
-    let listen = format!("127.0.0.1:{http}");
-    let _lb = Proc::start(
-        "leaderboard",
-        &dir,
-        &vb(),
-        &["leaderboard", "--db", &db, "--listen", &listen],
-    );
-    wait_port(http, Duration::from_secs(30));
+    let (_lb, http) = start_leaderboard(&dir, &db);
     let page = http_text(
         http,
         &format!("/submissions/{}/episodes/w006-t0", crash.submission_id),

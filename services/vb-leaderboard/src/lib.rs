@@ -38,6 +38,8 @@ pub struct Leaderboard {
     snapshot: cache::SnapshotCell,
     /// Rendered submission pages.
     pages: cache::PageCache,
+    /// Each perception family's robustness table, with what it was computed from.
+    families: Mutex<HashMap<String, (robustness::FamilyKey, robustness::Robustness)>>,
     /// Durations of the requests answered (for `/metrics`).
     latency: metrics::Latency,
 }
@@ -158,6 +160,7 @@ impl Leaderboard {
             pictures: Mutex::new(HashMap::new()),
             snapshot: Default::default(),
             pages: Default::default(),
+            families: Default::default(),
             latency: Default::default(),
         })
     }

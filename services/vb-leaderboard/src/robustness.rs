@@ -9,6 +9,9 @@ use results::compare::Comparison;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
+/// What a family's table was computed from: each member's id, state and finished episodes.
+pub type FamilyKey = Vec<(String, SubmissionState, u32)>;
+
 /// One profile of a family.
 #[derive(Clone, Debug, Serialize)]
 pub struct ProfileRun {
@@ -106,14 +109,38 @@ impl Leaderboard {
         }))
     }
 
-    /// Every family of the ranking's `entries` ([`families`]).
+    /// Every family of the ranking's `entries` ([`families`]). A family's table is computed again only when one
+    /// of its members changed (its state or finished count), so the board's readings stay one row per submission.
     pub async fn all_robustness(
         &self,
         entries: &[SubmissionEntry],
     ) -> Result<Vec<Robustness>, WebError> {
         let mut out = Vec::new();
         for f in families(entries) {
-            if let Some(r) = self.robustness(&f, entries).await? {
+            let key: FamilyKey = entries
+                .iter()
+                .filter(|e| e.submission.family == f)
+                .map(|e| {
+                    (
+                        e.submission.id.clone(),
+                        e.submission.state,
+                        e.progress.finished,
+                    )
+                })
+                .collect();
+            let cached = self
+                .families
+                .lock()
+                .ok()
+                .and_then(|m| m.get(&f).filter(|(k, _)| *k == key).map(|(_, r)| r.clone()));
+            let table = match cached {
+                Some(r) => Some(r),
+                None => self.robustness(&f, entries).await?,
+            };
+            if let Some(r) = table {
+                if let Ok(mut m) = self.families.lock() {
+                    m.insert(f.clone(), (key, r.clone()));
+                }
                 out.push(r);
             }
         }
