@@ -105,22 +105,8 @@ pub fn catalog(set: &tasks::TaskSet) -> Catalog {
 /// A perception profile by name (`ideal`, `nominal`, `degraded`) or from a TOML file (named by its stem unless it
 /// names itself); `vb eval --perception`, `vb dataset generate` and Python take it so.
 pub fn perception_profile(spec: &str) -> Result<perception::Profile, EvalError> {
-    if perception::BUILTIN.contains(&spec) {
-        return perception::Profile::builtin(spec).map_err(|e| perception_err(e.to_string()));
-    }
-    let path = std::path::Path::new(spec);
-    if !path.is_file() {
-        return Err(perception_err(
-            perception::ProfileError::Unknown(spec.into()).to_string(),
-        ));
-    }
-    let text = std::fs::read_to_string(path).map_err(|e| io_err(path, e))?;
-    let stem = path
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("custom");
-    perception::Profile::from_toml(stem, &text)
-        .map_err(|e| perception_err(format!("{}: {e}", path.display())))
+    perception::Profile::resolve(spec, |p| std::fs::read_to_string(p))
+        .map_err(|e| perception_err(e.to_string()))
 }
 
 fn perception_err(message: String) -> EvalError {

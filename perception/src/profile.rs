@@ -24,6 +24,8 @@ pub enum ProfileError {
         "unknown perception profile `{0}` (built-in: ideal, nominal, degraded; or a TOML file)"
     )]
     Unknown(String),
+    #[error("perception profile {path}: {message}")]
+    File { path: String, message: String },
 }
 
 /// State estimation: the planner's estimate of the vehicle's state.
@@ -147,6 +149,35 @@ impl Profile {
             _ => return Err(ProfileError::Unknown(name.into())),
         };
         Profile::from_toml(name, text)
+    }
+
+    /// A profile by name (`ideal`, `nominal`, `degraded`) or from a TOML file (named by its stem unless it names
+    /// itself) that `read` reads (this crate does no IO): how `vb eval --perception`, Python and `vb-submit validate`
+    /// take one.
+    pub fn resolve(
+        spec: &str,
+        read: impl FnOnce(&std::path::Path) -> std::io::Result<String>,
+    ) -> Result<Profile, ProfileError> {
+        if BUILTIN.contains(&spec) {
+            return Profile::builtin(spec);
+        }
+        let path = std::path::Path::new(spec);
+        let file = |message: String| ProfileError::File {
+            path: path.display().to_string(),
+            message,
+        };
+        let text = match read(path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(ProfileError::Unknown(spec.into()))
+            }
+            Err(e) => return Err(file(e.to_string())),
+        };
+        let stem = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("custom");
+        Profile::from_toml(stem, &text).map_err(|e| file(e.to_string()))
     }
 
     /// A profile from TOML text; `default_name` names it when the text gives no `name`.
@@ -321,6 +352,28 @@ fn check_confusion(m: &[Vec<f64>]) -> Result<(), ProfileError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Names are the built-ins; anything else is a file the caller reads (the crate does no IO).
+    #[test]
+    fn resolve_takes_names_and_files_the_caller_reads() {
+        let nominal = Profile::resolve("nominal", |_| unreachable!("a built-in reads no file"));
+        assert_eq!(nominal.unwrap(), Profile::builtin("nominal").unwrap());
+        let dusty = Profile::resolve("dusty.toml", |_| {
+            Ok("[state]\nposition_sigma = 0.5\n".into())
+        });
+        assert_eq!(dusty.unwrap().name, "dusty", "named by its stem");
+        let e = Profile::resolve("foggy", |_| Err(std::io::ErrorKind::NotFound.into()));
+        assert!(e
+            .unwrap_err()
+            .to_string()
+            .contains("unknown perception profile `foggy`"));
+        let e = Profile::resolve("bad.toml", |_| Ok("[state]\nposition_sigma = -1\n".into()));
+        let e = e.unwrap_err().to_string();
+        assert!(
+            e.contains("bad.toml") && e.contains("position_sigma"),
+            "{e}"
+        );
+    }
 
     /// The service carries a profile to its workers as JSON: the round trip keeps every parameter and the identity,
     /// and a tampered one is validated like a file.

@@ -180,6 +180,10 @@ struct ValidateOpts {
     /// Run an exec planner as this user, as a worker with `--planner-user` does (needs root).
     #[arg(long)]
     planner_user: Option<String>,
+    /// Perception profile (ideal, nominal, degraded, or a TOML file): check the planner with the estimated state and,
+    /// under nominal or degraded, the believed maps and their updates, as a submission under it gets them.
+    #[arg(long, default_value = "ideal")]
+    perception: String,
 }
 
 fn token(cli: &Cli) -> anyhow::Result<String> {
@@ -457,6 +461,7 @@ async fn validate(what: &ValidateCmd) -> anyhow::Result<()> {
             v.max_time,
             v.step_deadline,
             v.planner_user.as_deref(),
+            &v.perception,
         )
         .await?;
         if let Some(why) = &r.unisolated {

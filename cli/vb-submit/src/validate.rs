@@ -32,7 +32,11 @@ pub async fn validate(
     max_time: f64,
     step_deadline_s: f64,
     planner_user: Option<&str>,
+    perception: &str,
 ) -> Result<Validation, SubmitError> {
+    let perception =
+        vb_worker::perception::Profile::resolve(perception, |p| std::fs::read_to_string(p))
+            .map_err(|e| SubmitError::Usage(e.to_string()))?;
     let planner_user = planner_user
         .map(vb_worker::sandbox::PlannerUser::lookup)
         .transpose()
@@ -63,7 +67,7 @@ pub async fn validate(
         step_deadline_s,
         max_time: Some(max_time),
         containment,
-        perception: vb_worker::perception::Profile::ideal(),
+        perception,
     };
     let run = vb_worker::run_leased(
         set,

@@ -119,6 +119,25 @@ fn validate_accepts_a_good_planner_and_names_what_is_wrong_with_bad_ones() {
     assert!(!ok);
     assert!(text.contains("planner_timeout"), "{text}");
 
+    // Under nominal the planner gets the believed map and its updates (it reports what it knows every 50 steps).
+    let (ok, text) = run(vb_submit().args([
+        "validate",
+        "exec",
+        "--max-time",
+        "8",
+        "--perception",
+        "nominal",
+        "--",
+        &planner,
+    ]));
+    assert!(ok && text.contains("believed map:"), "{text}");
+    let (ok, text) =
+        run(vb_submit().args(["validate", "exec", "--perception", "foggy", "--", &planner]));
+    assert!(
+        !ok && text.contains("unknown perception profile `foggy`"),
+        "{text}"
+    );
+
     let (ok, text) = run(vb_submit().args(["validate", "exec", "--", "/nonexistent/planner"]));
     assert!(!ok);
     assert!(
