@@ -211,3 +211,32 @@ def test_a_repeated_start_is_the_same_as_the_first():
         first = episode(task)
         episode("w001-t0" if task != "w001-t0" else "w041-t0")
         assert all(same(a, b) for a, b in zip(first, episode(task))), task
+
+
+def test_an_environment_under_a_perception_profile_observes_the_estimate_and_the_believed_map():
+    """``perception=``: the state is the estimate, the crops are the believed map's with a ``known`` mask (unseen
+    heights are not read as anything: ``known`` is 0 there), the ground-truth maps are withheld, and the noise is
+    the same for the same task; under ``ideal`` nothing changes."""
+    a = np.array([0.0, 0.6, 0.0], dtype=np.float32)
+
+    def drive(env, steps=30):
+        obs, _ = env.reset(seed=0)
+        for _ in range(steps):
+            obs, *_ = env.step(a)
+        return obs
+
+    truth = drive(vb.make("w001-t0", crop_size=24))
+    noisy_env = vb.make("w001-t0", crop_size=24, perception="nominal")
+    check_env(vb.make("w001-t0", crop_size=8, perception="nominal"), skip_render_check=True)
+    noisy = drive(noisy_env)
+    assert "known" not in truth and set(np.unique(noisy["known"])) == {0, 1}
+    assert np.all(noisy["elevation"][noisy["known"] == 0] == 0.0)
+    assert not np.array_equal(truth["state"], noisy["state"])
+    assert noisy_env.observation_space.contains(noisy)
+    with pytest.raises(ValueError, match="degrades the maps"):
+        noisy_env.maps
+    assert same(noisy, drive(vb.make("w001-t0", crop_size=24, perception="nominal")))
+    assert same(truth, drive(vb.make("w001-t0", crop_size=24, perception="ideal")))
+    vec = vb.make_vec(2, "w001-t0", crop_size=8, perception="degraded", task_order="cycle")
+    obs, _ = vec.reset(seed=0)
+    assert obs["known"].shape == (2, 8, 8) and vec.single_observation_space["known"].shape == (8, 8)

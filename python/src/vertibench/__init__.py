@@ -62,6 +62,7 @@ def make(
     clip_actions: bool = False,
     render_mode: str | None = None,
     render_ppm: int = 3,
+    perception: str = "ideal",
 ) -> VertibenchEnv:
     """One environment: on ``task`` (an id like ``"w017-t3"``) when given, else on tasks drawn from ``tasks``.
 
@@ -73,12 +74,16 @@ def make(
     ``"paper"`` or ``"release"``; ``max_time``: the time limit, s (60); ``reward``: weights (see
     :data:`DEFAULT_REWARD`); ``clip_actions``: clip actions to the action space (default: an out-of-range action
     fails the episode, as in the benchmark); ``render_mode``: ``"rgb_array"`` for top-view frames of
-    ``render_ppm`` pixels per map sample. The environment's ``spec`` is that of :data:`ENV_ID` with these options.
+    ``render_ppm`` pixels per map sample; ``perception``: a perception profile (``"ideal"``, ``"nominal"``,
+    ``"degraded"`` or a TOML file; perception/PROFILES.md) between the truth and the observations, as in ``vb eval
+    --perception`` (the state is the estimate and, under a map-degrading profile, the crops are the believed map's,
+    ``NaN`` where unseen; rewards stay the truth's). The environment's ``spec`` is that of :data:`ENV_ID` with these
+    options.
     """
     options = dict(
         tasks=tasks, task_set=task_set, vehicle=vehicle, scale=scale, control_rate_hz=control_rate_hz,
         crop_size=crop_size, crop_resolution=crop_resolution, rules=rules, max_time=max_time, reward=reward,
-        clip_actions=clip_actions, render_mode=render_mode, render_ppm=render_ppm,
+        clip_actions=clip_actions, render_mode=render_mode, render_ppm=render_ppm, perception=perception,
     )
     env = VertibenchEnv(task, **options)
     env.spec = _spec(dict(task=task, **options))
@@ -102,6 +107,7 @@ def make_vec(
     autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
     task_order: str = "random",
     num_threads: int | None = None,
+    perception: str = "ideal",
 ) -> VertibenchVectorEnv:
     """``num_envs`` environments stepped together in Rust threads (the GIL released).
 
@@ -114,6 +120,7 @@ def make_vec(
         num_envs, tasks=tasks, task_set=task_set, vehicle=vehicle, scale=scale, control_rate_hz=control_rate_hz,
         crop_size=crop_size, crop_resolution=crop_resolution, rules=rules, max_time=max_time, reward=reward,
         clip_actions=clip_actions, autoreset_mode=autoreset_mode, task_order=task_order, num_threads=num_threads,
+        perception=perception,
     )
 
 

@@ -49,6 +49,7 @@ class VecCore:
     task_set_version: str
     crop_size: int
     crop_resolution: float
+    believed: bool
     scale: float
     max_time: float
     vehicle: dict[str, Any]
@@ -70,6 +71,7 @@ class VecCore:
         autoreset: str = "next_step",
         task_order: str = "random",
         num_threads: int | None = None,
+        perception: str = "ideal",
     ) -> None: ...
     def task(self, k: int) -> dict[str, Any]: ...
     def maps(self, k: int) -> dict[str, Any]: ...

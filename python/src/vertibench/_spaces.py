@@ -29,10 +29,12 @@ def action_space() -> spaces.Box:
     )
 
 
-def observation_space(crop_size: int) -> spaces.Dict:
+def observation_space(crop_size: int, believed: bool = False) -> spaces.Dict:
     """The observation: ``state`` and ``goal`` vectors and, with ``crop_size > 0``, heading-aligned crops of
     ``crop_size x crop_size`` cells (row 0 ahead, column 0 on the left): ``elevation`` relative to the vehicle's
-    height (m), ``semantics`` (release label ids, 255 off the map) and ``obstacles`` (1 = occupied or off the map)."""
+    height (m), ``semantics`` (release label ids, 255 off the map) and ``obstacles`` (1 = occupied or off the map).
+    ``believed`` (a perception profile that degrades the maps): the crops are the believed map's, with ``known``
+    (1 where the height has been seen; ``elevation`` is 0 elsewhere)."""
     d = {
         "state": spaces.Box(-np.inf, np.inf, (len(STATE_FIELDS),), np.float64),
         "goal": spaces.Box(-np.inf, np.inf, (len(GOAL_FIELDS),), np.float64),
@@ -42,6 +44,8 @@ def observation_space(crop_size: int) -> spaces.Dict:
         d["elevation"] = spaces.Box(-np.inf, np.inf, shape, np.float32)
         d["semantics"] = spaces.Box(0, 255, shape, np.uint8)
         d["obstacles"] = spaces.Box(0, 1, shape, np.uint8)
+        if believed:
+            d["known"] = spaces.Box(0, 1, shape, np.uint8)
     return spaces.Dict(d)
 
 

@@ -49,11 +49,12 @@ class VertibenchEnv(gym.Env, EzPickle):
         clip_actions: bool = False,
         render_mode: str | None = None,
         render_ppm: int = 3,
+        perception: str = "ideal",
     ):
         EzPickle.__init__(
             self, task, tasks=tasks, task_set=task_set, vehicle=vehicle, scale=scale, control_rate_hz=control_rate_hz,
             crop_size=crop_size, crop_resolution=crop_resolution, rules=rules, max_time=max_time, reward=reward,
-            clip_actions=clip_actions, render_mode=render_mode, render_ppm=render_ppm,
+            clip_actions=clip_actions, render_mode=render_mode, render_ppm=render_ppm, perception=perception,
         )
         if task is not None and not (isinstance(tasks, str) and tasks == "all"):
             raise ValueError(f"give task= (one task) or tasks= (a selection), not both: task={task!r}, tasks={tasks!r}")
@@ -67,6 +68,7 @@ class VertibenchEnv(gym.Env, EzPickle):
             autoreset="disabled",
             task_order="random",
             num_threads=1,
+            perception=str(perception),
             **core_kwargs(
                 task_set,
                 task if task is not None else tasks,
@@ -80,7 +82,7 @@ class VertibenchEnv(gym.Env, EzPickle):
                 reward,
             ),
         )
-        self.observation_space = observation_space(self._core.crop_size)
+        self.observation_space = observation_space(self._core.crop_size, self._core.believed)
         self.action_space = action_space()
         self.clip_actions = clip_actions
         self.task_ids: list[str] = self._core.task_ids
@@ -107,6 +109,9 @@ class VertibenchEnv(gym.Env, EzPickle):
         friction on the heightmap grid)."""
         if self.task_id is None:
             raise RuntimeError("call reset() first")
+        if self._core.believed:
+            raise ValueError("the perception profile degrades the maps: the ground-truth maps are not given; the "
+                             "observations' crops are the believed ones (with their `known` mask)")
         return Maps(**self._core.maps(self.task_ids.index(self.task_id)))
 
     @property

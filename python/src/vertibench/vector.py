@@ -49,12 +49,13 @@ class VertibenchVectorEnv(VectorEnv, EzPickle):
         task_order: str = "random",
         clip_actions: bool = False,
         num_threads: int | None = None,
+        perception: str = "ideal",
     ):
         EzPickle.__init__(
             self, num_envs, tasks=tasks, task_set=task_set, vehicle=vehicle, scale=scale,
             control_rate_hz=control_rate_hz, crop_size=crop_size, crop_resolution=crop_resolution, rules=rules,
             max_time=max_time, reward=reward, autoreset_mode=autoreset_mode, task_order=task_order,
-            clip_actions=clip_actions, num_threads=num_threads,
+            clip_actions=clip_actions, num_threads=num_threads, perception=perception,
         )
         num_envs = check_int(num_envs, "num_envs", 1, 4096)
         if num_threads is not None:
@@ -71,13 +72,14 @@ class VertibenchVectorEnv(VectorEnv, EzPickle):
             autoreset=_MODES[mode],
             task_order=task_order,
             num_threads=num_threads,
+            perception=str(perception),
             **core_kwargs(
                 task_set, tasks, vehicle, scale, control_rate_hz, crop_size, crop_resolution, rules, max_time, reward
             ),
         )
         self.num_envs = num_envs
         self.metadata = {"autoreset_mode": mode, "render_modes": []}
-        self.single_observation_space = observation_space(self._core.crop_size)
+        self.single_observation_space = observation_space(self._core.crop_size, self._core.believed)
         self.single_action_space = action_space()
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)

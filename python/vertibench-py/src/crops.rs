@@ -130,7 +130,7 @@ impl CropMaker {
                     yaw,
                     ..VehicleState::default()
                 };
-                buf.write(&state, world, [x, y], Some(&spec));
+                buf.write(&state, world, [x, y], Some(&spec), false);
                 e.extend_from_slice(&buf.elevation);
                 s.extend_from_slice(&buf.semantics);
                 o.extend_from_slice(&buf.obstacles);

@@ -19,6 +19,9 @@ pub struct ObsBuf {
     pub elevation: Vec<f32>,
     pub semantics: Vec<u8>,
     pub obstacles: Vec<u8>,
+    /// Under a perception profile that degrades the maps: 1 where the crop's believed height is known; the
+    /// elevation is 0 where it is not (read it only where `known` says so). Empty under ground truth.
+    pub known: Vec<u8>,
 }
 
 impl ObsBuf {
@@ -30,16 +33,19 @@ impl ObsBuf {
             elevation: vec![0.0; n],
             semantics: vec![0; n],
             obstacles: vec![0; n],
+            known: Vec::new(),
         }
     }
 
-    /// Writes the observation of `s` on `world` with the goal at `goal`.
+    /// Writes the observation of `s` on `world` with the goal at `goal`; `believed`: `world` is the perception
+    /// layer's belief (unknown heights `NaN`), and the crop gets its known mask.
     pub fn write(
         &mut self,
         s: &VehicleState,
         world: &World,
         goal: [f64; 2],
         crop: Option<&CropSpec>,
+        believed: bool,
     ) {
         // The same functions the datasets record with (sim-core's `observe`), so both see identical values.
         self.state = state_vector(s);
@@ -48,6 +54,15 @@ impl ObsBuf {
             relative_elevation_crop(world, s, spec, &mut self.elevation);
             semantics_crop(world, s, spec, &mut self.semantics);
             obstacle_crop(world, s, spec, &mut self.obstacles);
+            if believed {
+                self.known.clear();
+                for z in &mut self.elevation {
+                    self.known.push(u8::from(z.is_finite()));
+                    if !z.is_finite() {
+                        *z = 0.0;
+                    }
+                }
+            }
         }
     }
 
@@ -57,5 +72,6 @@ impl ObsBuf {
         self.elevation.copy_from_slice(&o.elevation);
         self.semantics.copy_from_slice(&o.semantics);
         self.obstacles.copy_from_slice(&o.obstacles);
+        self.known.clone_from(&o.known);
     }
 }

@@ -118,6 +118,20 @@ impl VecCore {
                     .map_err(shape_err)?
                     .into_pyarray(py),
             )?;
+            if self.set.perception.degrades_maps() {
+                let mut m = Vec::with_capacity(n * k);
+                for &i in which {
+                    let b = &pick(&self.slots[i]).known;
+                    // An environment not reset yet has no mask: nothing is known.
+                    m.extend(b.iter().copied().chain(std::iter::repeat(0)).take(k));
+                }
+                d.set_item(
+                    "known",
+                    Array3::from_shape_vec(dims, m)
+                        .map_err(shape_err)?
+                        .into_pyarray(py),
+                )?;
+            }
         }
         Ok(d)
     }
@@ -132,7 +146,7 @@ impl VecCore {
     #[new]
     #[pyo3(signature = (num_envs, task_dir, tasks="all", vehicle="hmmwv", scale=None, control_rate_hz=20.0,
         crop_size=0, crop_resolution=None, rules="paper", max_time=None, reward=None, autoreset="next_step",
-        task_order="random", num_threads=None))]
+        task_order="random", num_threads=None, perception="ideal"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -150,7 +164,9 @@ impl VecCore {
         autoreset: &str,
         task_order: &str,
         num_threads: Option<usize>,
+        perception: &str,
     ) -> PyResult<Self> {
+        let perception = eval::perception_profile(perception).map_err(|e| bad(e.to_string()))?;
         if num_envs == 0 || num_envs > 4096 {
             return Err(bad(format!("num_envs {num_envs} must be in 1..=4096")));
         }
@@ -207,6 +223,7 @@ impl VecCore {
                 weights,
                 autoreset,
                 order,
+                perception,
             },
             slots,
             pool,
@@ -287,6 +304,12 @@ impl VecCore {
     #[getter]
     fn task_set_version(&self) -> String {
         self.src.version.clone()
+    }
+
+    /// Whether the perception profile degrades the maps: observations then carry a `known` mask of their crops.
+    #[getter]
+    fn believed(&self) -> bool {
+        self.set.perception.degrades_maps()
     }
 
     #[getter]

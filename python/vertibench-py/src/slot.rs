@@ -7,9 +7,11 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sim_core::episode::{EpisodeMetrics, Outcome};
 use sim_core::observe::CropSpec;
-use sim_core::planner::Action;
+use sim_core::planner::{Action, Observation, VehicleState};
 use sim_core::reward::RewardWeights;
-use sim_core::EpisodeRun;
+use sim_core::world::World;
+use sim_core::{ControlHook, EpisodeRun};
+use std::sync::Arc;
 
 /// How an environment that ended comes back (gymnasium's `AutoresetMode`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -64,6 +66,8 @@ pub struct Slot {
     draws: usize,
     pub task: usize,
     run: Option<EpisodeRun>,
+    /// The episode's perception layer (`None` under `ideal`).
+    hook: Option<perception::Perception>,
     pub needs_reset: bool,
     pub obs: ObsBuf,
     pub final_obs: ObsBuf,
@@ -77,6 +81,28 @@ pub struct Settings {
     pub weights: RewardWeights,
     pub autoreset: Autoreset,
     pub order: TaskOrder,
+    /// Between the truth and the observations, as in `vb eval --perception`: the same noise for the same task.
+    pub perception: perception::Profile,
+}
+
+/// What the layer makes of the true state: the perceived state and, under a map-degrading profile, the believed
+/// world the crops are taken from.
+fn perceived(
+    hook: &mut Option<perception::Perception>,
+    world: &World,
+    state: VehicleState,
+) -> (VehicleState, Option<Arc<World>>) {
+    match hook {
+        None => (state, None),
+        Some(h) => {
+            let mut o = Observation {
+                state,
+                belief: None,
+            };
+            ControlHook::observe(h, world, &mut o);
+            (o.state, o.belief)
+        }
+    }
 }
 
 impl Slot {
@@ -88,6 +114,7 @@ impl Slot {
             draws: 0,
             task: 0,
             run: None,
+            hook: None,
             needs_reset: true,
             obs: ObsBuf::new(crop),
             final_obs: ObsBuf::new(crop),
@@ -114,8 +141,21 @@ impl Slot {
         run.set_control_rate(set.control_rate_hz)
             .expect("the control rate was checked when the environments were made");
         run.set_reward_weights(set.weights);
+        self.hook = (!set.perception.is_ideal()).then(|| {
+            perception::Perception::new(
+                &set.perception,
+                &lw.world,
+                contracts::TaskId::new(t.world_id, t.index),
+                t.start,
+                src.episode.seed,
+                src.vehicle.info().max_steer,
+                1.0 / set.control_rate_hz,
+            )
+        });
+        let (state, belief) = perceived(&mut self.hook, &lw.world, run.state());
+        let world = belief.as_deref().unwrap_or(&lw.world);
         self.obs
-            .write(&run.state(), &lw.world, t.goal, set.crop.as_ref());
+            .write(&state, world, t.goal, set.crop.as_ref(), belief.is_some());
         self.run = Some(run);
         self.needs_reset = false;
         self.out = StepOut::default();
@@ -137,12 +177,19 @@ impl Slot {
             return Ok(());
         }
         let run = self.run.as_mut().expect("a running episode");
-        // An invalid action ends the episode: `advance` then runs no physics and reports that end.
-        let _ = run.control(action);
+        // An invalid action ends the episode: `advance` then runs no physics and reports that end; a valid one goes
+        // through the actuation.
+        let applied = match &mut self.hook {
+            Some(h) if action.validate().is_ok() => h.actuate(action),
+            _ => action,
+        };
+        let _ = run.control(applied);
         let step = run.advance();
         let (lw, t) = src.get(self.task);
+        let (state, belief) = perceived(&mut self.hook, &lw.world, run.state());
+        let world = belief.as_deref().unwrap_or(&lw.world);
         self.obs
-            .write(&run.state(), &lw.world, t.goal, set.crop.as_ref());
+            .write(&state, world, t.goal, set.crop.as_ref(), belief.is_some());
         self.out.terms = step.reward.as_array();
         if !step.ended() {
             return Ok(());
