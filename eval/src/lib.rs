@@ -92,10 +92,7 @@ pub fn catalog(set: &tasks::TaskSet) -> Catalog {
         belief_planners: registry::names()
             .into_iter()
             .filter(|n| {
-                registry::Builtin::resolve(n, None).is_ok_and(|b| {
-                    let p = b.make();
-                    !p.reads_world_maps() || p.reads_belief()
-                })
+                registry::Builtin::resolve(n, None).is_ok_and(|b| b.make().runs_on_degraded_maps())
             })
             .map(Into::into)
             .collect(),

@@ -312,7 +312,7 @@ fn refuse_map_reading(cfg: &EvalConfig, make: PlannerFactory<'_>) -> Result<(), 
         return Ok(());
     }
     let probe = make();
-    if probe.reads_world_maps() && !probe.reads_belief() {
+    if !probe.runs_on_degraded_maps() {
         return Err(EvalError::Param {
             field: "perception".into(),
             message: format!(

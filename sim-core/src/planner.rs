@@ -87,4 +87,9 @@ pub trait Planner: Send {
     fn reads_belief(&self) -> bool {
         false
     }
+    /// Whether a profile that degrades the maps may run the planner: it reads no map, or reads the belief. The one
+    /// rule `vb eval`, the worker and the service's catalogue apply.
+    fn runs_on_degraded_maps(&self) -> bool {
+        !self.reads_world_maps() || self.reads_belief()
+    }
 }

@@ -241,7 +241,7 @@ pub async fn run_leased(
         let mut planner = planner;
         let mut observer = CancelObserver(cancel);
         let p = planner.as_dyn();
-        if spec.perception.degrades_maps() && p.reads_world_maps() && !p.reads_belief() {
+        if spec.perception.degrades_maps() && !p.runs_on_degraded_maps() {
             return Err(format!(
                 "planner {} reads the world's ground-truth maps and profile {} degrades them",
                 p.name(),
